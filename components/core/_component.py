@@ -1,0 +1,371 @@
+"""The Component base class: declarations collected from the class, and the request engine.
+
+A component class declares services, ports, tasks and exceptions; an instance
+runs them: :meth:`Component.send` decodes and validates a request, interrupts
+the services it must, and runs it (an activity as its own asyncio task), with
+every outcome ending as ``done`` or ``error`` — never a hang.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import datetime
+import inspect
+import logging
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any, ClassVar
+
+from ._exceptions import (
+    GenomException, InputError, NoSuchPort, NoSuchService, disallowed, interrupted,
+    no_such_inport, no_such_outport, no_such_service, too_many_activities, unkex,
+)
+from ._ports import InPortRuntime, OutPort, OutPortRuntime, PortSpec
+from ._requests import Request, RequestTracker
+from ._services import ServiceSpec, activity, function, service_spec
+from ._state import GenomState
+from ._tasks import Task, TaskRuntime
+from ._types import ULong, string
+
+if TYPE_CHECKING:
+    from ._clock import Clock
+    from ._host import ComponentHost
+
+__all__ = ["Component"]
+
+log = logging.getLogger(__name__)
+
+_STANDARD_SERVICES = ("abort_activity", "connect_port", "connect_service", "kill")
+
+
+class Component:
+    """Base class of every component.
+
+    Subclass with ``class Demo(Component, name="demo", version="1.1")``.  The
+    class docstring documents the component in ``/info``.
+
+    Args:
+        host: The host that runs the instance (clock, settings, peers).
+        instance: The instance name (the component name unless loaded with ``-i``).
+        argv: Extra load arguments (see :attr:`usage_options`).
+    """
+
+    #: The genom3 component name (ids of its exceptions are ``::<name>::X``).
+    genom_name: ClassVar[str] = "component"
+    version: ClassVar[str] = "1.0"
+    #: Load options as ``(option, description)`` pairs, shown by ``/usage``.
+    usage_options: ClassVar[list[tuple[str, str]]] = [("-i NAME", "load the component under instance name NAME")]
+    #: Exceptions declared without being thrown by a particular service.
+    exceptions: ClassVar[tuple[type[GenomException], ...]] = ()
+    #: How many activities may run at once before sends fail with too_many_activities.
+    max_activities: ClassVar[int] = 32
+
+    _services: ClassVar[dict[str, ServiceSpec]]
+    _ports: ClassVar[dict[str, PortSpec]]
+    _tasks: ClassVar[dict[str, Task]]
+
+    genom_state = OutPort(GenomState, doc="The state of the component's tasks and activities")
+
+    def __init_subclass__(cls, name: str | None = None, version: str | None = None, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if name is not None:
+            cls.genom_name = name
+        if version is not None:
+            cls.version = version
+        services: dict[str, ServiceSpec] = {}
+        ports: dict[str, PortSpec] = {}
+        tasks: dict[str, Task] = {}
+        # Bases first, so a merged component lists its parts' declarations in order,
+        # and the standard services (declared on Component) come last.
+        for klass in reversed(cls.__mro__):
+            for attr, value in vars(klass).items():
+                if isinstance(value, PortSpec):
+                    ports[value.name] = value
+                elif isinstance(value, Task):
+                    tasks[value.name] = value
+                elif getattr(value, "__genom_service__", None) is not None:
+                    spec = service_spec(value)
+                    assert spec is not None
+                    services.pop(spec.name, None)
+                    services[spec.name] = spec
+        for standard in _STANDARD_SERVICES:
+            services[standard] = services.pop(standard)
+        ports["genom_state"] = ports.pop("genom_state")
+        cls._services, cls._ports, cls._tasks = services, ports, tasks
+        for spec in services.values():
+            for target in spec.interrupts:
+                if target not in services:
+                    raise TypeError(f"{cls.__name__}.{spec.name} interrupts unknown service {target!r}")
+
+    def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
+        self.host = host
+        self.instance = instance
+        self.argv = list(argv or [])
+        self.requests = RequestTracker(instance, host.announce_request)
+        self._port_runtimes: dict[str, OutPortRuntime | InPortRuntime] = {}
+        self._task_runtimes: dict[str, TaskRuntime] = {}
+        self._started = False
+        self._killed = False
+        self._state_task: asyncio.Task[None] | None = None
+
+    # -- declarations ---------------------------------------------------------------------
+
+    @classmethod
+    def services(cls) -> dict[str, ServiceSpec]:
+        """The services, in declaration order (standard services last)."""
+        return cls._services
+
+    @classmethod
+    def ports(cls) -> dict[str, PortSpec]:
+        """The port declarations, in declaration order."""
+        return cls._ports
+
+    @classmethod
+    def tasks(cls) -> dict[str, Task]:
+        """The task declarations."""
+        return cls._tasks
+
+    @classmethod
+    def declared_exceptions(cls) -> list[type[GenomException]]:
+        """Every exception the component may raise, declared or thrown by a service."""
+        seen: dict[type[GenomException], None] = dict.fromkeys(cls.exceptions)
+        for spec in cls._services.values():
+            seen.update(dict.fromkeys(spec.throws))
+        return list(seen)
+
+    @classmethod
+    def service_defaults(cls, host: ComponentHost) -> dict[str, dict[str, Any]]:
+        """Per-service input defaults that depend on the host (override to use settings).
+
+        Returns:
+            ``{service: {parameter: default}}``; shown in ``/info`` and used for
+            missing inputs.
+        """
+        return {}
+
+    # -- runtime accessors ----------------------------------------------------------------
+
+    @property
+    def clock(self) -> Clock:
+        """The host's clock."""
+        return self.host.clock
+
+    def _port_runtime(self, name: str) -> Any:
+        runtime = self._port_runtimes.get(name)
+        if runtime is None:
+            runtime = self._ports[name].runtime(self)  # type: ignore[attr-defined]
+            self._port_runtimes[name] = runtime
+        return runtime
+
+    def _task_runtime(self, name: str) -> TaskRuntime:
+        runtime = self._task_runtimes.get(name)
+        if runtime is None:
+            runtime = self._task_runtimes[name] = TaskRuntime(self._tasks[name], self)
+        return runtime
+
+    def port(self, name: str) -> OutPortRuntime | InPortRuntime:
+        """The runtime of a port.
+
+        Raises:
+            NoSuchPort: when the component has no such port.
+        """
+        if name not in self._ports:
+            raise NoSuchPort(f"{self.instance} has no port {name!r} (ports: {', '.join(self._ports)})")
+        return self._port_runtime(name)  # type: ignore[no-any-return]
+
+    # -- lifecycle ------------------------------------------------------------------------
+
+    async def start(self) -> None:
+        """Start tasks, then run :meth:`on_start`."""
+        if self._started:
+            return
+        self._started = True
+        for name in self._tasks:
+            self._task_runtime(name).start()
+        await self.on_start()
+        self._publish_state()
+
+    async def stop(self) -> None:
+        """Interrupt every running request, stop tasks, then run :meth:`on_stop` (idempotent)."""
+        if not self._started:
+            return
+        self._started = False
+        await asyncio.gather(*(self.interrupt(r, by="kill") for r in self.requests.running()))
+        for runtime in self._task_runtimes.values():
+            await runtime.stop()
+        await self.on_stop()
+
+    async def on_start(self) -> None:
+        """Hook run when the component starts (open hardware, publish initial data)."""
+
+    async def on_stop(self) -> None:
+        """Hook run when the component stops (close hardware)."""
+
+    # -- requests -------------------------------------------------------------------------
+
+    def service(self, name: str) -> ServiceSpec:
+        """The spec of a service.
+
+        Raises:
+            NoSuchService: when there is none of that name.
+        """
+        try:
+            return self._services[name]
+        except KeyError:
+            raise NoSuchService(
+                f"{self.instance} has no service {name!r} (services: {', '.join(self._services)})"
+            ) from None
+
+    def decode_inputs(self, spec: ServiceSpec, raw: Any) -> dict[str, Any]:
+        """Decode request inputs; inputs not given take the host-dependent defaults first."""
+        inputs = spec.decode_inputs(raw)
+        overrides = self.service_defaults(self.host).get(spec.name, {})
+        if overrides:
+            given = set(raw) if isinstance(raw, Mapping) else set() if raw is None else {spec.inputs[0].name}
+            inputs.update({k: v for k, v in overrides.items() if k not in given})
+        return inputs
+
+    async def send(self, name: str, raw_input: Any = None, *, session: str | None = None,
+                   oneway: bool = False) -> Request:
+        """Start a request of service *name* with the JSON-decoded *raw_input*.
+
+        Returns:
+            The request, already running (an activity) or possibly ended (a function).
+
+        Raises:
+            NoSuchService, InputError: for a bad request (nothing is started).
+            GenomException: when ``validate`` refuses the input, or for
+                ``too_many_activities`` and ``disallowed`` (component killed).
+        """
+        spec = self.service(name)
+        inputs = self.decode_inputs(spec, raw_input)
+        if self._killed:
+            raise disallowed()
+        if spec.validate is not None:
+            verdict = spec.validate(self, **inputs)
+            if inspect.isawaitable(verdict):
+                await verdict
+        if spec.kind == "activity" and sum(
+            r.service.kind == "activity" for r in self.requests.running()
+        ) >= self.max_activities:
+            raise too_many_activities()
+        victims = [r for r in self.requests.running() if r.service.name in spec.interrupts]
+        request = self.requests.create(spec, inputs, session, oneway)
+        if victims:
+            await asyncio.gather(*(self.interrupt(v, by=spec.name) for v in victims))
+        request.task = asyncio.create_task(self._run(request), name=request.id)
+        if spec.kind != "activity":
+            # Functions and attributes are quick: let them end before the reply is sent.
+            await asyncio.wait({request.task}, timeout=self.host.function_grace)
+        if request.running:
+            self.requests.announce(request)
+        self._publish_state()
+        return request
+
+    async def _run(self, request: Request) -> None:
+        spec = request.service
+        try:
+            result = spec.func(self, **request.inputs)
+            if inspect.isawaitable(result):
+                result = await result
+            output = spec.encode_outputs(result)
+        except asyncio.CancelledError:
+            if request.interrupted_by is None:
+                raise
+            self._end_error(request, interrupted(by=request.interrupted_by))
+        except GenomException as exc:
+            self._end_error(request, exc)
+        except Exception as exc:
+            log.exception("%s: service %s failed", self.instance, spec.name)
+            self._end_error(request, unkex(what=f"{type(exc).__name__}: {exc}"))
+        else:
+            if request.interrupted_by is not None:
+                self._end_error(request, interrupted(by=request.interrupted_by))
+            else:
+                self.requests.finish(request, "done", output=output)
+        finally:
+            if request.running:  # cancelled by the event loop shutting down
+                self._end_error(request, interrupted(by="kill"))
+            self._publish_state()
+
+    def _end_error(self, request: Request, exc: GenomException) -> None:
+        self.requests.finish(request, "error", exception=self.exception_object(exc))
+
+    def exception_object(self, exc: GenomException) -> dict[str, Any]:
+        """The ``{"ex": ..., "detail": ...}`` object of an exception raised here."""
+        obj: dict[str, Any] = {"ex": type(exc).ex_id(self.genom_name)}
+        detail = exc.encoded_detail()
+        if detail is not None:
+            obj["detail"] = detail
+        return obj
+
+    async def interrupt(self, request: Request, by: str) -> None:
+        """Interrupt a running request and wait for its stop path to finish."""
+        if not request.running or request.task is None:
+            return
+        if request.interrupted_by is None:
+            request.interrupted_by = by
+        request.task.cancel(f"interrupted by {by}")
+        # Shielded so that a cancelled interrupter still lets the victim finish cleanly.
+        await asyncio.shield(asyncio.wait({request.task}))
+
+    async def abort(self, request_id: str) -> Request:
+        """Interrupt the request *request_id* (``by: "abort"``) and return it."""
+        request = self.requests.get(request_id)
+        await self.interrupt(request, by="abort")
+        return request
+
+    def _publish_state(self) -> None:
+        activities = [{"id": r.number, "name": r.service.name} for r in self.requests.running()
+                      if r.service.kind == "activity"]
+        tasks = [rt.state() | {"activity": [a for a in activities
+                                            if self._services[a["name"]].task == rt.name]}
+                 for rt in (self._task_runtime(n) for n in self._tasks)]
+        untasked = [a for a in activities if self._services[a["name"]].task not in self._tasks]
+        if untasked:
+            tasks.append({"name": "", "rusage": {"cycles": 0, "timings": {"last": 0, "max": 0, "avg": 0}},
+                          "activity": untasked})
+        self.genom_state.publish(GenomState.build(
+            tasks, digest=self.genom_name, version=self.version,
+            date=datetime.datetime.fromtimestamp(self.clock.wall(), datetime.UTC).isoformat(),
+        ))
+
+    # -- the standard services of every genom3 component -------------------------------------
+
+    @function
+    async def abort_activity(self, activity: ULong) -> None:
+        """Abort the running activity of request number ``activity``."""
+        request = self.requests.get(activity)
+        if request.running:
+            await self.interrupt(request, by="abort_activity")
+
+    @function(throws=(no_such_inport, no_such_outport))
+    def connect_port(self, local: string(128), remote: string(128)) -> None:  # type: ignore[valid-type]
+        """Connect the in port ``local`` to the out port ``remote`` ("component/port[/element]")."""
+        spec = self._ports.get(local)
+        if spec is None or spec.direction != "in":
+            raise no_such_inport()
+        parts = remote.strip("/").split("/", 2)
+        if len(parts) < 2:
+            raise no_such_outport()
+        try:
+            peer = self.host.get(parts[0])
+            target = peer.port(parts[1])
+        except (LookupError, InputError):
+            raise no_such_outport() from None
+        if not isinstance(target, OutPortRuntime):
+            raise no_such_outport()
+        self.port(local).connect(target, remote, parts[2] if len(parts) > 2 else None)  # type: ignore[union-attr]
+
+    @function(throws=(no_such_service,))
+    def connect_service(self, local: string(128), remote: string(128)) -> None:  # type: ignore[valid-type]
+        """Connect a used service to a remote one (no component here uses remote services)."""
+        raise no_such_service()
+
+    @activity
+    async def kill(self) -> None:
+        """Stop the component: interrupt every activity and unload it."""
+        self._killed = True
+        me = asyncio.current_task()
+        await asyncio.gather(*(self.interrupt(r, by="kill") for r in self.requests.running()
+                               if r.task is not me))
+        self.host.unload_soon(self.instance)

@@ -1,0 +1,152 @@
+"""The exception tree of the component runtime, and the standard genom3 exceptions.
+
+::
+
+    ComponentError                       anything the runtime refuses
+    ├── InputError (ValueError)          input JSON that does not fit the declared types
+    ├── NoSuchModule (LookupError)       unknown component instance or component name
+    ├── NoSuchService (LookupError)      unknown service of a component
+    ├── NoSuchPort (LookupError)         unknown port, or unknown element of a multiple port
+    ├── NoSuchRequest (LookupError)      unknown request id
+    ├── RequestRunning                   ``clean`` of a request that has not ended
+    └── GenomException                   an exception in the genom3 sense, with an id and a detail
+        ├── (declared by components, e.g. ::demo::TOO_FAR_AWAY)
+        └── the standard ::genom::* exceptions (interrupted, too_many_activities, ...)
+
+A :class:`GenomException` raised by a service ends its request in ``error`` with
+``{"ex": "::comp::NAME", "detail": {...}}``.  Its annotated class attributes are
+its detail members, in declaration order.
+"""
+
+from __future__ import annotations
+
+import typing
+from typing import Any, ClassVar
+
+__all__ = [
+    "ComponentError", "InputError", "NoSuchModule", "NoSuchService", "NoSuchPort", "NoSuchRequest",
+    "RequestRunning", "GenomException", "interrupted", "too_many_activities", "unkex", "syserr",
+    "no_such_service", "no_such_outport", "no_such_inport", "port_io", "serialization", "disallowed",
+]
+
+
+class ComponentError(Exception):
+    """Base of every error the component runtime reports."""
+
+
+class InputError(ComponentError, ValueError):
+    """Input data that does not fit its declared type.
+
+    Args:
+        path: Where in the input the problem is (``posRef``, ``state.position``).
+        message: What is wrong, in words a user understands.
+    """
+
+    def __init__(self, path: str, message: str) -> None:
+        self.path = path
+        self.message = message
+        super().__init__(f"{path}: {message}" if path else message)
+
+
+class NoSuchModule(ComponentError, LookupError):
+    """No component instance (or loadable component) of that name."""
+
+
+class NoSuchService(ComponentError, LookupError):
+    """The component has no service of that name."""
+
+
+class NoSuchPort(ComponentError, LookupError):
+    """The component has no port (or port element) of that name."""
+
+
+class NoSuchRequest(ComponentError, LookupError):
+    """No request of that id exists (or it was cleaned)."""
+
+
+class RequestRunning(ComponentError):
+    """The request has not ended yet, so it cannot be cleaned."""
+
+
+class GenomException(ComponentError):
+    """An exception with a genom3 id and structured detail.
+
+    Subclass it to declare a component exception; the annotated attributes
+    become the detail members::
+
+        class TOO_FAR_AWAY(GenomException):
+            \"\"\"The target is outside the track.\"\"\"
+            overshoot: Double
+
+        raise TOO_FAR_AWAY(overshoot=0.25)
+
+    The id is ``::<component>::<class name>`` for the component that raises or
+    declares it, unless the class sets :attr:`scope` (``"genom"`` for the
+    standard exceptions).
+    """
+
+    #: Fixed scope of the id, or None to use the declaring component's name.
+    scope: ClassVar[str | None] = None
+
+    def __init__(self, *args: Any, **detail: Any) -> None:
+        names = [name for name, _ in self.detail_members()]
+        if len(args) > len(names):
+            raise TypeError(f"{type(self).__name__} takes {len(names)} detail values, got {len(args)}")
+        values = dict(zip(names, args))
+        values.update(detail)
+        unknown = set(values) - set(names)
+        if unknown:
+            raise TypeError(f"{type(self).__name__} has no detail member {sorted(unknown)[0]!r}")
+        self.detail = {name: values.get(name, typ.zero()) for name, typ in self.detail_members()}
+        summary = ", ".join(f"{k}={v!r}" for k, v in self.detail.items())
+        super().__init__(f"{type(self).__name__}({summary})" if summary else type(self).__name__)
+
+    @classmethod
+    def detail_members(cls) -> list[tuple[str, Any]]:
+        """The ``(name, IdlType)`` pairs of the detail, in declaration order."""
+        cached = cls.__dict__.get("_detail_cache")
+        if cached is None:
+            from ._types import idl_type
+
+            hints = {}
+            for klass in reversed(cls.__mro__):
+                if klass is GenomException or not issubclass(klass, GenomException):
+                    continue
+                own = typing.get_type_hints(klass, include_extras=True)
+                for name in klass.__dict__.get("__annotations__", {}):
+                    if typing.get_origin(own[name]) is not ClassVar:
+                        hints[name] = idl_type(own[name])
+            cached = list(hints.items())
+            cls._detail_cache = cached  # type: ignore[attr-defined]
+        return cached
+
+    @classmethod
+    def ex_id(cls, component: str) -> str:
+        """The genom3 id of this exception when raised by *component*."""
+        return f"::{cls.scope or component}::{cls.__name__}"
+
+    def encoded_detail(self) -> dict[str, Any] | None:
+        """The detail as JSON-ready data (None when the exception has no members)."""
+        members = self.detail_members()
+        if not members:
+            return None
+        return {name: typ.encode(self.detail[name]) for name, typ in members}
+
+
+def _standard(name: str, doc: str, **members: Any) -> type[GenomException]:
+    from ._types import String, ULong
+
+    annotations = {key: {"string": String, "ulong": ULong}[value] for key, value in members.items()}
+    return type(name, (GenomException,), {"__doc__": doc, "scope": "genom", "__annotations__": annotations})
+
+
+interrupted = _standard("interrupted", "The request was interrupted by another service.", by="string")
+too_many_activities = _standard("too_many_activities", "Too many activities are running in this component.")
+unkex = _standard("unkex", "An unexpected error inside a service.", what="string")
+syserr = _standard("syserr", "A system error.", code="ulong")
+no_such_service = _standard("no_such_service", "No such service.")
+no_such_outport = _standard("no_such_outport", "No such out port.")
+no_such_inport = _standard("no_such_inport", "No such in port.")
+port_io = _standard("port_io", "A port could not be read or written.")
+serialization = _standard("serialization", "Input data could not be decoded.", what="string")
+disallowed = _standard("disallowed", "The service is not allowed now.")

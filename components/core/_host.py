@@ -1,0 +1,220 @@
+"""The component host: which components can be loaded, the loaded instances, the shared clock.
+
+The gateway owns one host; tests and scripts can use one directly.  Loadable
+components are the ``aiogenomix.components`` entry points (plus any factory
+registered explicitly) — never an arbitrary path.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import importlib.metadata
+import logging
+from collections.abc import Callable
+from typing import Any
+
+from ._clock import Clock, RealClock
+from ._component import Component
+from ._exceptions import ComponentError, NoSuchModule
+from ._requests import Request
+
+__all__ = ["ComponentHost", "LoadError"]
+
+log = logging.getLogger(__name__)
+
+ENTRY_POINT_GROUP = "aiogenomix.components"
+
+
+class LoadError(ComponentError, ValueError):
+    """Bad load arguments (unknown option, instance name taken, ...)."""
+
+
+class ComponentHost:
+    """Loads, runs and unloads component instances.
+
+    Args:
+        clock: The clock of every component (default: real time).
+        settings: Host-wide settings read by components (``can``, ``audio_device``, ...).
+        factories: Loadable components by name; default: the installed entry points.
+        function_grace: How long a send waits for a function to end before replying ``sent``.
+    """
+
+    def __init__(self, clock: Clock | None = None, settings: dict[str, Any] | None = None,
+                 factories: dict[str, Callable[..., Component]] | None = None,
+                 function_grace: float = 2.0) -> None:
+        self.clock = clock or RealClock()
+        self.settings: dict[str, Any] = dict(settings or {})
+        self.function_grace = function_grace
+        self._factories = factories if factories is not None else self._entry_points()
+        self._instances: dict[str, Component] = {}
+        self._shared: dict[str, Any] = {}
+        self._request_listeners: list[Callable[[Request], None]] = []
+        self._unload_listeners: list[Callable[[str], None]] = []
+        self._background: set[asyncio.Task[Any]] = set()
+        self._lock = asyncio.Lock()
+
+    @staticmethod
+    def _entry_points() -> dict[str, Callable[..., Component]]:
+        found: dict[str, Callable[..., Component]] = {}
+        for entry in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+            found[entry.name] = _LazyFactory(entry)
+        return found
+
+    # -- what can be loaded ----------------------------------------------------------------
+
+    def available(self) -> list[str]:
+        """The names of the loadable components."""
+        return sorted(self._factories)
+
+    def register(self, name: str, factory: Callable[..., Component]) -> None:
+        """Make a component class loadable under *name*."""
+        self._factories[name] = factory
+
+    def component_class(self, name: str) -> type[Component]:
+        """The class of the loadable component *name*.
+
+        Raises:
+            NoSuchModule: for a name that is not registered.
+        """
+        factory = self._factories.get(name)
+        if factory is None:
+            raise NoSuchModule(f"no component {name!r} (available: {', '.join(self.available())})")
+        return factory.load() if isinstance(factory, _LazyFactory) else factory  # type: ignore[return-value]
+
+    def usage(self, name: str) -> list[dict[str, str]]:
+        """The load options of component *name*, as ``{"option", "descr"}`` objects."""
+        return [{"option": o, "descr": d} for o, d in self.component_class(name).usage_options]
+
+    # -- instances -------------------------------------------------------------------------
+
+    @property
+    def instances(self) -> dict[str, Component]:
+        """The loaded instances by name."""
+        return dict(self._instances)
+
+    def get(self, instance: str) -> Component:
+        """The loaded instance *instance*.
+
+        Raises:
+            NoSuchModule: when no such instance is loaded.
+        """
+        try:
+            return self._instances[instance]
+        except KeyError:
+            loaded = ", ".join(self._instances) or "none"
+            raise NoSuchModule(f"no module {instance!r} is loaded (loaded: {loaded})") from None
+
+    async def load(self, name: str, argv: list[str] | None = None) -> Component:
+        """Load component *name* (``-i INSTANCE`` in *argv* picks the instance name).
+
+        Loading a component that is already loaded under the same instance name
+        returns the running instance, so clients may call ``load`` at every start.
+
+        Raises:
+            NoSuchModule: for an unknown component.
+            LoadError: for bad arguments.
+        """
+        args = list(argv or [])
+        instance = name
+        if "-i" in args:
+            at = args.index("-i")
+            if at + 1 >= len(args) or not args[at + 1].isidentifier():
+                raise LoadError("-i needs an instance name made of letters, digits and _")
+            instance = args[at + 1]
+            del args[at:at + 2]
+        async with self._lock:
+            existing = self._instances.get(instance)
+            if existing is not None:
+                if existing.genom_name != self.component_class(name).genom_name:
+                    raise LoadError(f"instance name {instance!r} is taken by a {existing.genom_name} component")
+                return existing
+            cls = self.component_class(name)
+            component = cls(self, instance, args)
+            await component.start()
+            self._instances[instance] = component
+            log.info("loaded %s as %s", name, instance)
+            return component
+
+    async def unload(self, instance: str) -> None:
+        """Stop and forget an instance, then tell the unload listeners.
+
+        Raises:
+            NoSuchModule: when no such instance is loaded.
+        """
+        async with self._lock:
+            component = self.get(instance)
+            del self._instances[instance]
+        await component.stop()
+        for listener in list(self._unload_listeners):
+            listener(instance)
+
+    def unload_soon(self, instance: str) -> None:
+        """Unload *instance* in the background (used by a component's own ``kill``)."""
+        task = asyncio.create_task(self.unload(instance), name=f"unload {instance}")
+        self._background.add(task)
+        task.add_done_callback(self._background.discard)
+
+    # -- shared resources and events ---------------------------------------------------------
+
+    def shared(self, key: str, factory: Callable[[], Any]) -> Any:
+        """One object per host for *key*, created by *factory* on first use.
+
+        Simulated hardware lives here so that several components see the same
+        rig (the simulated sound scene follows the simulated head).
+        """
+        if key not in self._shared:
+            self._shared[key] = factory()
+        return self._shared[key]
+
+    def add_request_listener(self, listener: Callable[[Request], None]) -> None:
+        """Call *listener* with every request whose status changed."""
+        self._request_listeners.append(listener)
+
+    def add_unload_listener(self, listener: Callable[[str], None]) -> None:
+        """Call *listener* with the name of every unloaded instance."""
+        self._unload_listeners.append(listener)
+
+    def announce_request(self, request: Request) -> None:
+        """Report a request status change to the listeners."""
+        for listener in self._request_listeners:
+            listener(request)
+
+    async def close(self) -> None:
+        """Unload every instance, then close the shared resources (idempotent)."""
+        for instance in list(self._instances):
+            try:
+                await self.unload(instance)
+            except NoSuchModule:
+                pass
+        if self._background:
+            await asyncio.gather(*self._background, return_exceptions=True)
+        shared, self._shared = self._shared, {}
+        for key, resource in shared.items():
+            closer = getattr(resource, "aclose", None)
+            if closer is not None:
+                try:
+                    await closer()
+                except Exception:
+                    log.exception("closing shared resource %s failed", key)
+
+    async def __aenter__(self) -> ComponentHost:
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.close()
+
+
+class _LazyFactory:
+    """An entry point imported only when its component is first needed."""
+
+    def __init__(self, entry: importlib.metadata.EntryPoint) -> None:
+        self.entry = entry
+        self._cls: type[Component] | None = None
+
+    def load(self) -> type[Component]:
+        if self._cls is None:
+            self._cls = self.entry.load()
+        return self._cls
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Component:
+        return self.load()(*args, **kwargs)

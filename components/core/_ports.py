@@ -1,0 +1,192 @@
+"""Out ports (published data) and in ports (connected to another component's out port).
+
+On the class, ``Mobile = OutPort(State, doc=...)`` declares a port; on an
+instance, ``self.Mobile`` is its runtime (:class:`OutPortRuntime`), with
+``publish()``, ``read()`` and change notification for watchers and in ports.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Any, Generic, TypeVar
+
+from ._exceptions import NoSuchPort, port_io
+from ._types import IdlType, idl_type
+
+__all__ = ["OutPort", "InPort", "OutPortRuntime", "InPortRuntime", "PortSpec"]
+
+T = TypeVar("T")
+
+
+class PortSpec:
+    """What is common to the declarations of in and out ports."""
+
+    direction = "out"
+
+    def __init__(self, annotation: Any, doc: str = "", multiple: bool = False) -> None:
+        self.annotation = annotation
+        self.doc = doc
+        self.multiple = multiple
+        self.name = ""
+        self._type: IdlType | None = None
+
+    @property
+    def type(self) -> IdlType:
+        """The IDL type of the port data (resolved on first use)."""
+        if self._type is None:
+            self._type = idl_type(self.annotation)
+        return self._type
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    def describe(self) -> dict[str, Any]:
+        """The ``/info`` description of this port."""
+        return {"name": self.name, "dir": self.direction, "kind": "multiple" if self.multiple else "simple",
+                "type": self.type.describe(), "doc": self.doc}
+
+    def __get__(self, instance: Any, owner: type) -> Any:
+        if instance is None:
+            return self
+        return instance._port_runtime(self.name)
+
+
+class OutPort(PortSpec, Generic[T]):
+    """Declare an out port.
+
+    Args:
+        annotation: The type of the data (an @idl_struct, Double, ...).
+        doc: What the port publishes.
+        multiple: A multiple port holds named elements (read with ``?name=``).
+    """
+
+    direction = "out"
+
+    def runtime(self, owner: Any) -> OutPortRuntime:
+        """Create the runtime of this port for a component instance."""
+        return OutPortRuntime(self, owner)
+
+
+class InPort(PortSpec, Generic[T]):
+    """Declare an in port, connected at run time with the ``connect_port`` service."""
+
+    direction = "in"
+
+    def runtime(self, owner: Any) -> InPortRuntime:
+        """Create the runtime of this port for a component instance."""
+        return InPortRuntime(self, owner)
+
+
+class OutPortRuntime:
+    """The data of one out port of one component instance.
+
+    ``version`` counts publications; :meth:`wait_published` lets a watcher wait
+    for the next one without polling.  Publish from the event-loop thread (use
+    ``loop.call_soon_threadsafe`` from a hardware thread).
+    """
+
+    def __init__(self, spec: PortSpec, owner: Any) -> None:
+        self.spec = spec
+        self.owner = owner
+        self.version = 0
+        self._elements: dict[str, Any] = {}
+        self._value: Any = None if spec.multiple else spec.type.zero()
+        self._published: asyncio.Future[None] | None = None
+
+    @property
+    def name(self) -> str:
+        """The port name."""
+        return self.spec.name
+
+    @property
+    def type(self) -> IdlType:
+        """The IDL type of the data."""
+        return self.spec.type
+
+    def publish(self, value: Any, name: str | None = None) -> None:
+        """Publish *value* (for a multiple port, as element *name*)."""
+        if self.spec.multiple:
+            if name is None:
+                raise ValueError(f"port {self.name} is multiple: publish(value, name=...)")
+            self._elements[name] = value
+        else:
+            self._value = value
+        self.version += 1
+        if self._published is not None and not self._published.done():
+            self._published.set_result(None)
+        self._published = None
+
+    def read(self, name: str | None = None) -> Any:
+        """The latest value (for a multiple port, of element *name*).
+
+        Raises:
+            NoSuchPort: for an unknown element.
+            port_io: when a multiple port is read without an element name.
+        """
+        if not self.spec.multiple:
+            return self._value
+        if name is None:
+            raise port_io()
+        if name not in self._elements:
+            raise NoSuchPort(f"port {self.name} has no element {name!r} (elements: {', '.join(self._elements)})")
+        return self._elements[name]
+
+    def elements(self) -> list[str]:
+        """The element names of a multiple port."""
+        return list(self._elements)
+
+    def encoded(self, name: str | None = None) -> Any:
+        """The latest value as JSON-ready data."""
+        return self.type.encode(self.read(name))
+
+    async def wait_published(self, after_version: int | None = None) -> int:
+        """Wait until a value newer than *after_version* (default: now) is published; return the version."""
+        after = self.version if after_version is None else after_version
+        while self.version <= after:
+            if self._published is None:
+                self._published = asyncio.get_running_loop().create_future()
+            await asyncio.shield(self._published)
+        return self.version
+
+
+class InPortRuntime:
+    """The in port of one component instance: reads the out port it is connected to."""
+
+    def __init__(self, spec: PortSpec, owner: Any) -> None:
+        self.spec = spec
+        self.owner = owner
+        self.remote: OutPortRuntime | None = None
+        self.remote_name = ""
+        self.element: str | None = None
+
+    @property
+    def name(self) -> str:
+        """The port name."""
+        return self.spec.name
+
+    @property
+    def type(self) -> IdlType:
+        """The IDL type of the data."""
+        return self.spec.type
+
+    @property
+    def connected(self) -> bool:
+        """Whether the port is connected to an out port."""
+        return self.remote is not None
+
+    def connect(self, remote: OutPortRuntime, remote_name: str, element: str | None = None) -> None:
+        """Connect to *remote* (whose data type must be the same)."""
+        if remote.type.name != self.type.name:
+            raise port_io()
+        self.remote, self.remote_name, self.element = remote, remote_name, element
+
+    def read(self) -> Any:
+        """The latest data of the connected out port (None while unconnected)."""
+        if self.remote is None:
+            return None
+        return self.remote.read(self.element)
+
+    def encoded(self, name: str | None = None) -> Any:
+        """The latest data as JSON-ready data."""
+        value = self.read()
+        return None if value is None else self.type.encode(value)

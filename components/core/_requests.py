@@ -1,0 +1,162 @@
+"""Requests and the tracker that owns them: ids, status, the asyncio task of an activity.
+
+A request id is ``"<instance>::<n>"`` where ``n`` is the smallest number not
+held by an uncleaned request, so ids are reused after ``clean`` as in genomix.
+Every status change is reported to the tracker's listener (the gateway routes
+it to the request's session as a ``request`` event).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+from collections import OrderedDict
+from collections.abc import Callable
+from typing import Any, Literal
+
+from ._exceptions import NoSuchRequest, RequestRunning
+from ._services import ServiceSpec
+
+__all__ = ["Request", "RequestTracker", "Status"]
+
+Status = Literal["sent", "done", "error"]
+
+
+@dataclasses.dataclass(eq=False)
+class Request:
+    """One call of a service.
+
+    Attributes:
+        number: The ``n`` of the id.
+        instance: The component instance name.
+        service: The service called.
+        session: The session its events go to (or None).
+        oneway: Whether nobody wants its result (cleaned as soon as it ends).
+        status: ``sent``, then ``done`` or ``error``.
+        output: The outputs once ``done``.
+        exception: ``{"ex": ..., "detail": ...}`` once ``error``.
+    """
+
+    number: int
+    instance: str
+    service: ServiceSpec
+    inputs: dict[str, Any]
+    session: str | None = None
+    oneway: bool = False
+    status: Status = "sent"
+    output: dict[str, Any] | None = None
+    exception: dict[str, Any] | None = None
+    task: asyncio.Task[None] | None = None
+    interrupted_by: str | None = None
+    ended: asyncio.Event = dataclasses.field(default_factory=asyncio.Event)
+
+    @property
+    def id(self) -> str:
+        """The wire id, ``"<instance>::<n>"``."""
+        return f"{self.instance}::{self.number}"
+
+    @property
+    def running(self) -> bool:
+        """Whether the request has not ended yet."""
+        return self.status == "sent"
+
+    def status_object(self) -> dict[str, Any]:
+        """The JSON status object (also the data of the ``request`` event)."""
+        status: dict[str, Any] = {"id": self.id, "status": self.status}
+        if self.status == "done":
+            status["output"] = self.output or {}
+        elif self.status == "error":
+            status["exception"] = self.exception
+        return status
+
+
+class RequestTracker:
+    """Allocates request ids and keeps requests until they are cleaned.
+
+    Args:
+        instance: The component instance name (prefix of the ids).
+        listener: Called with each request whose status changed.
+        keep_ended: How many ended, uncleaned requests to keep; the oldest are
+            dropped past that, so clients that never clean cannot exhaust memory
+            (genomix 1.6 cleans untracked replies for the same reason).
+    """
+
+    def __init__(self, instance: str, listener: Callable[[Request], None], keep_ended: int = 1000) -> None:
+        self.instance = instance
+        self.listener = listener
+        self.keep_ended = keep_ended
+        self._requests: dict[int, Request] = {}
+        self._ended: OrderedDict[int, None] = OrderedDict()
+
+    def create(self, service: ServiceSpec, inputs: dict[str, Any], session: str | None, oneway: bool) -> Request:
+        """Register a new request with the smallest free number."""
+        number = 0
+        while number in self._requests:
+            number += 1
+        request = Request(number, self.instance, service, inputs, session, oneway)
+        self._requests[number] = request
+        return request
+
+    def parse_id(self, request_id: str) -> int:
+        """Accept ``demo::3``, ``::demo::3`` or ``3``; return 3.
+
+        Raises:
+            NoSuchRequest: for another instance's id or a malformed id.
+        """
+        text = request_id.strip()
+        prefix, sep, number = text.rpartition("::")
+        if sep and prefix.lstrip(":") != self.instance:
+            raise NoSuchRequest(f"request {request_id!r} does not belong to {self.instance}")
+        if not number.isdigit():
+            raise NoSuchRequest(f"malformed request id {request_id!r} (expected {self.instance}::<n> or <n>)")
+        return int(number)
+
+    def get(self, request_id: str | int) -> Request:
+        """The request of that id.
+
+        Raises:
+            NoSuchRequest: when there is none.
+        """
+        number = request_id if isinstance(request_id, int) else self.parse_id(request_id)
+        try:
+            return self._requests[number]
+        except KeyError:
+            raise NoSuchRequest(f"no request {self.instance}::{number}") from None
+
+    def running(self) -> list[Request]:
+        """The requests that have not ended, oldest first."""
+        return [r for r in self._requests.values() if r.running]
+
+    def announce(self, request: Request) -> None:
+        """Report the request's current status to the listener."""
+        if not request.oneway:
+            self.listener(request)
+
+    def finish(self, request: Request, status: Status, output: dict[str, Any] | None = None,
+               exception: dict[str, Any] | None = None) -> None:
+        """Record the end of a request and report it."""
+        if not request.running:
+            return
+        request.status, request.output, request.exception = status, output, exception
+        request.ended.set()
+        if request.oneway:
+            self._requests.pop(request.number, None)
+            return
+        self._ended[request.number] = None
+        while len(self._ended) > self.keep_ended:
+            number, _ = self._ended.popitem(last=False)
+            self._requests.pop(number, None)
+        self.announce(request)
+
+    def clean(self, request_id: str) -> None:
+        """Forget an ended request, freeing its number.
+
+        Raises:
+            NoSuchRequest: when there is no such request.
+            RequestRunning: when it has not ended.
+        """
+        request = self.get(request_id)
+        if request.running:
+            raise RequestRunning(f"request {request.id} is still running: abort it or wait for it to end")
+        del self._requests[request.number]
+        self._ended.pop(request.number, None)

@@ -1,0 +1,244 @@
+"""Service declarations: the ``@function``, ``@activity`` and ``@attribute`` decorators.
+
+A decorated method keeps working as a plain method; the decorator attaches a
+:class:`ServiceSpec` read from its signature and type hints: parameter names,
+IDL types, defaults and docs (``Annotated[Double, "doc"]``), outputs (the
+return annotation), interrupts, declared exceptions and a validate hook.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import typing
+from collections.abc import Callable, Mapping, Sequence
+from typing import Annotated, Any, Literal
+
+from ._exceptions import GenomException, InputError
+from ._types import IdlType, idl_type
+
+__all__ = ["function", "activity", "attribute", "Out", "ParamSpec", "ServiceSpec", "NO_DEFAULT"]
+
+ServiceKind = Literal["function", "activity", "attribute"]
+
+
+class _NoDefault:
+    def __repr__(self) -> str:
+        return "NO_DEFAULT"
+
+
+#: Marks a parameter without a default value.
+NO_DEFAULT: Any = _NoDefault()
+
+
+@dataclasses.dataclass(frozen=True)
+class Out:
+    """Names (and documents) the single output of a service: ``-> Annotated[T, Out("name", "doc")]``."""
+
+    name: str
+    doc: str = ""
+
+
+@dataclasses.dataclass(frozen=True)
+class ParamSpec:
+    """One parameter of a service.
+
+    Attributes:
+        name: The parameter name on the wire.
+        direction: ``in``, ``out`` or ``inout``.
+        type: Its IDL type.
+        doc: Its documentation.
+        default: Its default (a Python value), or :data:`NO_DEFAULT`.
+    """
+
+    name: str
+    direction: Literal["in", "out", "inout"]
+    type: IdlType
+    doc: str = ""
+    default: Any = NO_DEFAULT
+
+    def describe(self) -> dict[str, Any]:
+        """The ``/info`` description of this parameter."""
+        described: dict[str, Any] = {"name": self.name, "dir": self.direction, "type": self.type.describe(),
+                                     "doc": self.doc}
+        if self.default is not NO_DEFAULT:
+            described["default"] = self.type.encode(self.default)
+        return described
+
+
+@dataclasses.dataclass(frozen=True)
+class ServiceSpec:
+    """Everything the runtime knows about one service."""
+
+    name: str
+    kind: ServiceKind
+    func: Callable[..., Any]
+    inputs: tuple[ParamSpec, ...]
+    outputs: tuple[ParamSpec, ...]
+    doc: str = ""
+    interrupts: tuple[str, ...] = ()
+    throws: tuple[type[GenomException], ...] = ()
+    validate: Callable[..., Any] | None = None
+    task: str | None = None
+    #: How the return value maps to outputs: "none", "single" or "fields".
+    output_style: str = "none"
+
+    @property
+    def parameters(self) -> list[ParamSpec]:
+        """Inputs then outputs, with an output that is also an input listed once as ``inout``."""
+        inputs = {p.name for p in self.inputs}
+        return list(self.inputs) + [p for p in self.outputs if p.name not in inputs]
+
+    def decode_inputs(self, raw: Any) -> dict[str, Any]:
+        """Decode the JSON ``input`` of a request into keyword arguments.
+
+        Missing inputs take their default (or their type's zero value, as genom3
+        leaves IDS members untouched); unknown names are refused.
+
+        Raises:
+            InputError: naming the offending parameter.
+        """
+        if raw is None:
+            raw = {}
+        if not isinstance(raw, Mapping):
+            if len(self.inputs) == 1:
+                # A bare value for a one-parameter service, as Tcl users type it.
+                raw = {self.inputs[0].name: raw}
+            else:
+                raise InputError("input", "expected a JSON object of the service's parameters")
+        known = {p.name: p for p in self.inputs}
+        for key in raw:
+            if key not in known:
+                names = ", ".join(known) or "none"
+                raise InputError(str(key), f"unknown parameter of {self.name} (parameters: {names})")
+        decoded = {}
+        for param in self.inputs:
+            if param.name in raw:
+                decoded[param.name] = param.type.decode(raw[param.name], param.name)
+            elif param.default is not NO_DEFAULT:
+                decoded[param.name] = param.default
+            else:
+                decoded[param.name] = param.type.zero()
+        return decoded
+
+    def encode_outputs(self, result: Any) -> dict[str, Any]:
+        """Turn a service's return value into the ``output`` object of its request."""
+        if self.output_style == "none":
+            return {}
+        if self.output_style == "single":
+            (param,) = self.outputs
+            return {param.name: param.type.encode(result)}
+        if isinstance(result, Mapping):
+            return {p.name: p.type.encode(result[p.name]) for p in self.outputs}
+        return {p.name: p.type.encode(getattr(result, p.name)) for p in self.outputs}
+
+    def describe(self) -> dict[str, Any]:
+        """The ``/info`` description of this service (``throws`` needs a component name: see Component)."""
+        outputs = {p.name for p in self.outputs}
+        params = []
+        for p in self.parameters:
+            described = p.describe()
+            if p.direction == "in" and p.name in outputs:
+                described["dir"] = "inout"
+            params.append(described)
+        return {"name": self.name, "kind": self.kind, "doc": self.doc, "task": self.task,
+                "parameters": params, "interrupts": list(self.interrupts)}
+
+
+def _doc_of(metadata: Sequence[Any]) -> str:
+    return next((m for m in metadata if isinstance(m, str)), "")
+
+
+def _split_doc(func: Callable[..., Any]) -> str:
+    doc = inspect.getdoc(func) or ""
+    return doc.split("\n\n", 1)[0].replace("\n", " ").strip()
+
+
+def _outputs_of(annotation: Any) -> tuple[tuple[ParamSpec, ...], str]:
+    if annotation in (None, type(None), inspect.Signature.empty):
+        return (), "none"
+    if typing.get_origin(annotation) is Annotated:
+        out = next((m for m in annotation.__metadata__ if isinstance(m, Out)), None)
+        if out is not None:
+            return (ParamSpec(out.name, "out", idl_type(annotation), out.doc),), "single"
+    base = typing.get_args(annotation)[0] if typing.get_origin(annotation) is Annotated else annotation
+    if dataclasses.is_dataclass(base) and not hasattr(base, "__idl_type__"):
+        hints = typing.get_type_hints(base, include_extras=True)
+        params = []
+        for field in dataclasses.fields(base):
+            hint = hints[field.name]
+            doc = _doc_of(hint.__metadata__) if typing.get_origin(hint) is Annotated else ""
+            params.append(ParamSpec(field.name, "out", idl_type(hint), doc))
+        return tuple(params), "fields"
+    raise TypeError(
+        f"return annotation {annotation!r}: use None, Annotated[T, Out('name')] or a dataclass of outputs"
+    )
+
+
+def _build_spec(func: Callable[..., Any], kind: ServiceKind, options: dict[str, Any]) -> ServiceSpec:
+    hints = typing.get_type_hints(func, include_extras=True)
+    inputs = []
+    for name, param in list(inspect.signature(func).parameters.items())[1:]:
+        if param.kind in (param.VAR_POSITIONAL, param.VAR_KEYWORD):
+            raise TypeError(f"service {func.__name__}: *args and **kwargs have no IDL meaning")
+        if name not in hints:
+            raise TypeError(f"service {func.__name__}: parameter {name!r} needs a type annotation")
+        hint = hints[name]
+        doc = _doc_of(hint.__metadata__) if typing.get_origin(hint) is Annotated else ""
+        default = NO_DEFAULT if param.default is param.empty else param.default
+        inputs.append(ParamSpec(name, "in", idl_type(hint), doc, default))
+    outputs, style = _outputs_of(hints.get("return", inspect.Signature.empty))
+    task = options.get("task")
+    return ServiceSpec(
+        name=options.get("name") or func.__name__,
+        kind=kind,
+        func=func,
+        inputs=tuple(inputs),
+        outputs=outputs,
+        doc=options.get("doc") or _split_doc(func),
+        interrupts=tuple(options.get("interrupts", ())),
+        throws=tuple(options.get("throws", ())),
+        validate=options.get("validate"),
+        task=getattr(task, "name", task),
+        output_style=style,
+    )
+
+
+def _decorator(kind: ServiceKind) -> Callable[..., Any]:
+    def decorator(func: Callable[..., Any] | None = None, /, **options: Any) -> Any:
+        def attach(f: Callable[..., Any]) -> Callable[..., Any]:
+            # The spec is built lazily: type hints may name classes defined after the method.
+            f.__genom_service__ = (kind, options)  # type: ignore[attr-defined]
+            return f
+
+        return attach(func) if func is not None else attach
+
+    decorator.__name__ = kind
+    decorator.__doc__ = f"""Declare a method as a genom3 *{kind}* service.
+
+    Usable bare (``@{kind}``) or with options (``@{kind}(interrupts=("Stop",))``).
+
+    Keyword Args:
+        name: The service name (default: the method name).
+        doc: Its documentation (default: the docstring's first paragraph).
+        interrupts: Names of the services a request of this one interrupts.
+        throws: The GenomException classes it may raise.
+        validate: ``validate(self, **inputs)``, sync or async, raising a GenomException
+            to refuse a request before it starts.
+        task: The Task an activity runs in (descriptive; use ``await self.<task>.tick()``).
+    """
+    return decorator
+
+
+function = _decorator("function")
+activity = _decorator("activity")
+attribute = _decorator("attribute")
+
+
+def service_spec(func: Callable[..., Any]) -> ServiceSpec | None:
+    """The ServiceSpec of a decorated method (None for an ordinary method)."""
+    marker = getattr(func, "__genom_service__", None)
+    if marker is None:
+        return None
+    kind, options = marker
+    return _build_spec(func, kind, options)

@@ -1,0 +1,470 @@
+"""IDL-like data types and their genom3 JSON mapping (decode, encode, describe).
+
+Type hints are the single source of truth of a component's interface: a
+parameter annotated ``Annotated[Double, "Goto position in m"]`` is described in
+``/info`` as a ``double``, decoded from JSON with genom3's leniency and encoded
+back as genom3 does (enums by full name, booleans as 0/1, NaN as ``null``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+import types
+import typing
+from collections.abc import Mapping
+from typing import Annotated, Any, ClassVar
+
+import numpy as np
+
+from ._exceptions import InputError
+
+__all__ = [
+    "IdlType", "Scalar", "StringType", "EnumType", "StructType", "SequenceType", "ArrayType",
+    "OptionalType", "idl_type", "idl_struct", "idl_enum", "sequence", "array", "optional", "string",
+    "Boolean", "Octet", "Char", "Short", "UShort", "Long", "ULong", "LongLong", "ULongLong",
+    "Float", "Double", "String",
+]
+
+
+class IdlType:
+    """One IDL type: how it is described, decoded from JSON and encoded to JSON."""
+
+    #: The IDL spelling, e.g. ``double``, ``::demo::state``, ``sequence<long>``.
+    name: str
+    #: The description kind: a scalar name, or enum/struct/sequence/array/optional.
+    kind: str
+
+    def describe(self) -> dict[str, Any]:
+        """Return the ``/info`` description of this type."""
+        return {"name": self.name, "kind": self.kind}
+
+    def decode(self, value: Any, path: str) -> Any:
+        """Convert a JSON value into the Python value of this type.
+
+        Raises:
+            InputError: naming *path* when the value does not fit.
+        """
+        raise NotImplementedError
+
+    def encode(self, value: Any) -> Any:
+        """Convert a Python value of this type into JSON-ready data."""
+        return value
+
+    def zero(self) -> Any:
+        """The value a genom3 IDS member of this type starts with."""
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        return f"<IDL {self.name}>"
+
+
+def _kind_of(value: Any) -> str:
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, (int, float)):
+        return f"the number {value!r}"
+    if isinstance(value, str):
+        return f"the string {value!r}" if len(value) < 40 else "a string"
+    if isinstance(value, list):
+        return "an array"
+    if isinstance(value, dict):
+        return "an object"
+    return type(value).__name__
+
+
+class Scalar(IdlType):
+    """A numeric, boolean or char IDL scalar."""
+
+    _INT_RANGES: ClassVar[dict[str, tuple[int, int]]] = {
+        "octet": (0, 2**8 - 1),
+        "short": (-(2**15), 2**15 - 1),
+        "unsigned short": (0, 2**16 - 1),
+        "long": (-(2**31), 2**31 - 1),
+        "unsigned long": (0, 2**32 - 1),
+        "long long": (-(2**63), 2**63 - 1),
+        "unsigned long long": (0, 2**64 - 1),
+    }
+    _NUMPY: ClassVar[dict[str, str]] = {
+        "octet": "u1", "short": "<i2", "unsigned short": "<u2", "long": "<i4",
+        "unsigned long": "<u4", "long long": "<i8", "unsigned long long": "<u8",
+        "float": "<f4", "double": "<f8", "boolean": "u1",
+    }
+
+    def __init__(self, name: str) -> None:
+        self.name = self.kind = name
+        self.range = self._INT_RANGES.get(name)
+
+    @property
+    def numpy_dtype(self) -> np.dtype[Any]:
+        """The little-endian numpy dtype used for arrays of this scalar."""
+        return np.dtype(self._NUMPY[self.name])
+
+    def decode(self, value: Any, path: str) -> Any:
+        if self.name in ("double", "float"):
+            if value is None:
+                return math.nan
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise InputError(path, f"expected a number ({self.name}), got {_kind_of(value)}")
+            return float(value)
+        if self.name == "boolean":
+            if isinstance(value, bool):
+                return value
+            if isinstance(value, int) and value in (0, 1):
+                return bool(value)
+            raise InputError(path, f"expected a boolean (0, 1, true or false), got {_kind_of(value)}")
+        if self.name == "char":
+            if isinstance(value, str) and len(value) == 1:
+                return value
+            raise InputError(path, f"expected a one-character string, got {_kind_of(value)}")
+        # Integers: genom3 scans them with strtoll, so a fraction is an error.  We
+        # accept integral floats (MATLAB sends every number as a double).
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise InputError(path, f"expected an integer ({self.name}), got {_kind_of(value)}")
+        if isinstance(value, float):
+            if not value.is_integer():
+                raise InputError(path, f"expected an integer ({self.name}), got {value!r}")
+            value = int(value)
+        low, high = self.range  # type: ignore[misc]
+        if not low <= value <= high:
+            raise InputError(path, f"{value} is out of range for {self.name} [{low}, {high}]")
+        return value
+
+    def encode(self, value: Any) -> Any:
+        if self.name in ("double", "float"):
+            value = float(value)
+            return value if math.isfinite(value) else None
+        if self.name == "boolean":
+            return 1 if value else 0
+        return value
+
+    def zero(self) -> Any:
+        if self.name in ("double", "float"):
+            return 0.0
+        if self.name == "boolean":
+            return False
+        if self.name == "char":
+            return "\0"
+        return 0
+
+
+class StringType(IdlType):
+    """``string`` or the bounded ``string<N>``."""
+
+    kind = "string"
+
+    def __init__(self, bound: int | None = None) -> None:
+        self.bound = bound
+        self.name = "string" if bound is None else f"string<{bound}>"
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": self.name, "kind": "string", "bound": self.bound}
+
+    def decode(self, value: Any, path: str) -> Any:
+        if not isinstance(value, str):
+            raise InputError(path, f"expected a string, got {_kind_of(value)}")
+        if self.bound is not None and len(value.encode()) > self.bound:
+            raise InputError(path, f"string longer than its bound of {self.bound} bytes")
+        return value
+
+    def zero(self) -> Any:
+        return ""
+
+
+class EnumType(IdlType):
+    """An IDL enum backed by a Python :class:`enum.Enum`."""
+
+    kind = "enum"
+
+    def __init__(self, py_enum: type[enum.Enum], name: str) -> None:
+        self.py_enum = py_enum
+        self.name = name
+        scope = name.rsplit("::", 1)[0]
+        # IDL enumerators live in the enum's enclosing scope: ::demo::SLOW.
+        self.full_names = {member: f"{scope}::{member.name}" for member in py_enum}
+        self._by_name: dict[str, enum.Enum] = {}
+        for member, full in self.full_names.items():
+            self._by_name[full] = member
+            self._by_name[member.name] = member
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": self.name, "kind": "enum", "values": list(self.full_names.values())}
+
+    def decode(self, value: Any, path: str) -> Any:
+        if isinstance(value, self.py_enum):
+            return value
+        if isinstance(value, str) and value in self._by_name:
+            return self._by_name[value]
+        allowed = ", ".join(self.full_names.values())
+        raise InputError(path, f"expected one of {allowed} (or the short names), got {_kind_of(value)}")
+
+    def encode(self, value: Any) -> Any:
+        return self.full_names.get(value, "<invalid>")
+
+    def zero(self) -> Any:
+        return next(iter(self.py_enum))
+
+
+class StructType(IdlType):
+    """An IDL struct backed by a dataclass; members keep declaration order."""
+
+    kind = "struct"
+
+    def __init__(self, cls: type, name: str) -> None:
+        self.cls = cls
+        self.name = name
+        self._members: list[tuple[str, IdlType]] | None = None
+
+    @property
+    def members(self) -> list[tuple[str, IdlType]]:
+        """The ``(name, type)`` pairs of the members, resolved on first use."""
+        if self._members is None:
+            hints = typing.get_type_hints(self.cls, include_extras=True)
+            self._members = [(f.name, idl_type(hints[f.name])) for f in dataclasses.fields(self.cls)]
+        return self._members
+
+    def describe(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "kind": "struct",
+            "members": [{"name": n, "type": t.describe()} for n, t in self.members],
+        }
+
+    def decode(self, value: Any, path: str) -> Any:
+        if isinstance(value, self.cls):
+            return value
+        if not isinstance(value, Mapping):
+            raise InputError(path, f"expected an object ({self.name}), got {_kind_of(value)}")
+        types_by_name = dict(self.members)
+        unknown = [key for key in value if key not in types_by_name]
+        if unknown:
+            raise InputError(
+                path, f"unknown member {unknown[0]!r} of {self.name} (members: {', '.join(types_by_name)})"
+            )
+        # Missing members keep their initial value, as genom3 does.
+        result = self.zero()
+        for key, item in value.items():
+            setattr(result, key, types_by_name[key].decode(item, f"{path}.{key}" if path else key))
+        return result
+
+    def encode(self, value: Any) -> Any:
+        if isinstance(value, Mapping):
+            return {n: t.encode(value[n]) for n, t in self.members if n in value}
+        return {n: t.encode(getattr(value, n)) for n, t in self.members}
+
+    def zero(self) -> Any:
+        kwargs = {}
+        for f in dataclasses.fields(self.cls):
+            if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+                kwargs[f.name] = dict(self.members)[f.name].zero()
+        return self.cls(**kwargs)
+
+
+class SequenceType(IdlType):
+    """``sequence<T>`` or ``sequence<T,N>``; optionally carried as a numpy array."""
+
+    kind = "sequence"
+
+    def __init__(self, element: IdlType, bound: int | None = None, numpy: bool = False) -> None:
+        self.element = element
+        self.bound = bound
+        self.numpy = numpy and isinstance(element, Scalar) and element.name != "char"
+        self.name = f"sequence<{element.name}>" if bound is None else f"sequence<{element.name},{bound}>"
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": self.name, "kind": "sequence", "bound": self.bound, "element": self.element.describe()}
+
+    def _items(self, value: Any, path: str) -> list[Any]:
+        if isinstance(value, np.ndarray):
+            return list(value.tolist())
+        if isinstance(value, list):
+            return value
+        if isinstance(value, Mapping):
+            # genom3 accepts sparse index objects such as {"0": 1, "3": 2}.
+            items: list[Any] = []
+            for key, item in value.items():
+                if not (isinstance(key, str) and key.isdigit()):
+                    raise InputError(path, f"expected an array or an index object, got key {key!r}")
+                index = int(key)
+                if index >= len(items):
+                    items.extend([None] * (index + 1 - len(items)))
+                items[index] = item
+            return [self.element.zero() if item is None else item for item in items]
+        raise InputError(path, f"expected an array ({self.name}), got {_kind_of(value)}")
+
+    def decode(self, value: Any, path: str) -> Any:
+        if self.numpy and isinstance(value, np.ndarray):
+            items_count = len(value)
+            if self.bound is not None and items_count > self.bound:
+                raise InputError(path, f"{items_count} elements exceed the bound of {self.bound}")
+            return value.astype(self.element.numpy_dtype, copy=False)  # type: ignore[attr-defined]
+        items = self._items(value, path)
+        if self.bound is not None and len(items) > self.bound:
+            raise InputError(path, f"{len(items)} elements exceed the bound of {self.bound}")
+        decoded = [self.element.decode(item, f"{path}[{i}]") for i, item in enumerate(items)]
+        if self.numpy:
+            return np.asarray(decoded, dtype=self.element.numpy_dtype)  # type: ignore[attr-defined]
+        return decoded
+
+    def encode(self, value: Any) -> Any:
+        if isinstance(value, np.ndarray):
+            # orjson serialises contiguous native arrays directly, with no Python loop.
+            array_value = np.ascontiguousarray(value)
+            if array_value.dtype.byteorder == ">":
+                array_value = array_value.astype(array_value.dtype.newbyteorder("="))
+            return array_value
+        return [self.element.encode(item) for item in value]
+
+    def zero(self) -> Any:
+        if self.numpy:
+            return np.zeros(0, dtype=self.element.numpy_dtype)  # type: ignore[attr-defined]
+        return []
+
+
+class ArrayType(SequenceType):
+    """A fixed-length IDL array ``T[N]``."""
+
+    kind = "array"
+
+    def __init__(self, element: IdlType, length: int, numpy: bool = False) -> None:
+        super().__init__(element, length, numpy)
+        self.length = length
+        self.name = f"{element.name}[{length}]"
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": self.name, "kind": "array", "length": self.length, "element": self.element.describe()}
+
+    def decode(self, value: Any, path: str) -> Any:
+        items = super().decode(value, path)
+        missing = self.length - len(items)
+        if missing > 0:
+            # A short array leaves the remaining elements at their initial value.
+            tail = self.zero()[len(items):]
+            items = np.concatenate([items, tail]) if self.numpy else list(items) + list(tail)
+        return items
+
+    def zero(self) -> Any:
+        if self.numpy:
+            return np.zeros(self.length, dtype=self.element.numpy_dtype)  # type: ignore[attr-defined]
+        return [self.element.zero() for _ in range(self.length)]
+
+
+class OptionalType(IdlType):
+    """``optional<T>``: ``null`` when absent."""
+
+    kind = "optional"
+
+    def __init__(self, element: IdlType) -> None:
+        self.element = element
+        self.name = f"optional<{element.name}>"
+
+    def describe(self) -> dict[str, Any]:
+        return {"name": self.name, "kind": "optional", "element": self.element.describe()}
+
+    def decode(self, value: Any, path: str) -> Any:
+        return None if value is None else self.element.decode(value, path)
+
+    def encode(self, value: Any) -> Any:
+        return None if value is None else self.element.encode(value)
+
+    def zero(self) -> Any:
+        return None
+
+
+Boolean = Annotated[bool, Scalar("boolean")]
+Octet = Annotated[int, Scalar("octet")]
+Char = Annotated[str, Scalar("char")]
+Short = Annotated[int, Scalar("short")]
+UShort = Annotated[int, Scalar("unsigned short")]
+Long = Annotated[int, Scalar("long")]
+ULong = Annotated[int, Scalar("unsigned long")]
+LongLong = Annotated[int, Scalar("long long")]
+ULongLong = Annotated[int, Scalar("unsigned long long")]
+Float = Annotated[float, Scalar("float")]
+Double = Annotated[float, Scalar("double")]
+String = Annotated[str, StringType()]
+
+_PLAIN: dict[Any, IdlType] = {
+    float: Scalar("double"),
+    int: Scalar("long"),
+    bool: Scalar("boolean"),
+    str: StringType(),
+}
+
+
+def string(bound: int) -> Any:
+    """The annotation of a bounded ``string<bound>``."""
+    return Annotated[str, StringType(bound)]
+
+
+def sequence(element: Any, bound: int | None = None, *, numpy: bool = False) -> Any:
+    """The annotation of ``sequence<element[,bound]>`` (numpy arrays when *numpy*)."""
+    return Annotated[np.ndarray if numpy else list, SequenceType(idl_type(element), bound, numpy)]
+
+
+def array(element: Any, length: int, *, numpy: bool = False) -> Any:
+    """The annotation of the fixed-length array ``element[length]``."""
+    return Annotated[np.ndarray if numpy else list, ArrayType(idl_type(element), length, numpy)]
+
+
+def optional(element: Any) -> Any:
+    """The annotation of ``optional<element>``."""
+    return Annotated[Any, OptionalType(idl_type(element))]
+
+
+def idl_struct(name: str) -> Any:
+    """Class decorator: declare a dataclass as the IDL struct *name* (``"demo::state"``)."""
+
+    def decorate(cls: type) -> type:
+        if not dataclasses.is_dataclass(cls):
+            cls = dataclasses.dataclass(cls)
+        cls.__idl_type__ = StructType(cls, _scoped(name))  # type: ignore[attr-defined]
+        return cls
+
+    return decorate
+
+
+def idl_enum(name: str) -> Any:
+    """Class decorator: declare an :class:`enum.Enum` as the IDL enum *name*."""
+
+    def decorate(cls: type[enum.Enum]) -> type[enum.Enum]:
+        cls.__idl_type__ = EnumType(cls, _scoped(name))  # type: ignore[attr-defined]
+        return cls
+
+    return decorate
+
+
+def _scoped(name: str) -> str:
+    return name if name.startswith("::") else f"::{name}"
+
+
+def idl_type(annotation: Any) -> IdlType:
+    """Return the :class:`IdlType` an annotation stands for.
+
+    Raises:
+        TypeError: for annotations with no IDL meaning (a programmer error).
+    """
+    if isinstance(annotation, IdlType):
+        return annotation
+    if typing.get_origin(annotation) is Annotated:
+        for meta in reversed(annotation.__metadata__):
+            if isinstance(meta, IdlType):
+                return meta
+        return idl_type(annotation.__origin__)
+    explicit = getattr(annotation, "__idl_type__", None)
+    if isinstance(explicit, IdlType):
+        return explicit
+    if annotation in _PLAIN:
+        return _PLAIN[annotation]
+    origin = typing.get_origin(annotation)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(annotation) if a is not type(None)]
+        if len(args) == 1:
+            return OptionalType(idl_type(args[0]))
+    if origin is list:
+        (element,) = typing.get_args(annotation)
+        return SequenceType(idl_type(element))
+    raise TypeError(f"{annotation!r} has no IDL type: use Double, Long, String, an @idl_struct, ...")

@@ -1,0 +1,96 @@
+"""The application factory: routes, middlewares, and the lifetime of the component host."""
+
+from __future__ import annotations
+
+import hmac
+from collections.abc import AsyncIterator, Awaitable, Callable
+
+import orjson
+from aiohttp import web
+
+from ..components.core import ComponentHost, ScaledClock
+from . import _routes_admin, _routes_modules, _routes_sessions
+from ._config import GatewayConfig
+from ._errors import error_middleware
+from ._keys import CONFIG, HOST, LISTENERS, SESSIONS
+from ._sessions import SessionStore
+from ._sse import format_event
+
+__all__ = ["create_app"]
+
+
+def _auth_middleware(token: str) -> Callable[..., Awaitable[web.StreamResponse]]:
+    expected = f"Bearer {token}".encode()
+
+    @web.middleware
+    async def check_token(request: web.Request,
+                          handler: Callable[[web.Request], Awaitable[web.StreamResponse]]) -> web.StreamResponse:
+        given = request.headers.get("Authorization", "").encode()
+        if not hmac.compare_digest(given, expected):
+            body = {"ex": "::genomix::unauthorized", "message": "this gateway needs Authorization: Bearer <token>"}
+            return web.Response(status=401, body=orjson.dumps(body), content_type="application/json")
+        return await handler(request)
+
+    return check_token
+
+
+@web.middleware
+async def _server_header(request: web.Request,
+                         handler: Callable[[web.Request], Awaitable[web.StreamResponse]]) -> web.StreamResponse:
+    response = await handler(request)
+    response.headers["Server"] = f"aiogenomix/{_routes_admin.SERVER_VERSION}"
+    return response
+
+
+def create_app(config: GatewayConfig | None = None, host: ComponentHost | None = None) -> web.Application:
+    """Build the gateway application.
+
+    Args:
+        config: The configuration (defaults for everything not given).
+        host: A component host to serve (default: one built from *config*, closed
+            with the application; a host passed in is left open for its owner).
+
+    Returns:
+        An aiohttp application; run it with ``web.run_app`` or an ``AppRunner``.
+    """
+    config = config or GatewayConfig()
+    # Outermost first: every reply, errors included, names the server.
+    middlewares = [_server_header, error_middleware]
+    if config.token:
+        middlewares.insert(1, _auth_middleware(config.token))
+    app = web.Application(middlewares=middlewares)
+    app[CONFIG] = config
+    app[SESSIONS] = SessionStore()
+    app[LISTENERS] = set()
+    owns_host = host is None
+    app[HOST] = host or ComponentHost(clock=ScaledClock(config.time_scale), settings=config.host_settings(),
+                                      function_grace=config.function_grace)
+    app.add_routes(_routes_sessions.routes)
+    app.add_routes(_routes_admin.routes)
+    app.add_routes(_routes_modules.routes)
+    app.cleanup_ctx.append(_host_lifetime(owns_host))
+    app.on_shutdown.append(_close_streams)
+    return app
+
+
+def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator[None]]:
+    async def lifetime(app: web.Application) -> AsyncIterator[None]:
+        host, sessions = app[HOST], app[SESSIONS]
+        host.add_request_listener(sessions.route_request)
+        host.add_unload_listener(lambda name: sessions.broadcast(format_event("unload", orjson.dumps(name))))
+        for item in app[CONFIG].preload:
+            name, _, args = item.partition(":")
+            await host.load(name, args.split())
+        yield
+        if owns_host:
+            await host.close()
+
+    return lifetime
+
+
+async def _close_streams(app: web.Application) -> None:
+    # Listen streams never end on their own: stop the sessions so each gets
+    # "quit" and its handler returns before the server waits for handlers.
+    app[SESSIONS].stop_all()
+    for listener in list(app[LISTENERS]):
+        listener.close()

@@ -1,0 +1,53 @@
+"""The gateway's configuration, from the command line or from code."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+__all__ = ["GatewayConfig"]
+
+
+@dataclasses.dataclass
+class GatewayConfig:
+    """Everything that shapes one gateway.
+
+    Attributes:
+        host: Address to bind (``127.0.0.1``: reachable from this machine only).
+        port: HTTP port (0 picks a free one).
+        time_scale: Runtime seconds per real second (1 on a rig; more to run a simulation faster).
+        can: The CAN bus of the KEMAR head: ``virtual`` (a simulated drive in-process) or
+            ``<interface>:<channel>`` such as ``socketcan:can0``.
+        audio_device: Default capture device shown by ``StartCapture`` (``sim``, ``hw:1,0``...).
+        audio_socket_port: TCP port of the dedicated audio socket (0 picks a free one).
+        token: When set, every request must carry ``Authorization: Bearer <token>``.
+        components: When set, only these components can be loaded.
+        preload: Components loaded at start, as ``name`` or ``name:-i instance``.
+        ping_interval: Seconds between keep-alive comments on idle event streams.
+        function_grace: How long a ``send`` waits for a function to end before replying ``sent``.
+    """
+
+    host: str = "127.0.0.1"
+    port: int = 8080
+    time_scale: float = 1.0
+    can: str = "virtual"
+    audio_device: str = "sim"
+    audio_socket_port: int = 8081
+    token: str | None = None
+    components: list[str] | None = None
+    preload: list[str] = dataclasses.field(default_factory=list)
+    ping_interval: float = 15.0
+    function_grace: float = 2.0
+
+    def host_settings(self) -> dict[str, Any]:
+        """The settings handed to the components."""
+        return {"can": self.can, "audio_device": self.audio_device, "audio_socket_port": self.audio_socket_port}
+
+    def simulated_parts(self) -> list[str]:
+        """Plain words for the parts of the rig that are simulated."""
+        parts = []
+        if self.can == "virtual":
+            parts.append("KEMAR drive on a virtual CAN bus")
+        if self.audio_device.startswith("sim"):
+            parts.append(f"binaural audio scene ({self.audio_device})")
+        return parts

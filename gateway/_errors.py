@@ -1,0 +1,109 @@
+"""Gateway errors and how every error becomes a genomix-style reply (status code and JSON body).
+
+::
+
+    GatewayError
+    ├── NoSuchSession (LookupError)   404
+    ├── BadQuery (ValueError)         400  malformed query parameters or input JSON
+    └── LoadForbidden                 403  a load by path (only registered components load)
+
+Errors of the component runtime map as: unknown module/service/port/request
+404, bad input 400, a ``validate`` refusal 400, too many activities 429, a
+running request that cannot be cleaned 409.  The body is always
+``{"ex": "<genom id>", "detail": {...}, "message": "<readable sentence>"}``.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Awaitable, Callable
+from typing import Any
+
+import orjson
+from aiohttp import web
+
+from ..components.core import (
+    ComponentError, GenomException, InputError, LoadError, NoSuchModule, NoSuchPort, NoSuchRequest,
+    NoSuchService, RequestRunning, disallowed, too_many_activities,
+)
+
+__all__ = ["GatewayError", "NoSuchSession", "BadQuery", "LoadForbidden", "error_middleware", "error_body"]
+
+log = logging.getLogger(__name__)
+
+
+class GatewayError(Exception):
+    """Base of the errors the gateway itself raises."""
+
+
+class NoSuchSession(GatewayError, LookupError):
+    """No session of that name."""
+
+
+class BadQuery(GatewayError, ValueError):
+    """A malformed query (bad JSON in ``input``, a bad ``timeout``...)."""
+
+
+class LoadForbidden(GatewayError):
+    """Loading by path is refused: only registered components can be loaded."""
+
+
+_LOOKUPS: dict[type[Exception], str] = {
+    NoSuchModule: "::genomix::no_such_module",
+    NoSuchService: "::genom::no_such_service",
+    NoSuchPort: "::genom::no_such_outport",
+    NoSuchRequest: "::genomix::no_such_request",
+    NoSuchSession: "::genomix::no_such_session",
+}
+
+
+def error_body(exc: Exception, component_name: str = "genomix") -> tuple[int, dict[str, Any]]:
+    """The HTTP status and JSON body that report *exc*."""
+    message = str(exc) or type(exc).__name__
+    for klass, ex in _LOOKUPS.items():
+        if isinstance(exc, klass):
+            return 404, {"ex": ex, "message": message}
+    if isinstance(exc, InputError):
+        return 400, {"ex": "::genom::serialization", "detail": {"what": message}, "message": message}
+    if isinstance(exc, BadQuery):
+        return 400, {"ex": "::genom::serialization", "detail": {"what": message}, "message": message}
+    if isinstance(exc, LoadError):
+        return 400, {"ex": "::genomix::bad_load", "message": message}
+    if isinstance(exc, LoadForbidden):
+        return 403, {"ex": "::genomix::forbidden", "message": message}
+    if isinstance(exc, RequestRunning):
+        return 409, {"ex": "::genomix::request_running", "message": message}
+    if isinstance(exc, GenomException):
+        body: dict[str, Any] = {"ex": type(exc).ex_id(component_name)}
+        detail = exc.encoded_detail()
+        if detail is not None:
+            body["detail"] = detail
+        if isinstance(exc, too_many_activities):
+            return 429, body | {"message": "too many activities are running in this component"}
+        if isinstance(exc, disallowed):
+            return 409, body | {"message": "the component was killed and no longer accepts requests"}
+        return 400, body | {"message": f"refused by validation: {message}"}
+    if isinstance(exc, ComponentError):
+        return 400, {"ex": "::genomix::error", "message": message}
+    return 500, {"ex": "::genom::unkex", "detail": {"what": f"{type(exc).__name__}: {exc}"},
+                 "message": "internal error (see the gateway log)"}
+
+
+@web.middleware
+async def error_middleware(request: web.Request,
+                           handler: Callable[[web.Request], Awaitable[web.StreamResponse]]) -> web.StreamResponse:
+    """Turn every exception of a handler into a JSON error reply."""
+    try:
+        return await handler(request)
+    except web.HTTPException as exc:
+        if exc.status < 400:
+            raise
+        body = {"ex": "::genomix::http", "message": exc.reason}
+        return web.Response(status=exc.status, body=orjson.dumps(body), content_type="application/json",
+                            headers={k: v for k, v in exc.headers.items() if k.lower() == "allow"})
+    except Exception as exc:
+        component = request.get("component_name", "genomix")
+        status, body = error_body(exc, component)
+        if status >= 500:
+            log.exception("%s %s failed", request.method, request.path_qs)
+        return web.Response(status=status, body=orjson.dumps(body), content_type="application/json")

@@ -1,0 +1,101 @@
+"""Routes about the gateway itself: ``/``, ``/version``, ``/load``, ``/unload`` and ``/usage``."""
+
+from __future__ import annotations
+
+import importlib.metadata
+import shlex
+
+import orjson
+from aiohttp import web
+
+from ..components.core import NoSuchModule
+from ._errors import BadQuery, LoadForbidden
+from ._keys import CONFIG, HOST, SESSIONS
+from ._replies import json_reply, text_reply
+
+__all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "SERVER_VERSION"]
+
+#: The genomixd release whose protocol this gateway speaks (clients check it at connection).
+GENOMIX_PROTOCOL_VERSION = "1.7.3"
+
+#: This gateway's own version.
+SERVER_VERSION = importlib.metadata.version("aiogenomix")
+
+routes = web.RouteTableDef()
+
+
+@routes.get("/")
+async def index(request: web.Request) -> web.Response:
+    """What runs here: versions, loaded modules, loadable components, sessions."""
+    host = request.app[HOST]
+    return json_reply({
+        "server": f"aiogenomix {SERVER_VERSION}",
+        "genomix": GENOMIX_PROTOCOL_VERSION,
+        "loaded": {name: type(c).genom_name for name, c in host.instances.items()},
+        "available": _allowed(request),
+        "sessions": len(request.app[SESSIONS]),
+        "simulated": request.app[CONFIG].simulated_parts(),
+    })
+
+
+@routes.get("/version")
+async def version(request: web.Request) -> web.Response:
+    """The genomix protocol version (the Server header names aiogenomix)."""
+    return text_reply(GENOMIX_PROTOCOL_VERSION)
+
+
+def _allowed(request: web.Request) -> list[str]:
+    allow = request.app[CONFIG].components
+    return [n for n in request.app[HOST].available() if allow is None or n in allow]
+
+
+def _argv(request: web.Request) -> list[str]:
+    values = request.query.getall("argv", [])
+    if len(values) > 1:
+        return values
+    text = values[0].strip() if values else ""
+    if not text:
+        return []
+    if text.startswith("["):
+        try:
+            parsed = orjson.loads(text)
+        except orjson.JSONDecodeError as exc:
+            raise BadQuery(f"argv: {exc}") from None
+        if not (isinstance(parsed, list) and all(isinstance(a, str) for a in parsed)):
+            raise BadQuery("argv: expected a JSON array of strings")
+        return parsed
+    try:
+        return shlex.split(text)
+    except ValueError as exc:
+        raise BadQuery(f"argv: {exc}") from None
+
+
+@routes.get("/load/{name:.+}")
+async def load(request: web.Request) -> web.Response:
+    """Load a registered component (``argv`` may hold ``-i INSTANCE``). Reply: the instance name."""
+    name = request.match_info["name"]
+    if "/" in name or name.endswith(".so"):
+        raise LoadForbidden(
+            f"cannot load {name!r}: only registered components load, by name ({', '.join(_allowed(request))})"
+        )
+    if name not in _allowed(request):
+        raise NoSuchModule(f"no component {name!r} (available: {', '.join(_allowed(request))})")
+    component = await request.app[HOST].load(name, _argv(request))
+    return text_reply(component.instance)
+
+
+@routes.get("/unload/{name}")
+async def unload(request: web.Request) -> web.Response:
+    """Unload an instance; every session gets an ``unload`` event."""
+    name = request.match_info["name"]
+    await request.app[HOST].unload(name)
+    return text_reply(name)
+
+
+@routes.get("/usage/{name}")
+async def usage(request: web.Request) -> web.Response:
+    """The load options of a component, as ``[{"option": ..., "descr": ...}]``."""
+    name = request.match_info["name"]
+    if name not in _allowed(request):
+        raise NoSuchModule(f"no component {name!r} (available: {', '.join(_allowed(request))})")
+    return json_reply(request.app[HOST].usage(name))

@@ -1,0 +1,119 @@
+"""Routes of loaded modules: info, send, status, wait, abort, clean and read.
+
+Everything under ``/module/M/`` resolves the instance ``M`` first (404 when it
+is not loaded), then hands the request to the component runtime.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from typing import Any
+
+import orjson
+from aiohttp import web
+
+from ..components.core import Component, OutPortRuntime, describe
+from ._errors import BadQuery
+from ._keys import HOST, SESSIONS
+from ._replies import json_reply, text_reply
+
+__all__ = ["routes", "parse_input", "MAX_WAIT"]
+
+#: The longest a ``wait`` may block, in seconds.
+MAX_WAIT = 3600.0
+
+routes = web.RouteTableDef()
+
+
+def _component(request: web.Request) -> Component:
+    component = request.app[HOST].get(request.match_info["module"])
+    request["component_name"] = component.genom_name
+    return component
+
+
+def parse_input(text: str | None) -> Any:
+    """Decode the ``input`` query parameter.
+
+    Strict JSON first; then Python's parser, which also takes what genom3 emits
+    and accepts (raw control characters in strings, NaN).
+
+    Raises:
+        BadQuery: naming where the JSON is malformed.
+    """
+    if text is None or not text.strip():
+        return None
+    try:
+        return orjson.loads(text)
+    except orjson.JSONDecodeError:
+        pass
+    try:
+        return json.loads(text, strict=False)
+    except json.JSONDecodeError as exc:
+        raise BadQuery(f"input is not valid JSON: {exc.msg} at character {exc.pos}") from None
+
+
+@routes.get("/module/{module}/info")
+async def info(request: web.Request) -> web.Response:
+    """The description of the module's services, exceptions, ports and tasks."""
+    return json_reply(describe(_component(request)))
+
+
+@routes.get("/module/{module}/send/{service}")
+async def send(request: web.Request) -> web.Response:
+    """Send a request; reply with its status (``sent``, or already ``done``/``error``)."""
+    component = _component(request)
+    raw = parse_input(request.query.get("input"))
+    session = request.query.get("s") or None
+    if session is not None:
+        request.app[SESSIONS].get_or_create(session)
+    started = await component.send(request.match_info["service"], raw, session=session,
+                                   oneway="oneway" in request.query)
+    return json_reply(started.status_object())
+
+
+@routes.get("/module/{module}/status/{rqst}")
+async def status(request: web.Request) -> web.Response:
+    """The status object of a request."""
+    return json_reply(_component(request).requests.get(request.match_info["rqst"]).status_object())
+
+
+@routes.get("/module/{module}/wait/{rqst}")
+async def wait(request: web.Request) -> web.Response:
+    """Block until the request ends (or ``timeout`` seconds pass); reply with its status."""
+    found = _component(request).requests.get(request.match_info["rqst"])
+    try:
+        timeout = min(float(request.query.get("timeout", MAX_WAIT)), MAX_WAIT)
+    except ValueError:
+        raise BadQuery("timeout must be a number of seconds") from None
+    try:
+        await asyncio.wait_for(found.ended.wait(), timeout)
+    except TimeoutError:
+        pass
+    return json_reply(found.status_object())
+
+
+@routes.get("/module/{module}/abort/{rqst}")
+async def abort(request: web.Request) -> web.Response:
+    """Interrupt a running request; reply with its final status."""
+    aborted = await _component(request).abort(request.match_info["rqst"])
+    return json_reply(aborted.status_object())
+
+
+@routes.get("/module/{module}/clean/{rqst}")
+async def clean(request: web.Request) -> web.Response:
+    """Forget an ended request, freeing its id."""
+    _component(request).requests.clean(request.match_info["rqst"])
+    return text_reply("")
+
+
+@routes.get("/module/{module}/read/{port}")
+async def read(request: web.Request) -> web.Response:
+    """The latest data of a port, wrapped as ``{"PORT": data}``."""
+    component = _component(request)
+    name = request.match_info["port"]
+    port = component.port(name)
+    element = request.query.get("name")
+    if isinstance(port, OutPortRuntime):
+        return json_reply({name: port.encoded(element)})
+    return json_reply({name: port.encoded()})

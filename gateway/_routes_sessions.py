@@ -1,0 +1,70 @@
+"""Routes of sessions: ``/session/start``, ``/session/stop`` and the ``/session/listen`` event stream."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+
+from aiohttp import web
+
+from ._errors import BadQuery
+from ._keys import CONFIG, LISTENERS, SESSIONS
+from ._replies import text_reply
+from ._sse import PING, EventStream
+
+__all__ = ["routes"]
+
+routes = web.RouteTableDef()
+
+
+def _session_name(request: web.Request, required: bool = True) -> str:
+    name = request.query.get("s", "")
+    if required and not name:
+        raise BadQuery("this request needs a session name: ?s=NAME")
+    return name
+
+
+@routes.get("/session/start")
+async def start(request: web.Request) -> web.Response:
+    """Start a session; an empty ``s`` lets the gateway choose a unique name. Reply: the name."""
+    session = request.app[SESSIONS].start(_session_name(request, required=False))
+    return text_reply(session.name)
+
+
+@routes.get("/session/stop")
+async def stop(request: web.Request) -> web.Response:
+    """Stop a session: its listeners get ``quit`` and their streams end."""
+    request.app[SESSIONS].stop(_session_name(request))
+    return text_reply("")
+
+
+@routes.get("/session/listen")
+async def listen(request: web.Request) -> web.StreamResponse:
+    """Stream the session's events (``request``, ``unload``, ``quit``) until it stops or the client leaves."""
+    session = request.app[SESSIONS].get_or_create(_session_name(request))
+    listener = session.attach()
+    listeners = request.app[LISTENERS]
+    listeners.add(listener)
+    ping_interval = request.app[CONFIG].ping_interval
+    stream = EventStream()
+    try:
+        await stream.prepare(request)
+        while True:
+            try:
+                await asyncio.wait_for(listener.ready.wait(), ping_interval)
+            except TimeoutError:
+                await stream.write(PING)
+                continue
+            data = listener.take()
+            if data:
+                await stream.write(data)
+            if listener.closed or listener.overflowed:
+                break
+    except ConnectionError:
+        pass  # the client went away: nothing to report to anyone
+    finally:
+        session.detach(listener)
+        listeners.discard(listener)
+    with contextlib.suppress(ConnectionError):
+        await stream.write_eof()
+    return stream
