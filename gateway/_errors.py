@@ -57,7 +57,7 @@ _LOOKUPS: dict[type[Exception], str] = {
 }
 
 
-def error_body(exc: Exception, component_name: str = "genomix") -> tuple[int, dict[str, Any]]:
+def error_body(exc: Exception) -> tuple[int, dict[str, Any]]:
     """The HTTP status and JSON body that report *exc*."""
     message = str(exc) or type(exc).__name__
     for klass, ex in _LOOKUPS.items():
@@ -74,7 +74,7 @@ def error_body(exc: Exception, component_name: str = "genomix") -> tuple[int, di
     if isinstance(exc, RequestRunning):
         return 409, {"ex": "::genomix::request_running", "message": message}
     if isinstance(exc, GenomException):
-        body: dict[str, Any] = {"ex": type(exc).ex_id(component_name)}
+        body: dict[str, Any] = {"ex": exc.id}
         detail = exc.encoded_detail()
         if detail is not None:
             body["detail"] = detail
@@ -102,8 +102,7 @@ async def error_middleware(request: web.Request,
         return web.Response(status=exc.status, body=orjson.dumps(body), content_type="application/json",
                             headers={k: v for k, v in exc.headers.items() if k.lower() == "allow"})
     except Exception as exc:
-        component = request.get("component_name", "genomix")
-        status, body = error_body(exc, component)
+        status, body = error_body(exc)
         if status >= 500:
             log.exception("%s %s failed", request.method, request.path_qs)
         return web.Response(status=status, body=orjson.dumps(body), content_type="application/json")

@@ -27,9 +27,7 @@ routes = web.RouteTableDef()
 
 
 def _component(request: web.Request) -> Component:
-    component = request.app[HOST].get(request.match_info["module"])
-    request["component_name"] = component.genom_name
-    return component
+    return request.app[HOST].get(request.match_info["module"])
 
 
 def parse_input(text: str | None) -> Any:

@@ -238,16 +238,20 @@ class Component:
         """
         spec = self.service(name)
         inputs = self.decode_inputs(spec, raw_input)
-        if self._killed:
-            raise disallowed()
-        if spec.validate is not None:
-            verdict = spec.validate(self, **inputs)
-            if inspect.isawaitable(verdict):
-                await verdict
-        if spec.kind == "activity" and sum(
-            r.service.kind == "activity" for r in self.requests.running()
-        ) >= self.max_activities:
-            raise too_many_activities()
+        try:
+            if self._killed:
+                raise disallowed()
+            if spec.validate is not None:
+                verdict = spec.validate(self, **inputs)
+                if inspect.isawaitable(verdict):
+                    await verdict
+            if spec.kind == "activity" and sum(
+                r.service.kind == "activity" for r in self.requests.running()
+            ) >= self.max_activities:
+                raise too_many_activities()
+        except GenomException as exc:
+            exc.component = self.genom_name
+            raise
         victims = [r for r in self.requests.running() if r.service.name in spec.interrupts]
         request = self.requests.create(spec, inputs, session, oneway)
         if victims:

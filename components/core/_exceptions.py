@@ -87,6 +87,8 @@ class GenomException(ComponentError):
 
     #: Fixed scope of the id, or None to use the declaring component's name.
     scope: ClassVar[str | None] = None
+    #: The component that raised it, once known (names the id of a refusal).
+    component: str | None = None
 
     def __init__(self, *args: Any, **detail: Any) -> None:
         names = [name for name, _ in self.detail_members()]
@@ -124,6 +126,11 @@ class GenomException(ComponentError):
     def ex_id(cls, component: str) -> str:
         """The genom3 id of this exception when raised by *component*."""
         return f"::{cls.scope or component}::{cls.__name__}"
+
+    @property
+    def id(self) -> str:
+        """The genom3 id, for the component that raised it."""
+        return self.ex_id(self.component or "genomix")
 
     def encoded_detail(self) -> dict[str, Any] | None:
         """The detail as JSON-ready data (None when the exception has no members)."""

@@ -1,0 +1,81 @@
+"""Shared fixtures: a real gateway on a free port, an HTTP client, an SSE reader over raw sockets."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+from collections.abc import AsyncIterator
+
+import aiohttp
+import pytest
+
+from aiogenomix.gateway import GatewayConfig, serve
+
+#: Tests run the simulated rig this many times faster than real time.
+TEST_TIME_SCALE = 20.0
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Skip hardware tests unless AIOGENOMIX_HW=1 says a sound card / CAN adapter is there."""
+    if os.environ.get("AIOGENOMIX_HW") == "1":
+        return
+    skip = pytest.mark.skip(reason="needs real hardware: set AIOGENOMIX_HW=1")
+    for item in items:
+        if "hardware" in item.keywords:
+            item.add_marker(skip)
+
+
+@pytest.fixture
+def gateway_config() -> GatewayConfig:
+    """The configuration of the test gateway (override in a module to change it)."""
+    return GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0)
+
+
+@pytest.fixture
+async def gateway(gateway_config: GatewayConfig) -> AsyncIterator[str]:
+    """A gateway serving on a free loopback port; yields its base URL."""
+    async with serve(gateway_config) as url:
+        yield url
+
+
+@pytest.fixture
+async def http(gateway: str) -> AsyncIterator[aiohttp.ClientSession]:
+    """An HTTP client whose relative URLs go to the test gateway."""
+    async with aiohttp.ClientSession(base_url=gateway) as session:
+        yield session
+
+
+class RawEventStream:
+    """Reads ``/session/listen`` over a plain TCP socket, the way genomix's own clients do."""
+
+    def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter, headers: bytes) -> None:
+        self.reader, self.writer, self.headers = reader, writer, headers
+
+    @classmethod
+    async def open(cls, url: str, session: str) -> RawEventStream:
+        host, port = url.removeprefix("http://").rsplit(":", 1)
+        reader, writer = await asyncio.open_connection(host, int(port))
+        writer.write(f"GET /session/listen?s={session} HTTP/1.1\r\nHost: {host}\r\n\r\n".encode())
+        await writer.drain()
+        headers = await reader.readuntil(b"\r\n\r\n")
+        return cls(reader, writer, headers)
+
+    async def next_block(self) -> bytes:
+        """The next event block, blank line included, exactly as sent."""
+        while True:
+            block = await asyncio.wait_for(self.reader.readuntil(b"\n\n"), 10)
+            if not block.startswith(b":"):
+                return block
+
+    async def next_event(self) -> tuple[str, str | None]:
+        """The next event as ``(name, data)``."""
+        name, data = "", None
+        for line in (await self.next_block()).decode().splitlines():
+            if line.startswith("event: "):
+                name = line[len("event: "):]
+            elif line.startswith("data: "):
+                data = line[len("data: "):]
+        return name, data
+
+    def close(self) -> None:
+        self.writer.close()
