@@ -311,6 +311,10 @@ class Component:
         request.task.cancel(f"interrupted by {by}")
         # Shielded so that a cancelled interrupter still lets the victim finish cleanly.
         await asyncio.shield(asyncio.wait({request.task}))
+        if request.running:
+            # Cancelled before its first step: its code never ran, so end it here.
+            self._end_error(request, interrupted(by=request.interrupted_by))
+            self._publish_state()
 
     async def abort(self, request_id: str) -> Request:
         """Interrupt the request *request_id* (``by: "abort"``) and return it."""

@@ -241,8 +241,9 @@ class StructType(IdlType):
         types_by_name = dict(self.members)
         unknown = [key for key in value if key not in types_by_name]
         if unknown:
+            where = f"{path}.{unknown[0]}" if path else str(unknown[0])
             raise InputError(
-                path, f"unknown member {unknown[0]!r} of {self.name} (members: {', '.join(types_by_name)})"
+                where, f"unknown member {unknown[0]!r} of {self.name} (members: {', '.join(types_by_name)})"
             )
         # Missing members keep their initial value, as genom3 does.
         result = self.zero()

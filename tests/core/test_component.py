@@ -1,0 +1,257 @@
+"""The request engine of a component: outcomes, interruption, ids, outputs, defaults, tasks and ports."""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import logging
+from typing import Annotated, Any
+
+import pytest
+
+from aiogenomix.components.core import (
+    Component, ComponentHost, Double, GenomException, InPort, InputError, ManualClock, NoSuchPort,
+    NoSuchRequest, Out, OutPort, RequestRunning, Short, String, Task, ULong, activity, attribute, describe,
+    function, idl_struct, port_io,
+)
+
+
+class TOO_BIG(GenomException):
+    """The value is too big."""
+
+    limit: Double
+
+
+@idl_struct("gadget::reading")
+class Reading:
+    value: Double = 0.0
+
+
+@dataclasses.dataclass
+class Pair:
+    low: Annotated[Short, "The lower one"]
+    high: Annotated[Short, "The higher one"]
+
+
+class Gadget(Component, name="gadget", version="2.0"):
+    """A component for testing the runtime."""
+
+    loop = Task(period=1.0, doc="Counts periods")
+    Level = OutPort(Reading, doc="The level")
+    Named = OutPort(Reading, doc="Named readings", multiple=True)
+    Input = InPort(Reading, doc="A connected reading")
+
+    async def on_start(self) -> None:
+        self.stopped_paths: list[str] = []
+        self.periods = 0
+
+    @loop.periodic
+    def _count(self) -> None:
+        self.periods += 1
+
+    async def _check(self, amount: float) -> None:
+        if amount > 10:
+            raise TOO_BIG(limit=10.0)
+
+    @activity(task=loop, interrupts=("Fill",), throws=(TOO_BIG,), validate=_check)
+    async def Fill(self, amount: Annotated[Double, "How much"] = 1.0) -> None:
+        """Fill slowly."""
+        try:
+            await self.clock.sleep(amount)
+            self.Level.publish(Reading(amount))
+        finally:
+            self.stopped_paths.append("Fill")
+
+    @activity
+    async def Fail(self, how: Annotated[String, "declared or unexpected"] = "declared") -> None:
+        """Fail on purpose."""
+        if how == "declared":
+            raise TOO_BIG(limit=1.5)
+        raise RuntimeError("boom")
+
+    @activity
+    async def Hold(self) -> None:
+        """Run until interrupted."""
+        await asyncio.Event().wait()
+
+    @function(interrupts=("Fill",))
+    def Drain(self) -> None:
+        """Stop filling."""
+
+    @function
+    def Split(self, total: Short = 4) -> Pair:
+        """Two outputs."""
+        return Pair(total // 2 - 1, total // 2 + 1)
+
+    @attribute
+    def GetName(self) -> Annotated[String, Out("name", "Its name")]:
+        """One output."""
+        return self.instance
+
+    @function
+    async def Slow(self) -> None:
+        """A function slower than the send grace."""
+        await asyncio.sleep(0.05)
+
+    @classmethod
+    def service_defaults(cls, host: ComponentHost) -> dict[str, dict[str, Any]]:
+        return {"Fill": {"amount": host.settings.get("default_amount", 1.0)}}
+
+
+@pytest.fixture
+async def host() -> Any:
+    events: list[dict[str, Any]] = []
+    async with ComponentHost(clock=ManualClock(), settings={"default_amount": 2.0},
+                             factories={"gadget": Gadget}, function_grace=0.01) as host:
+        host.add_request_listener(lambda r: events.append(r.status_object()))
+        host.events = events  # type: ignore[attr-defined]
+        yield host
+
+
+async def test_description_is_in_declaration_order(host: ComponentHost) -> None:
+    gadget = await host.load("gadget")
+    info = describe(gadget)
+    names = [s["name"] for s in info["services"]]
+    assert names == ["Fill", "Fail", "Hold", "Drain", "Split", "GetName", "Slow",
+                     "abort_activity", "connect_port", "connect_service", "kill"]
+    fill = info["services"][0]
+    assert fill["parameters"] == [{"name": "amount", "dir": "in", "type": {"name": "double", "kind": "double"},
+                                   "doc": "How much", "default": 2.0}]  # the host-dependent default
+    assert fill["throws"] == ["::gadget::TOO_BIG"] and fill["interrupts"] == ["Fill"]
+    split = next(s for s in info["services"] if s["name"] == "Split")
+    assert [(p["name"], p["dir"]) for p in split["parameters"]] == [("total", "in"), ("low", "out"), ("high", "out")]
+    assert [p["name"] for p in info["ports"]] == ["Level", "Named", "Input", "genom_state"]
+    assert info["exceptions"][0] == {"name": "::gadget::TOO_BIG", "doc": "The value is too big.",
+                                     "detail": [{"name": "limit", "type": {"name": "double", "kind": "double"}}]}
+    # The standard exceptions of the standard services are declared too.
+    assert {"::genom::no_such_inport", "::genom::no_such_outport"} <= {e["name"] for e in info["exceptions"]}
+    assert info["tasks"] == [{"name": "loop", "period": 1.0, "doc": "Counts periods"}]
+
+
+async def test_interruption_runs_the_stop_path_and_names_the_interrupter(host: ComponentHost) -> None:
+    gadget = await host.load("gadget")
+    first = await gadget.send("Fill", {"amount": 5}, session="s")
+    second = await gadget.send("Fill", {"amount": 1}, session="s")
+    assert first.status_object() == {"id": "gadget::0", "status": "error",
+                                      "exception": {"ex": "::genom::interrupted", "detail": {"by": "Fill"}}}
+    assert gadget.stopped_paths == ["Fill"]
+    drain = await gadget.send("Drain")
+    assert drain.status == "done"
+    assert second.exception == {"ex": "::genom::interrupted", "detail": {"by": "Drain"}}
+    assert gadget.stopped_paths == ["Fill", "Fill"]
+    assert [e["status"] for e in host.events if e["id"] == "gadget::0"] == ["sent", "error"]
+
+
+async def test_abort_and_ids_reused_after_clean(host: ComponentHost) -> None:
+    gadget = await host.load("gadget")
+    running = await gadget.send("Fill", {"amount": 5})
+    with pytest.raises(RequestRunning):
+        gadget.requests.clean("gadget::0")
+    aborted = await gadget.abort("0")
+    assert aborted.exception == {"ex": "::genom::interrupted", "detail": {"by": "abort"}}
+    assert (await gadget.send("GetName")).id == "gadget::1"
+    gadget.requests.clean("::gadget::0")
+    assert (await gadget.send("GetName")).id == "gadget::0"
+    with pytest.raises(NoSuchRequest):
+        gadget.requests.get("gadget::7")
+    assert running.status == "error"
+
+
+async def test_outputs_single_and_several(host: ComponentHost) -> None:
+    gadget = await host.load("gadget", ["-i", "g2"])
+    assert (await gadget.send("GetName")).output == {"name": "g2"}
+    assert (await gadget.send("Split", {"total": 10})).output == {"low": 4, "high": 6}
+
+
+async def test_exceptions_declared_and_unexpected(host: ComponentHost, caplog: pytest.LogCaptureFixture) -> None:
+    gadget = await host.load("gadget")
+    declared = await gadget.send("Fail")
+    await declared.ended.wait()
+    assert declared.exception == {"ex": "::gadget::TOO_BIG", "detail": {"limit": 1.5}}
+    with caplog.at_level(logging.ERROR):
+        unexpected = await gadget.send("Fail", {"how": "other"})
+        await unexpected.ended.wait()
+    assert unexpected.exception == {"ex": "::genom::unkex", "detail": {"what": "RuntimeError: boom"}}
+    assert "boom" in caplog.text  # reported, not swallowed
+
+
+async def test_validate_refuses_before_anything_starts(host: ComponentHost) -> None:
+    gadget = await host.load("gadget")
+    with pytest.raises(TOO_BIG) as refused:
+        await gadget.send("Fill", {"amount": 11})
+    assert refused.value.id == "::gadget::TOO_BIG"
+    with pytest.raises(InputError):
+        await gadget.send("Fill", {"amount": "lots"})
+    assert gadget.requests.running() == []
+
+
+async def test_oneway_requests_leave_no_trace(host: ComponentHost) -> None:
+    gadget = await host.load("gadget")
+    request = await gadget.send("GetName", oneway=True)
+    assert request.status == "done"
+    assert host.events == []
+    with pytest.raises(NoSuchRequest):
+        gadget.requests.get(request.number)
+
+
+async def test_slow_function_replies_sent_then_ends(host: ComponentHost) -> None:
+    gadget = await host.load("gadget")
+    request = await gadget.send("Slow", session="s")
+    assert request.status == "sent"
+    await request.ended.wait()
+    assert [e["status"] for e in host.events] == ["sent", "done"]
+
+
+async def test_kill_interrupts_and_unloads(host: ComponentHost) -> None:
+    unloaded = asyncio.Event()
+    host.add_unload_listener(lambda name: unloaded.set())
+    gadget = await host.load("gadget")
+    filling = await gadget.send("Fill", {"amount": 9})
+    await gadget.send("kill")
+    await unloaded.wait()
+    assert filling.exception == {"ex": "::genom::interrupted", "detail": {"by": "kill"}}
+    assert "gadget" not in host.instances
+
+
+async def test_periodic_task_and_state_port(host: ComponentHost) -> None:
+    gadget = await host.load("gadget")
+    clock = host.clock
+    assert isinstance(clock, ManualClock)
+    await clock.advance(3.5)
+    assert gadget.periods == 3
+    await gadget.send("Fill", {"amount": 5})
+    state = gadget.genom_state.encoded()
+    assert state["task"][0]["name"] == "loop"
+    assert state["task"][0]["rusage"]["cycles"] == 3
+    assert state["task"][0]["activity"] == [{"id": 0, "name": "Fill"}]
+
+
+async def test_ports_publish_wait_and_elements(host: ComponentHost) -> None:
+    gadget = await host.load("gadget")
+    waiter = asyncio.create_task(gadget.Level.wait_published())
+    await asyncio.sleep(0)
+    gadget.Level.publish(Reading(3.0))
+    assert await waiter == 1
+    assert gadget.Level.encoded() == {"value": 3.0}
+    gadget.Named.publish(Reading(1.0), name="left")
+    assert gadget.Named.encoded("left") == {"value": 1.0}
+    with pytest.raises(NoSuchPort, match="no element 'right'"):
+        gadget.Named.read("right")
+    with pytest.raises(port_io):
+        gadget.Named.read()
+    assert gadget.Input.read() is None
+    connected = await gadget.send("connect_port", {"local": "Input", "remote": "gadget/Level"})
+    assert connected.status == "done"
+    assert gadget.Input.read() == Reading(3.0)
+
+
+async def test_too_many_activities(host: ComponentHost, monkeypatch: pytest.MonkeyPatch) -> None:
+    from aiogenomix.components.core import too_many_activities
+
+    monkeypatch.setattr(Gadget, "max_activities", 2)
+    gadget = await host.load("gadget")
+    await gadget.send("Hold")
+    await gadget.send("Hold")
+    with pytest.raises(too_many_activities):
+        await gadget.send("Hold")
+    assert (await gadget.send("GetName")).status == "done"  # functions are not limited
