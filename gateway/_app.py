@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import hmac
 from collections.abc import AsyncIterator, Awaitable, Callable
 
@@ -9,10 +10,10 @@ import orjson
 from aiohttp import web
 
 from ..components.core import ComponentHost, ScaledClock
-from . import _routes_admin, _routes_modules, _routes_sessions
+from . import _routes_admin, _routes_modules, _routes_ports, _routes_sessions
 from ._config import GatewayConfig
 from ._errors import error_middleware
-from ._keys import CONFIG, HOST, LISTENERS, SESSIONS
+from ._keys import CONFIG, HOST, LISTENERS, SESSIONS, SHUTDOWN
 from ._sessions import SessionStore
 from ._sse import format_event
 
@@ -62,12 +63,14 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app[CONFIG] = config
     app[SESSIONS] = SessionStore()
     app[LISTENERS] = set()
+    app[SHUTDOWN] = asyncio.Event()
     owns_host = host is None
     app[HOST] = host or ComponentHost(clock=ScaledClock(config.time_scale), settings=config.host_settings(),
                                       function_grace=config.function_grace)
     app.add_routes(_routes_sessions.routes)
     app.add_routes(_routes_admin.routes)
     app.add_routes(_routes_modules.routes)
+    app.add_routes(_routes_ports.routes)
     app.cleanup_ctx.append(_host_lifetime(owns_host))
     app.on_shutdown.append(_close_streams)
     return app
@@ -91,6 +94,7 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
 async def _close_streams(app: web.Application) -> None:
     # Listen streams never end on their own: stop the sessions so each gets
     # "quit" and its handler returns before the server waits for handlers.
+    app[SHUTDOWN].set()
     app[SESSIONS].stop_all()
     for listener in list(app[LISTENERS]):
         listener.close()

@@ -1,4 +1,4 @@
-"""Routes of loaded modules: info, send, status, wait, abort, clean and read.
+"""Routes of loaded modules' requests: info, send, status, wait, abort and clean.
 
 Everything under ``/module/M/`` resolves the instance ``M`` first (404 when it
 is not loaded), then hands the request to the component runtime.
@@ -13,7 +13,7 @@ from typing import Any
 import orjson
 from aiohttp import web
 
-from ..components.core import Component, OutPortRuntime, describe
+from ..components.core import Component, describe
 from ._errors import BadQuery
 from ._keys import HOST, SESSIONS
 from ._replies import json_reply, text_reply
@@ -103,15 +103,3 @@ async def clean(request: web.Request) -> web.Response:
     """Forget an ended request, freeing its id."""
     _component(request).requests.clean(request.match_info["rqst"])
     return text_reply("")
-
-
-@routes.get("/module/{module}/read/{port}")
-async def read(request: web.Request) -> web.Response:
-    """The latest data of a port, wrapped as ``{"PORT": data}``."""
-    component = _component(request)
-    name = request.match_info["port"]
-    port = component.port(name)
-    element = request.query.get("name")
-    if isinstance(port, OutPortRuntime):
-        return json_reply({name: port.encoded(element)})
-    return json_reply({name: port.encoded()})

@@ -9,6 +9,7 @@ from collections.abc import AsyncIterator
 
 from aiohttp import web
 
+from ..components.core import ComponentHost
 from ._app import create_app
 from ._config import GatewayConfig
 
@@ -16,9 +17,14 @@ __all__ = ["serve", "run"]
 
 
 @contextlib.asynccontextmanager
-async def serve(config: GatewayConfig) -> AsyncIterator[str]:
-    """Serve the gateway while the context is open; yield its base URL (with the real port)."""
-    runner = web.AppRunner(create_app(config), handle_signals=False, access_log=None)
+async def serve(config: GatewayConfig, host: ComponentHost | None = None) -> AsyncIterator[str]:
+    """Serve the gateway while the context is open; yield its base URL (with the real port).
+
+    Args:
+        config: The gateway configuration (``port=0`` picks a free port).
+        host: Serve this component host instead of building one from *config*.
+    """
+    runner = web.AppRunner(create_app(config, host), handle_signals=False, access_log=None)
     await runner.setup()
     try:
         site = web.TCPSite(runner, config.host, config.port)

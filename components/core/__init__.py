@@ -13,7 +13,7 @@ from ._exceptions import (
     serialization, syserr, too_many_activities, unkex,
 )
 from ._host import ComponentHost, LoadError
-from ._ports import InPort, InPortRuntime, OutPort, OutPortRuntime
+from ._ports import Incremental, InPort, InPortRuntime, OutPort, OutPortRuntime
 from ._requests import Request, RequestTracker
 from ._services import NO_DEFAULT, Out, ParamSpec, ServiceSpec, activity, attribute, function
 from ._tasks import Task, TaskRuntime
@@ -30,7 +30,7 @@ __all__ = [
     "function", "activity", "attribute", "Out", "Task", "OutPort", "InPort",
     # Runtime objects
     "Request", "RequestTracker", "ServiceSpec", "ParamSpec", "NO_DEFAULT", "TaskRuntime",
-    "OutPortRuntime", "InPortRuntime",
+    "OutPortRuntime", "InPortRuntime", "Incremental",
     # Clocks
     "Clock", "RealClock", "ScaledClock", "ManualClock",
     # Types

@@ -8,14 +8,36 @@ instance, ``self.Mobile`` is its runtime (:class:`OutPortRuntime`), with
 from __future__ import annotations
 
 import asyncio
-from typing import Any, Generic, TypeVar
+from typing import Any, Generic, Protocol, TypeVar, runtime_checkable
 
 from ._exceptions import NoSuchPort, port_io
 from ._types import IdlType, idl_type
 
-__all__ = ["OutPort", "InPort", "OutPortRuntime", "InPortRuntime", "PortSpec"]
+__all__ = ["OutPort", "InPort", "OutPortRuntime", "InPortRuntime", "PortSpec", "Incremental"]
 
 T = TypeVar("T")
+
+
+@runtime_checkable
+class Incremental(Protocol):
+    """Port data made of numbered items (audio chunks) that can say what is new.
+
+    Publishing such data on a port lets readers ask for the items after the
+    last one they hold (``/read/PORT?since=k`` and ``/watch/PORT``) instead of
+    re-reading the whole window, the problem the seed's circular design and
+    dedicated socket worked around.
+    """
+
+    @property
+    def index(self) -> int:
+        """The number of the newest item (items are numbered from 1; 0 when empty)."""
+
+    def since(self, index: int) -> tuple[Any, int]:
+        """The same data holding only the items after *index*, and how many of those were lost.
+
+        Items are lost when the window no longer holds them; an *index* at or
+        beyond the newest item gives no items and no loss.
+        """
 
 
 class PortSpec:

@@ -1,0 +1,132 @@
+"""Routes of port data: ``read`` (JSON, binary, incremental) and the ``watch`` event stream.
+
+``/module/M/read/PORT`` answers genomix JSON by default.  ``format=binary`` (or
+``Accept: application/x-aiogenomix-binary``) answers the binary form, and
+``since=K`` on ports whose data is :class:`Incremental` (the audio window)
+answers only the chunks after K, with the count of those lost.
+``/module/M/watch/PORT`` streams each publication as a server-sent event; a
+reader that lags is not queued without bound: it gets what the window still
+holds and an explicit ``lost`` count.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from typing import Any
+
+from aiohttp import web
+
+from ..components.core import Incremental, OutPortRuntime
+from ._binary import CONTENT_TYPE, encode_binary
+from ._errors import BadQuery
+from ._keys import CONFIG, HOST, SHUTDOWN
+from ._replies import dumps, json_reply
+from ._sse import PING, EventStream, format_event
+
+__all__ = ["routes"]
+
+routes = web.RouteTableDef()
+
+
+def _wants_binary(request: web.Request) -> bool:
+    fmt = request.query.get("format", "")
+    if fmt not in ("", "json", "binary"):
+        raise BadQuery(f"format must be json or binary, not {fmt!r}")
+    return fmt == "binary" or (not fmt and CONTENT_TYPE in request.headers.get("Accept", ""))
+
+
+def _since(request: web.Request) -> int | None:
+    text = request.query.get("since")
+    if text is None:
+        return None
+    try:
+        since = int(text)
+    except ValueError:
+        raise BadQuery(f"since must be a chunk index (an integer), not {text!r}") from None
+    if since < 0:
+        raise BadQuery("since must not be negative")
+    return since
+
+
+def _port(request: web.Request) -> tuple[str, Any]:
+    component = request.app[HOST].get(request.match_info["module"])
+    name = request.match_info["port"]
+    return name, component.port(name)
+
+
+def _incremental(port: Any, value: Any, since: int) -> tuple[Any, int]:
+    if not isinstance(value, Incremental):
+        raise BadQuery(f"port {port.name} holds no numbered chunks: since= does not apply")
+    return value.since(since)
+
+
+@routes.get("/module/{module}/read/{port}")
+async def read(request: web.Request) -> web.StreamResponse:
+    """The latest data of a port: ``{"PORT": data}``, or its binary or incremental forms."""
+    name, port = _port(request)
+    element = request.query.get("name")
+    since = _since(request)
+    value = port.read(element) if isinstance(port, OutPortRuntime) else port.read()
+    extra: dict[str, Any] = {}
+    if since is not None:
+        value, extra["lost"] = _incremental(port, value, since)
+    data = None if value is None else port.type.encode(value)
+    if _wants_binary(request):
+        parts = encode_binary(name, data, **extra)
+        response = web.StreamResponse(headers={"Content-Type": CONTENT_TYPE})
+        response.content_length = sum(len(part) for part in parts)
+        await response.prepare(request)
+        for part in parts:
+            await response.write(part)
+        return response
+    return json_reply({name: data, **extra})
+
+
+@routes.get("/module/{module}/watch/{port}")
+async def watch(request: web.Request) -> web.StreamResponse:
+    """Stream the port's publications as ``port`` events until the client leaves.
+
+    Each event is ``{"PORT": data, "lost": n}``.  The current data comes first.
+    For incremental data (the audio window) ``data`` holds only the chunks the
+    reader has not had yet (``since=K`` starts after chunk K; default: with the
+    newest chunk); for other data it is the latest value and ``lost`` counts the
+    publications skipped while the reader was busy.
+    """
+    name, port = _port(request)
+    if not isinstance(port, OutPortRuntime):
+        raise BadQuery(f"{name} is an in port: watch its remote out port instead")
+    element = request.query.get("name")
+    since = _since(request)
+    shutdown = request.app[SHUTDOWN]
+    ping_interval = request.app[CONFIG].ping_interval
+    stream = EventStream()
+    try:
+        await stream.prepare(request)
+        delivered = 0  # the port version the reader has
+        last_index = since
+        while not shutdown.is_set():
+            if port.version > delivered:
+                newest, value = port.version, port.read(element)
+                if isinstance(value, Incremental):
+                    start = value.index - 1 if last_index is None else last_index
+                    value, lost = value.since(max(start, 0))
+                    last_index = value.index
+                else:
+                    lost = max(0, newest - delivered - 1) if delivered else 0
+                delivered = newest
+                await stream.write(format_event("port", dumps({name: port.type.encode(value), "lost": lost})))
+                continue
+            published = asyncio.ensure_future(port.wait_published(delivered))
+            stopping = asyncio.ensure_future(shutdown.wait())
+            done, _ = await asyncio.wait({published, stopping}, timeout=ping_interval,
+                                         return_when=asyncio.FIRST_COMPLETED)
+            published.cancel()
+            stopping.cancel()
+            if not done:
+                await stream.write(PING)
+    except ConnectionError:
+        pass  # the reader went away
+    with contextlib.suppress(ConnectionError):
+        await stream.write_eof()
+    return stream
