@@ -18,6 +18,9 @@ __all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "SERVER_VERSION"]
 #: The genomixd release whose protocol this gateway speaks (clients check it at connection).
 GENOMIX_PROTOCOL_VERSION = "1.7.3"
 
+#: What this gateway offers beyond genomix (clients use the fast paths only when listed).
+FEATURES = ["wait", "binary", "since", "watch"]
+
 #: This gateway's own version.
 SERVER_VERSION = importlib.metadata.version("aiogenomix")
 
@@ -35,6 +38,7 @@ async def index(request: web.Request) -> web.Response:
         "available": _allowed(request),
         "sessions": len(request.app[SESSIONS]),
         "simulated": request.app[CONFIG].simulated_parts(),
+        "features": FEATURES,
     })
 
 
