@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
 import hmac
 from collections.abc import AsyncIterator, Awaitable, Callable
 
@@ -13,7 +12,7 @@ from ..components.core import ComponentHost, ScaledClock
 from . import _routes_admin, _routes_modules, _routes_ports, _routes_sessions
 from ._config import GatewayConfig
 from ._errors import error_middleware
-from ._keys import CONFIG, HOST, LISTENERS, SESSIONS, SHUTDOWN
+from ._keys import CONFIG, HOST, LISTENERS, SESSIONS, SHUTDOWN, Shutdown
 from ._sessions import SessionStore
 from ._sse import format_event
 
@@ -63,7 +62,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app[CONFIG] = config
     app[SESSIONS] = SessionStore()
     app[LISTENERS] = set()
-    app[SHUTDOWN] = asyncio.Event()
+    app[SHUTDOWN] = Shutdown()
     owns_host = host is None
     app[HOST] = host or ComponentHost(clock=ScaledClock(config.time_scale), settings=config.host_settings(),
                                       function_grace=config.function_grace)

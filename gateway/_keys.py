@@ -10,11 +10,35 @@ from ..components.core import ComponentHost
 from ._config import GatewayConfig
 from ._sessions import Listener, SessionStore
 
-__all__ = ["CONFIG", "HOST", "SESSIONS", "LISTENERS", "SHUTDOWN"]
+__all__ = ["CONFIG", "HOST", "SESSIONS", "LISTENERS", "SHUTDOWN", "Shutdown"]
 
 CONFIG = web.AppKey("config", GatewayConfig)
 HOST = web.AppKey("host", ComponentHost)
 SESSIONS = web.AppKey("sessions", SessionStore)
 LISTENERS = web.AppKey("listeners", set[Listener])
-#: Set when the gateway shuts down, so that endless streams end.
-SHUTDOWN = web.AppKey("shutdown", asyncio.Event)
+
+
+class Shutdown:
+    """Done when the gateway shuts down, so that endless streams end (one future for all of them)."""
+
+    def __init__(self) -> None:
+        self._future: asyncio.Future[None] | None = None
+
+    @property
+    def future(self) -> asyncio.Future[None]:
+        """The shared future (created in the running loop on first use)."""
+        if self._future is None:
+            self._future = asyncio.get_running_loop().create_future()
+        return self._future
+
+    def is_set(self) -> bool:
+        """Whether the gateway is shutting down."""
+        return self._future is not None and self._future.done()
+
+    def set(self) -> None:
+        """Announce the shutdown."""
+        if not self.future.done():
+            self.future.set_result(None)
+
+
+SHUTDOWN = web.AppKey("shutdown", Shutdown)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import weakref
 from typing import Any
 
 from aiohttp import web
@@ -83,6 +84,32 @@ async def read(request: web.Request) -> web.StreamResponse:
     return json_reply({name: data, **extra})
 
 
+# The last event frame of each port: readers in step with each other share one encoding.
+_LAST_FRAME: weakref.WeakKeyDictionary[OutPortRuntime, tuple[tuple[Any, ...], bytes, int]] = \
+    weakref.WeakKeyDictionary()
+
+
+def _watch_frame(name: str, port: OutPortRuntime, element: str | None, delivered: int,
+                 last_index: int | None) -> tuple[bytes, int, int | None]:
+    """The next ``port`` event for a reader; returns it with the reader's new version and index."""
+    newest = port.version
+    key = (newest, element, delivered if last_index is None else last_index, last_index is None)
+    cached = _LAST_FRAME.get(port)
+    if cached is not None and cached[0] == key:
+        return cached[1], newest, cached[2]
+    value = port.read(element)
+    if isinstance(value, Incremental):
+        start = value.index - 1 if last_index is None else last_index
+        value, lost = value.since(max(start, 0))
+        new_index: int | None = value.index
+    else:
+        lost = max(0, newest - delivered - 1) if delivered else 0
+        new_index = last_index
+    frame = format_event("port", dumps({name: port.type.encode(value), "lost": lost}))
+    _LAST_FRAME[port] = (key, frame, new_index)  # type: ignore[assignment]
+    return frame, newest, new_index
+
+
 @routes.get("/module/{module}/watch/{port}")
 async def watch(request: web.Request) -> web.StreamResponse:
     """Stream the port's publications as ``port`` events until the client leaves.
@@ -98,6 +125,8 @@ async def watch(request: web.Request) -> web.StreamResponse:
         raise BadQuery(f"{name} is an in port: watch its remote out port instead")
     element = request.query.get("name")
     since = _since(request)
+    if since is not None and port.version:
+        _incremental(port, port.read(element), since)  # refuses since= on a plain port
     shutdown = request.app[SHUTDOWN]
     ping_interval = request.app[CONFIG].ping_interval
     stream = EventStream()
@@ -107,22 +136,12 @@ async def watch(request: web.Request) -> web.StreamResponse:
         last_index = since
         while not shutdown.is_set():
             if port.version > delivered:
-                newest, value = port.version, port.read(element)
-                if isinstance(value, Incremental):
-                    start = value.index - 1 if last_index is None else last_index
-                    value, lost = value.since(max(start, 0))
-                    last_index = value.index
-                else:
-                    lost = max(0, newest - delivered - 1) if delivered else 0
-                delivered = newest
-                await stream.write(format_event("port", dumps({name: port.type.encode(value), "lost": lost})))
+                frame, delivered, last_index = _watch_frame(name, port, element, delivered, last_index)
+                await stream.write(frame)
                 continue
-            published = asyncio.ensure_future(port.wait_published(delivered))
-            stopping = asyncio.ensure_future(shutdown.wait())
-            done, _ = await asyncio.wait({published, stopping}, timeout=ping_interval,
+            # Shared futures: a hundred watchers wait without a task each.
+            done, _ = await asyncio.wait({port.next_publication(), shutdown.future}, timeout=ping_interval,
                                          return_when=asyncio.FIRST_COMPLETED)
-            published.cancel()
-            stopping.cancel()
             if not done:
                 await stream.write(PING)
     except ConnectionError:

@@ -19,7 +19,7 @@ from ._exceptions import (
     GenomException, InputError, NoSuchPort, NoSuchService, disallowed, interrupted,
     no_such_inport, no_such_outport, no_such_service, too_many_activities, unkex,
 )
-from ._ports import InPortRuntime, OutPort, OutPortRuntime, PortSpec
+from ._ports import ComputedOutPort, InPortRuntime, OutPortRuntime, PortSpec
 from ._requests import Request, RequestTracker
 from ._services import ServiceSpec, activity, function, service_spec
 from ._state import GenomState
@@ -63,7 +63,8 @@ class Component:
     _ports: ClassVar[dict[str, PortSpec]]
     _tasks: ClassVar[dict[str, Task]]
 
-    genom_state = OutPort(GenomState, doc="The state of the component's tasks and activities")
+    genom_state = ComputedOutPort(GenomState, compute="_genom_state",
+                                  doc="The state of the component's tasks and activities")
 
     def __init_subclass__(cls, name: str | None = None, version: str | None = None, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -182,7 +183,6 @@ class Component:
         for name in self._tasks:
             self._task_runtime(name).start()
         await self.on_start()
-        self._publish_state()
 
     async def stop(self) -> None:
         """Interrupt every running request, stop tasks, then run :meth:`on_stop` (idempotent)."""
@@ -256,40 +256,60 @@ class Component:
         request = self.requests.create(spec, inputs, session, oneway)
         if victims:
             await asyncio.gather(*(self.interrupt(v, by=spec.name) for v in victims))
-        request.task = asyncio.create_task(self._run(request), name=request.id)
-        if spec.kind != "activity":
-            # Functions and attributes are quick: let them end before the reply is sent.
-            await asyncio.wait({request.task}, timeout=self.host.function_grace)
-        if request.running:
-            self.requests.announce(request)
-        self._publish_state()
+        if spec.kind != "activity" and not inspect.iscoroutinefunction(spec.func):
+            # A plain function or attribute runs to its end right here: no task to schedule.
+            try:
+                result = spec.func(self, **inputs)
+            except Exception as exc:
+                self._settle_error(request, exc)
+            else:
+                self._settle(request, result)
+        else:
+            request.task = asyncio.create_task(self._run(request), name=request.id)
+            if spec.kind != "activity":
+                # Functions and attributes are quick: let them end before the reply is sent.
+                await asyncio.wait({request.task}, timeout=self.host.function_grace)
+            if request.running:
+                self.requests.announce(request)
+        self.genom_state.changed()
         return request
 
     async def _run(self, request: Request) -> None:
-        spec = request.service
         try:
-            result = spec.func(self, **request.inputs)
+            result = request.service.func(self, **request.inputs)
             if inspect.isawaitable(result):
                 result = await result
-            output = spec.encode_outputs(result)
         except asyncio.CancelledError:
             if request.interrupted_by is None:
                 raise
             self._end_error(request, interrupted(by=request.interrupted_by))
-        except GenomException as exc:
-            self._end_error(request, exc)
         except Exception as exc:
-            log.exception("%s: service %s failed", self.instance, spec.name)
-            self._end_error(request, unkex(what=f"{type(exc).__name__}: {exc}"))
+            self._settle_error(request, exc)
         else:
-            if request.interrupted_by is not None:
-                self._end_error(request, interrupted(by=request.interrupted_by))
-            else:
-                self.requests.finish(request, "done", output=output)
+            self._settle(request, result)
         finally:
             if request.running:  # cancelled by the event loop shutting down
                 self._end_error(request, interrupted(by="kill"))
-            self._publish_state()
+            self.genom_state.changed()
+
+    def _settle(self, request: Request, result: Any) -> None:
+        """End a request whose service returned *result*."""
+        if request.interrupted_by is not None:
+            self._end_error(request, interrupted(by=request.interrupted_by))
+            return
+        try:
+            output = request.service.encode_outputs(result)
+        except Exception as exc:
+            self._settle_error(request, exc)
+        else:
+            self.requests.finish(request, "done", output=output)
+
+    def _settle_error(self, request: Request, exc: Exception) -> None:
+        """End a request whose service raised *exc*."""
+        if not isinstance(exc, GenomException):
+            log.exception("%s: service %s failed", self.instance, request.service.name, exc_info=exc)
+            exc = unkex(what=f"{type(exc).__name__}: {exc}")
+        self._end_error(request, exc)
 
     def _end_error(self, request: Request, exc: GenomException) -> None:
         self.requests.finish(request, "error", exception=self.exception_object(exc))
@@ -314,7 +334,7 @@ class Component:
         if request.running:
             # Cancelled before its first step: its code never ran, so end it here.
             self._end_error(request, interrupted(by=request.interrupted_by))
-            self._publish_state()
+            self.genom_state.changed()
 
     async def abort(self, request_id: str) -> Request:
         """Interrupt the request *request_id* (``by: "abort"``) and return it."""
@@ -322,7 +342,8 @@ class Component:
         await self.interrupt(request, by="abort")
         return request
 
-    def _publish_state(self) -> None:
+    def _genom_state(self) -> GenomState:
+        """The data of the ``genom_state`` port, computed when it is read."""
         activities = [{"id": r.number, "name": r.service.name} for r in self.requests.running()
                       if r.service.kind == "activity"]
         tasks = [rt.state() | {"activity": [a for a in activities
@@ -332,10 +353,10 @@ class Component:
         if untasked:
             tasks.append({"name": "", "rusage": {"cycles": 0, "timings": {"last": 0, "max": 0, "avg": 0}},
                           "activity": untasked})
-        self.genom_state.publish(GenomState.build(
+        return GenomState.build(
             tasks, digest=self.genom_name, version=self.version,
             date=datetime.datetime.fromtimestamp(self.clock.wall(), datetime.UTC).isoformat(),
-        ))
+        )
 
     # -- the standard services of every genom3 component -------------------------------------
 

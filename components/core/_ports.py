@@ -13,7 +13,8 @@ from typing import Any, Generic, Protocol, TypeVar, runtime_checkable
 from ._exceptions import NoSuchPort, port_io
 from ._types import IdlType, idl_type
 
-__all__ = ["OutPort", "InPort", "OutPortRuntime", "InPortRuntime", "PortSpec", "Incremental"]
+__all__ = ["OutPort", "ComputedOutPort", "InPort", "OutPortRuntime", "ComputedOutPortRuntime", "InPortRuntime",
+           "PortSpec", "Incremental"]
 
 T = TypeVar("T")
 
@@ -89,6 +90,24 @@ class OutPort(PortSpec, Generic[T]):
         return OutPortRuntime(self, owner)
 
 
+class ComputedOutPort(OutPort[T]):
+    """An out port whose data is computed by a method when read (cheap to keep up to date).
+
+    Args:
+        annotation: The type of the data.
+        compute: The name of the component method that returns the data.
+        doc: What the port publishes.
+    """
+
+    def __init__(self, annotation: Any, compute: str, doc: str = "") -> None:
+        super().__init__(annotation, doc)
+        self.compute = compute
+
+    def runtime(self, owner: Any) -> OutPortRuntime:
+        """Create the runtime of this port for a component instance."""
+        return ComputedOutPortRuntime(self, owner)
+
+
 class InPort(PortSpec, Generic[T]):
     """Declare an in port, connected at run time with the ``connect_port`` service."""
 
@@ -133,6 +152,10 @@ class OutPortRuntime:
             self._elements[name] = value
         else:
             self._value = value
+        self.changed()
+
+    def changed(self) -> None:
+        """Count a new publication and wake the readers waiting for one."""
         self.version += 1
         if self._published is not None and not self._published.done():
             self._published.set_result(None)
@@ -161,14 +184,26 @@ class OutPortRuntime:
         """The latest value as JSON-ready data."""
         return self.type.encode(self.read(name))
 
+    def next_publication(self) -> asyncio.Future[None]:
+        """A future, shared by every reader, done at the next publication (never cancel it)."""
+        if self._published is None:
+            self._published = asyncio.get_running_loop().create_future()
+        return self._published
+
     async def wait_published(self, after_version: int | None = None) -> int:
         """Wait until a value newer than *after_version* (default: now) is published; return the version."""
         after = self.version if after_version is None else after_version
         while self.version <= after:
-            if self._published is None:
-                self._published = asyncio.get_running_loop().create_future()
-            await asyncio.shield(self._published)
+            await asyncio.shield(self.next_publication())
         return self.version
+
+
+class ComputedOutPortRuntime(OutPortRuntime):
+    """The runtime of a :class:`ComputedOutPort`: reads call the component's method."""
+
+    def read(self, name: str | None = None) -> Any:
+        """The data, computed now."""
+        return getattr(self.owner, self.spec.compute)()  # type: ignore[attr-defined]
 
 
 class InPortRuntime:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import heapq
 from collections import OrderedDict
 from collections.abc import Callable
 from typing import Any, Literal
@@ -86,16 +87,27 @@ class RequestTracker:
         self.listener = listener
         self.keep_ended = keep_ended
         self._requests: dict[int, Request] = {}
+        self._running: dict[int, Request] = {}
         self._ended: OrderedDict[int, None] = OrderedDict()
+        # Every number below _next that is not in use is in _free (a min-heap), so
+        # the smallest free number is found without scanning the requests.
+        self._next = 0
+        self._free: list[int] = []
 
     def create(self, service: ServiceSpec, inputs: dict[str, Any], session: str | None, oneway: bool) -> Request:
         """Register a new request with the smallest free number."""
-        number = 0
-        while number in self._requests:
-            number += 1
+        if self._free:
+            number = heapq.heappop(self._free)
+        else:
+            number, self._next = self._next, self._next + 1
         request = Request(number, self.instance, service, inputs, session, oneway)
         self._requests[number] = request
+        self._running[number] = request
         return request
+
+    def _forget(self, number: int) -> None:
+        if self._requests.pop(number, None) is not None:
+            heapq.heappush(self._free, number)
 
     def parse_id(self, request_id: str) -> int:
         """Accept ``demo::3``, ``::demo::3`` or ``3``; return 3.
@@ -125,7 +137,7 @@ class RequestTracker:
 
     def running(self) -> list[Request]:
         """The requests that have not ended, oldest first."""
-        return [r for r in self._requests.values() if r.running]
+        return list(self._running.values())
 
     def announce(self, request: Request) -> None:
         """Report the request's current status to the listener."""
@@ -139,13 +151,14 @@ class RequestTracker:
             return
         request.status, request.output, request.exception = status, output, exception
         request.ended.set()
+        del self._running[request.number]
         if request.oneway:
-            self._requests.pop(request.number, None)
+            self._forget(request.number)
             return
         self._ended[request.number] = None
         while len(self._ended) > self.keep_ended:
             number, _ = self._ended.popitem(last=False)
-            self._requests.pop(number, None)
+            self._forget(number)
         self.announce(request)
 
     def clean(self, request_id: str) -> None:
@@ -158,5 +171,5 @@ class RequestTracker:
         request = self.get(request_id)
         if request.running:
             raise RequestRunning(f"request {request.id} is still running: abort it or wait for it to end")
-        del self._requests[request.number]
         self._ended.pop(request.number, None)
+        self._forget(request.number)

@@ -1,0 +1,63 @@
+"""Helpers shared by the benchmarks: server processes, statistics, CPU and memory readings."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import os
+import statistics
+import sys
+from collections.abc import AsyncIterator, Sequence
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@contextlib.asynccontextmanager
+async def server(kind: str) -> AsyncIterator[tuple[int, int]]:
+    """Start ``bench._server KIND`` in its own process; yield ``(port, pid)``."""
+    process = await asyncio.create_subprocess_exec(
+        sys.executable, "-m", "bench._server", kind, cwd=ROOT,
+        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.DEVNULL,
+    )
+    try:
+        assert process.stdout is not None
+        line = (await asyncio.wait_for(process.stdout.readline(), 60)).decode().split()
+        if not line or line[0] != "ready":
+            raise RuntimeError(f"bench server {kind} did not start: {line}")
+        yield int(line[1]), process.pid
+    finally:
+        process.terminate()
+        await process.wait()
+
+
+def summary(samples: Sequence[float], scale: float = 1e3) -> dict[str, float]:
+    """Median, p99, min and count of *samples* (seconds, reported in ms by default)."""
+    ordered = sorted(samples)
+    p99 = ordered[min(len(ordered) - 1, int(round(0.99 * (len(ordered) - 1))))]
+    return {"median": statistics.median(ordered) * scale, "p99": p99 * scale, "min": ordered[0] * scale,
+            "n": len(ordered)}
+
+
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU seconds used so far by process *pid*."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def rss_bytes(pid: int) -> int:
+    """Resident memory of process *pid*."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) * 1024
+    raise RuntimeError(f"no VmRSS for {pid}")
+
+
+def verdict(value: float, target: float, lower_is_better: bool = True) -> str:
+    """``met`` or ``MISSED`` for a figure against its target."""
+    ok = value <= target if lower_is_better else value >= target
+    return "met" if ok else "MISSED"
+
+
+Result = dict[str, Any]

@@ -1,0 +1,100 @@
+"""The processes a benchmark talks to: the gateway (with a probe component) and the floors.
+
+Run as ``python -m bench._server gateway|aiohttp|socket [options]``; each prints
+``ready <port> [<port>]`` once it listens, then serves until killed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import time
+from typing import Annotated
+
+import numpy as np
+from aiohttp import web
+
+from aiogenomix.components.core import (
+    Component, ComponentHost, Double, OutPort, Out, ScaledClock, Task, function, idl_struct,
+)
+from aiogenomix.gateway import GatewayConfig, create_app
+
+
+@idl_struct("probe::tick")
+class Tick:
+    """A publication stamped with the publisher's monotonic clock."""
+
+    t: Double = 0.0
+
+
+class Probe(Component, name="probe"):
+    """Stamps replies and publications with time.monotonic(), for latency measurements."""
+
+    ticking = Task(period=0.05, doc="Publishes a stamped tick, 20 times per second")
+    Ticks = OutPort(Tick, doc="Stamped ticks")
+
+    @ticking.periodic
+    def _tick(self) -> None:
+        self.Ticks.publish(Tick(time.monotonic()))
+
+    @function
+    def Stamp(self) -> Annotated[Double, Out("t", "time.monotonic() when the request ended")]:
+        """Return the server's monotonic time."""
+        return time.monotonic()
+
+
+async def _gateway(args: argparse.Namespace) -> None:
+    config = GatewayConfig(port=0, audio_socket_port=0, time_scale=1.0)
+    host = ComponentHost(clock=ScaledClock(1.0), settings=config.host_settings())
+    host.register("probe", Probe)
+    runner = web.AppRunner(create_app(config, host), access_log=None)
+    await runner.setup()
+    site = web.TCPSite(runner, "127.0.0.1", 0)
+    await site.start()
+    print("ready", runner.addresses[0][1], flush=True)
+    await asyncio.Event().wait()
+
+
+async def _bare_aiohttp(args: argparse.Namespace) -> None:
+    small = b'{"id":"demo::0","status":"done","output":{"speedRef":"::demo::SLOW"}}'
+
+    async def handler(request: web.Request) -> web.Response:
+        return web.Response(body=small, content_type="application/json")
+
+    app = web.Application()
+    app.router.add_get("/{tail:.*}", handler)
+    runner = web.AppRunner(app, access_log=None)
+    await runner.setup()
+    await web.TCPSite(runner, "127.0.0.1", 0).start()
+    print("ready", runner.addresses[0][1], flush=True)
+    await asyncio.Event().wait()
+
+
+async def _socket_floor(args: argparse.Namespace) -> None:
+    """Answer each request line with a length-prefixed blob of the requested size (the byte floor)."""
+    blobs: dict[int, bytes] = {}
+
+    async def client(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        while line := await reader.readline():
+            size = int(line)
+            blob = blobs.setdefault(size, np.random.default_rng(0).integers(-2**23, 2**23, size // 4,
+                                                                            dtype=np.int32).tobytes())
+            writer.write(len(blob).to_bytes(4, "little") + blob)
+            await writer.drain()
+        writer.close()
+
+    server = await asyncio.start_server(client, "127.0.0.1", 0)
+    print("ready", server.sockets[0].getsockname()[1], flush=True)
+    await server.serve_forever()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("kind", choices=["gateway", "aiohttp", "socket"])
+    args = parser.parse_args()
+    runner = {"gateway": _gateway, "aiohttp": _bare_aiohttp, "socket": _socket_floor}[args.kind]
+    asyncio.run(runner(args))
+
+
+if __name__ == "__main__":
+    main()
