@@ -7,7 +7,8 @@ build it in code with :func:`create_app` and :class:`GatewayConfig`.
 from ._app import create_app
 from ._config import GatewayConfig
 from ._errors import BadQuery, GatewayError, LoadForbidden, NoSuchSession
-from ._routes_admin import GENOMIX_PROTOCOL_VERSION, SERVER_VERSION
+from ._replies import SERVER_VERSION
+from ._routes_admin import GENOMIX_PROTOCOL_VERSION
 from ._run import run, serve
 
 __version__ = SERVER_VERSION

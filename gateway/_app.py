@@ -10,6 +10,7 @@ from aiohttp import web
 
 from ..components.core import ComponentHost, ScaledClock
 from . import _routes_admin, _routes_modules, _routes_ports, _routes_sessions
+from ._replies import json_reply
 from ._config import GatewayConfig
 from ._errors import error_middleware
 from ._keys import CONFIG, HOST, LISTENERS, SESSIONS, SHUTDOWN, Shutdown
@@ -27,19 +28,11 @@ def _auth_middleware(token: str) -> Callable[..., Awaitable[web.StreamResponse]]
                           handler: Callable[[web.Request], Awaitable[web.StreamResponse]]) -> web.StreamResponse:
         given = request.headers.get("Authorization", "").encode()
         if not hmac.compare_digest(given, expected):
-            body = {"ex": "::genomix::unauthorized", "message": "this gateway needs Authorization: Bearer <token>"}
-            return web.Response(status=401, body=orjson.dumps(body), content_type="application/json")
+            return json_reply({"ex": "::genomix::unauthorized",
+                               "message": "this gateway needs Authorization: Bearer <token>"}, status=401)
         return await handler(request)
 
     return check_token
-
-
-@web.middleware
-async def _server_header(request: web.Request,
-                         handler: Callable[[web.Request], Awaitable[web.StreamResponse]]) -> web.StreamResponse:
-    response = await handler(request)
-    response.headers["Server"] = f"aiogenomix/{_routes_admin.SERVER_VERSION}"
-    return response
 
 
 def create_app(config: GatewayConfig | None = None, host: ComponentHost | None = None) -> web.Application:
@@ -54,10 +47,9 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
         An aiohttp application; run it with ``web.run_app`` or an ``AppRunner``.
     """
     config = config or GatewayConfig()
-    # Outermost first: every reply, errors included, names the server.
-    middlewares = [_server_header, error_middleware]
+    middlewares = [error_middleware]
     if config.token:
-        middlewares.insert(1, _auth_middleware(config.token))
+        middlewares.insert(0, _auth_middleware(config.token))
     app = web.Application(middlewares=middlewares)
     app[CONFIG] = config
     app[SESSIONS] = SessionStore()

@@ -19,13 +19,14 @@ import logging
 from collections.abc import Awaitable, Callable
 from typing import Any
 
-import orjson
 from aiohttp import web
 
 from ..components.core import (
     ComponentError, GenomException, InputError, LoadError, NoSuchModule, NoSuchPort, NoSuchRequest,
     NoSuchService, RequestRunning, disallowed, too_many_activities,
 )
+
+from ._replies import json_reply
 
 __all__ = ["GatewayError", "NoSuchSession", "BadQuery", "LoadForbidden", "error_middleware", "error_body"]
 
@@ -98,11 +99,12 @@ async def error_middleware(request: web.Request,
     except web.HTTPException as exc:
         if exc.status < 400:
             raise
-        body = {"ex": "::genomix::http", "message": exc.reason}
-        return web.Response(status=exc.status, body=orjson.dumps(body), content_type="application/json",
-                            headers={k: v for k, v in exc.headers.items() if k.lower() == "allow"})
+        reply = json_reply({"ex": "::genomix::http", "message": exc.reason}, status=exc.status)
+        if "Allow" in exc.headers:
+            reply.headers["Allow"] = exc.headers["Allow"]
+        return reply
     except Exception as exc:
         status, body = error_body(exc)
         if status >= 500:
             log.exception("%s %s failed", request.method, request.path_qs)
-        return web.Response(status=status, body=orjson.dumps(body), content_type="application/json")
+        return json_reply(body, status=status)

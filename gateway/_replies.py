@@ -2,14 +2,22 @@
 
 from __future__ import annotations
 
+import importlib.metadata
 from typing import Any
 
 import orjson
 from aiohttp import web
 
-__all__ = ["json_reply", "text_reply", "dumps"]
+__all__ = ["json_reply", "text_reply", "dumps", "SERVER_VERSION", "SERVER_HEADER"]
 
 _OPTIONS = orjson.OPT_SERIALIZE_NUMPY
+
+#: This gateway's own version.
+SERVER_VERSION = importlib.metadata.version("aiogenomix")
+#: Every reply names the server (set here rather than in a middleware: it is on the hot path).
+SERVER_HEADER = {"Server": f"aiogenomix/{SERVER_VERSION}"}
+_JSON = {"Content-Type": "application/json", **SERVER_HEADER}
+_TEXT = {"Content-Type": "text/plain; charset=utf-8", **SERVER_HEADER}
 
 
 def dumps(obj: Any) -> bytes:
@@ -19,9 +27,9 @@ def dumps(obj: Any) -> bytes:
 
 def json_reply(obj: Any, status: int = 200) -> web.Response:
     """An ``application/json`` reply."""
-    return web.Response(status=status, body=dumps(obj), content_type="application/json")
+    return web.Response(status=status, body=dumps(obj), headers=_JSON)
 
 
 def text_reply(text: str, status: int = 200) -> web.Response:
     """A ``text/plain`` UTF-8 reply (Content-Length counts bytes, not characters)."""
-    return web.Response(status=status, body=text.encode(), content_type="text/plain", charset="utf-8")
+    return web.Response(status=status, body=text.encode(), headers=_TEXT)

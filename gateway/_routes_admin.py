@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.metadata
 import shlex
 
 import orjson
@@ -11,18 +10,15 @@ from aiohttp import web
 from ..components.core import NoSuchModule
 from ._errors import BadQuery, LoadForbidden
 from ._keys import CONFIG, HOST, SESSIONS
-from ._replies import json_reply, text_reply
+from ._replies import SERVER_VERSION, json_reply, text_reply
 
-__all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "SERVER_VERSION"]
+__all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "FEATURES"]
 
 #: The genomixd release whose protocol this gateway speaks (clients check it at connection).
 GENOMIX_PROTOCOL_VERSION = "1.7.3"
 
 #: What this gateway offers beyond genomix (clients use the fast paths only when listed).
 FEATURES = ["wait", "binary", "since", "watch"]
-
-#: This gateway's own version.
-SERVER_VERSION = importlib.metadata.version("aiogenomix")
 
 routes = web.RouteTableDef()
 

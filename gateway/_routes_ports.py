@@ -22,7 +22,7 @@ from ..components.core import Incremental, OutPortRuntime
 from ._binary import CONTENT_TYPE, encode_binary
 from ._errors import BadQuery
 from ._keys import CONFIG, HOST, SHUTDOWN
-from ._replies import dumps, json_reply
+from ._replies import SERVER_HEADER, dumps, json_reply
 from ._sse import PING, EventStream, format_event
 
 __all__ = ["routes"]
@@ -75,7 +75,7 @@ async def read(request: web.Request) -> web.StreamResponse:
     data = None if value is None else port.type.encode(value)
     if _wants_binary(request):
         parts = encode_binary(name, data, **extra)
-        response = web.StreamResponse(headers={"Content-Type": CONTENT_TYPE})
+        response = web.StreamResponse(headers={"Content-Type": CONTENT_TYPE, **SERVER_HEADER})
         response.content_length = sum(len(part) for part in parts)
         await response.prepare(request)
         for part in parts:

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from aiohttp import web
 
+from ._replies import SERVER_HEADER
+
 __all__ = ["format_event", "EventStream", "PING"]
 
 #: An SSE comment, sent on idle streams so that a vanished client is noticed.
@@ -46,5 +48,6 @@ class EventStream(web.StreamResponse):
             "Content-Type": "text/event-stream",
             "Cache-Control": "no-cache",
             "X-Accel-Buffering": "no",
+            **SERVER_HEADER,
         })
         self.force_close()

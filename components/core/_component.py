@@ -256,7 +256,7 @@ class Component:
         request = self.requests.create(spec, inputs, session, oneway)
         if victims:
             await asyncio.gather(*(self.interrupt(v, by=spec.name) for v in victims))
-        if spec.kind != "activity" and not inspect.iscoroutinefunction(spec.func):
+        if spec.kind != "activity" and not spec.is_async:
             # A plain function or attribute runs to its end right here: no task to schedule.
             try:
                 result = spec.func(self, **inputs)

@@ -82,6 +82,8 @@ class ServiceSpec:
     task: str | None = None
     #: How the return value maps to outputs: "none", "single" or "fields".
     output_style: str = "none"
+    #: Whether the method is a coroutine function (plain ones run inline).
+    is_async: bool = False
 
     @property
     def parameters(self) -> list[ParamSpec]:
@@ -201,6 +203,7 @@ def _build_spec(func: Callable[..., Any], kind: ServiceKind, options: dict[str, 
         validate=options.get("validate"),
         task=getattr(task, "name", task),
         output_style=style,
+        is_async=inspect.iscoroutinefunction(func),
     )
 
 
