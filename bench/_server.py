@@ -15,7 +15,7 @@ import numpy as np
 from aiohttp import web
 
 from aiogenomix.components.core import (
-    Component, ComponentHost, Double, OutPort, Out, ScaledClock, Task, function, idl_struct,
+    Component, ComponentHost, Double, OutPort, Out, ScaledClock, Task, activity, function, idl_struct,
 )
 from aiogenomix.gateway import GatewayConfig, create_app
 
@@ -40,6 +40,11 @@ class Probe(Component, name="probe"):
     @function
     def Stamp(self) -> Annotated[Double, Out("t", "time.monotonic() when the request ended")]:
         """Return the server's monotonic time."""
+        return time.monotonic()
+
+    @activity
+    async def StampActivity(self) -> Annotated[Double, Out("t", "time.monotonic() when the activity ended")]:
+        """An activity that ends at once, returning the server's monotonic time."""
         return time.monotonic()
 
 

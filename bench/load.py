@@ -47,7 +47,7 @@ async def run(seconds: float = 30.0, rounds: int = 3) -> Result:
             gateway_runs.append(await _wrk(f"http://127.0.0.1:{gateway_port}/module/demo/send/GetSpeed",
                                            seconds / rounds))
             bare_runs.append(await _wrk(f"http://127.0.0.1:{bare_port}/module/demo/send/GetSpeed", seconds / rounds))
-    ratios = [g["requests_per_s"] / b["requests_per_s"] for g, b in zip(gateway_runs, bare_runs)]
+    ratios = [g["requests_per_s"] / b["requests_per_s"] for g, b in zip(gateway_runs, bare_runs, strict=True)]
     errors = sum(run["errors"] for run in gateway_runs)
     ratio = statistics.median(ratios)
     return {

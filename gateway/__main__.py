@@ -21,7 +21,8 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
         description="A genomix-compatible HTTP/JSON gateway hosting the Two!Ears components.",
     )
     parser.add_argument("--host", default=defaults.host, help="address to bind (default %(default)s)")
-    parser.add_argument("--port", type=int, default=defaults.port, help="HTTP port, 0 for a free one (default %(default)s)")
+    parser.add_argument("--port", type=int, default=defaults.port,
+                        help="HTTP port, 0 for a free one (default %(default)s)")
     parser.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error"])
     parser.add_argument("--can", default=defaults.can,
                         help="KEMAR bus: 'virtual' (simulated drive) or INTERFACE:CHANNEL, e.g. socketcan:can0")

@@ -78,7 +78,7 @@ class Component:
         # Bases first, so a merged component lists its parts' declarations in order,
         # and the standard services (declared on Component) come last.
         for klass in reversed(cls.__mro__):
-            for attr, value in vars(klass).items():
+            for value in vars(klass).values():
                 if isinstance(value, PortSpec):
                     ports[value.name] = value
                 elif isinstance(value, Task):

@@ -94,7 +94,7 @@ class GenomException(ComponentError):
         names = [name for name, _ in self.detail_members()]
         if len(args) > len(names):
             raise TypeError(f"{type(self).__name__} takes {len(names)} detail values, got {len(args)}")
-        values = dict(zip(names, args))
+        values = dict(zip(names, args, strict=False))
         values.update(detail)
         unknown = set(values) - set(names)
         if unknown:

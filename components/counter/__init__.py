@@ -66,6 +66,7 @@ class CountServer(Component, name="countserver", version="1.0"):
     CounterPort = OutPort(Counter, doc="The current value of the counter and its initial value")
 
     async def on_start(self) -> None:
+        """Start at zero, counting slowly forward."""
         self.counter = Counter()
         self.speed = Speed.SLOWFWD
         self.CounterPort.publish(self.counter)

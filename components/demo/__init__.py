@@ -55,6 +55,7 @@ class Demo(Component, name="demo", version="1.1"):
     Mobile = OutPort(State, doc="The position (m) and speed (m/s) of the robot")
 
     async def on_start(self) -> None:
+        """Stand still at the middle of the track, at the slow speed."""
         self.speed_ref = Speed.SLOW
         self.state = State()
         self.Mobile.publish(self.state)

@@ -11,7 +11,7 @@ import pytest
 
 from aiogenomix.components.core import (
     Component, ComponentHost, Double, GenomException, InPort, InputError, ManualClock, NoSuchPort,
-    NoSuchRequest, Out, OutPort, RequestRunning, Short, String, Task, ULong, activity, attribute, describe,
+    NoSuchRequest, Out, OutPort, RequestRunning, Short, String, Task, activity, attribute, describe,
     function, idl_struct, port_io,
 )
 

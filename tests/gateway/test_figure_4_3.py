@@ -38,14 +38,15 @@ async def test_figure_4_3_session_with_curl(gateway: str) -> None:
         assert await curl(f"{gateway}/load/demo?s={session}&argv=") == "demo"
 
         # ::demo::GotoPosition 0.5 — blocking: wait for its "done".
-        sent = json.loads(await curl(f"{gateway}/module/demo/send/GotoPosition?s={session}&input=%7B%22posRef%22:0.5%7D"))
+        goto = f"{gateway}/module/demo/send/GotoPosition?s={session}&input="
+        sent = json.loads(await curl(goto + "%7B%22posRef%22:0.5%7D"))
         assert sent == {"id": "demo::0", "status": "sent"}
         assert await next_request_event(listen.stdout) == sent
         assert await next_request_event(listen.stdout) == {"id": "demo::0", "status": "done", "output": {}}
         assert await curl(f"{gateway}/module/demo/clean/demo::0?s={session}") == ""
 
         # ::demo::GotoPosition 1 & — non-blocking: the reply says "sent", the stream says "sent" then "done".
-        reply = json.loads(await curl(f"{gateway}/module/demo/send/GotoPosition?s={session}&input=%7B%22posRef%22:1%7D"))
+        reply = json.loads(await curl(goto + "%7B%22posRef%22:1%7D"))
         assert reply == {"id": "demo::0", "status": "sent"}
         assert await next_request_event(listen.stdout) == {"id": "demo::0", "status": "sent"}
         assert await next_request_event(listen.stdout) == {"id": "demo::0", "status": "done", "output": {}}

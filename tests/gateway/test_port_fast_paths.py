@@ -29,7 +29,7 @@ class TickWindow:
     size: ULong = 1
     values: sequence(Long, numpy=True) = None  # type: ignore[valid-type,assignment]
 
-    def since(self, index: int) -> tuple["TickWindow", int]:
+    def since(self, index: int) -> tuple[TickWindow, int]:
         held = len(self.values) // self.size
         first_held = self.index - held + 1
         start = max(index + 1, first_held)

@@ -1,0 +1,63 @@
+"""Run the benchmarks: ``./run bench [--quick] [--only NAME ...]``.
+
+Prints the figures, and writes them to ``docs/benchmarks.md`` (tables) and
+``bench/results/latest.json`` (everything, machine-readable).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import datetime
+import json
+import os
+import platform
+import sys
+from typing import Any
+
+from . import fanout, load, port_read, service, soak
+from ._common import ROOT
+from ._report import render
+
+BENCHMARKS = {
+    "port_read": (port_read.run, {"reads": 50}, {"reads": 15}),
+    "service": (service.run, {"calls": 2000}, {"calls": 300}),
+    "fanout": (fanout.run, {"seconds": 10.0}, {"seconds": 3.0}),
+    "load": (load.run, {"seconds": 30.0}, {"seconds": 6.0}),
+    "soak": (soak.run, {"seconds": 120.0}, {"seconds": 15.0}),
+}
+
+
+async def _run(names: list[str], quick: bool) -> dict[str, Any]:
+    results: dict[str, Any] = {}
+    for name in names:
+        runner, full, short = BENCHMARKS[name]
+        print(f"bench: {name} ...", file=sys.stderr, flush=True)
+        results[name] = await runner(**(short if quick else full))
+        print(json.dumps(results[name], indent=1, default=float), flush=True)
+    return results
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the chosen benchmarks and write the report."""
+    parser = argparse.ArgumentParser(prog="./run bench", description=__doc__.splitlines()[0])
+    parser.add_argument("--only", nargs="+", choices=list(BENCHMARKS), default=list(BENCHMARKS))
+    parser.add_argument("--quick", action="store_true", help="short runs, to check the benchmarks work")
+    parser.add_argument("--no-write", action="store_true", help="print only; leave docs/benchmarks.md alone")
+    args = parser.parse_args(argv)
+    results = asyncio.run(_run(args.only, args.quick))
+    machine = {"date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+               "python": platform.python_version(), "machine": platform.machine(), "cpus": os.cpu_count(),
+               "quick": args.quick}
+    if not args.no_write:
+        path = ROOT / "bench" / "results" / "latest.json"
+        previous = json.loads(path.read_text()) if path.exists() else {"results": {}}
+        merged = previous.get("results", {}) | results
+        path.write_text(json.dumps({"machine": machine, "results": merged}, indent=1, default=float) + "\n")
+        (ROOT / "docs" / "benchmarks.md").write_text(render(machine, merged))
+        print(f"bench: wrote {path.relative_to(ROOT)} and docs/benchmarks.md", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
