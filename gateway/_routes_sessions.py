@@ -42,7 +42,8 @@ async def stop(request: web.Request) -> web.Response:
 async def listen(request: web.Request) -> web.StreamResponse:
     """Stream the session's events (``request``, ``unload``, ``quit``) until it stops or the client leaves."""
     session = request.app[SESSIONS].get_or_create(_session_name(request))
-    listener = session.attach()
+    transport = request.transport
+    listener = session.attach(alive=lambda: transport is not None and not transport.is_closing())
     listeners = request.app[LISTENERS]
     listeners.add(listener)
     ping_interval = request.app[CONFIG].ping_interval

@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 from collections import deque
+from collections.abc import Callable
 
 import orjson
 
@@ -29,10 +30,13 @@ class Listener:
 
     Args:
         limit: How many undelivered events it may hold before it is dropped.
+        alive: Whether its connection is still open (a vanished client is only
+            noticed at the next write otherwise, and its events would be lost).
     """
 
-    def __init__(self, limit: int) -> None:
+    def __init__(self, limit: int, alive: Callable[[], bool] = lambda: True) -> None:
         self.limit = limit
+        self.alive = alive
         self.frames: deque[bytes] = deque()
         self.ready = asyncio.Event()
         self.overflowed = False
@@ -78,15 +82,18 @@ class Session:
         self.stopped = False
 
     def deliver(self, frame: bytes) -> None:
-        """Send a framed event to every listener (or keep it until one attaches)."""
+        """Send a framed event to every live listener (or keep it until one attaches)."""
+        for listener in [listener for listener in self.listeners if not listener.alive()]:
+            listener.close()
+            self.listeners.discard(listener)
         if not self.listeners:
             self.backlog.append(frame)
         for listener in self.listeners:
             listener.offer(frame)
 
-    def attach(self) -> Listener:
+    def attach(self, alive: Callable[[], bool] = lambda: True) -> Listener:
         """Open a listener; it first receives the backlog."""
-        listener = Listener(self.listener_limit)
+        listener = Listener(self.listener_limit, alive)
         while self.backlog:
             listener.offer(self.backlog.popleft())
         self.listeners.add(listener)

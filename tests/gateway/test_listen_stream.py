@@ -62,3 +62,21 @@ async def test_events_sent_before_listening_are_delivered(gateway: str, http: ai
         assert name == "request" and json.loads(data or "")["id"] == "demo::0"
     finally:
         stream.close()
+
+
+async def test_events_after_a_listener_vanished_wait_for_the_next_one(gateway: str,
+                                                                     http: aiohttp.ClientSession) -> None:
+    await http.get("/load/demo")
+    gone = await RawEventStream.open(gateway, "flaky")
+    gone.close()
+    await gone.writer.wait_closed()
+    await http.get("/version")  # one more loop turn on the gateway: it has read the listener's FIN
+    # The gateway notices the closed connection at delivery: the event waits in the backlog.
+    async with http.get("/module/demo/send/GetSpeed", params={"s": "flaky"}) as reply:
+        request_id = (await reply.json())["id"]
+    back = await RawEventStream.open(gateway, "flaky")
+    try:
+        name, data = await back.next_event()
+        assert name == "request" and json.loads(data or "")["id"] == request_id
+    finally:
+        back.close()

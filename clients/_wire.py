@@ -1,0 +1,198 @@
+"""The wire contract as the client reads it: typed shapes of docs/protocol.md and their checks."""
+
+from __future__ import annotations
+
+import enum
+import re
+from collections.abc import Mapping
+from typing import Any, Literal, NotRequired, TypedDict
+from urllib.parse import urlsplit
+
+from ._errors import ProtocolError
+
+__all__ = [
+    "DEFAULT_ADDRESS",
+    "ExceptionInfo",
+    "ExceptionObject",
+    "ModuleInfo",
+    "ParameterInfo",
+    "PortInfo",
+    "ServiceInfo",
+    "Status",
+    "StatusObject",
+    "TaskInfo",
+    "TypeInfo",
+    "base_url",
+    "check_info",
+    "parse_status",
+    "request_number",
+]
+
+#: Where :func:`connect` goes when given no address (python-genomix and MATLAB do the same).
+DEFAULT_ADDRESS = "localhost:8080"
+
+
+class Status(str, enum.Enum):
+    """The status of a request; compares equal to the wire strings (``h.status == "done"``)."""
+
+    sent = "sent"
+    done = "done"
+    error = "error"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class TypeInfo(TypedDict):
+    """An IDL type description (``kind`` decides which other members exist)."""
+
+    name: str
+    kind: str
+    values: NotRequired[list[str]]
+    members: NotRequired[list[MemberInfo]]
+    element: NotRequired[TypeInfo]
+    bound: NotRequired[int | None]
+    length: NotRequired[int]
+
+
+class MemberInfo(TypedDict):
+    """A struct member, or an exception detail member."""
+
+    name: str
+    type: TypeInfo
+
+
+class ParameterInfo(TypedDict):
+    """A service parameter."""
+
+    name: str
+    dir: Literal["in", "out", "inout"]
+    type: TypeInfo
+    doc: str
+    default: NotRequired[Any]
+
+
+class ServiceInfo(TypedDict):
+    """A service of a module."""
+
+    name: str
+    kind: Literal["function", "activity", "attribute"]
+    doc: str
+    task: str | None
+    parameters: list[ParameterInfo]
+    interrupts: list[str]
+    throws: list[str]
+
+
+class PortInfo(TypedDict):
+    """A port of a module."""
+
+    name: str
+    dir: Literal["in", "out"]
+    kind: Literal["simple", "multiple"]
+    type: TypeInfo
+    doc: str
+
+
+class ExceptionInfo(TypedDict):
+    """A declared exception."""
+
+    name: str
+    doc: str
+    detail: list[MemberInfo]
+
+
+class TaskInfo(TypedDict):
+    """An execution task."""
+
+    name: str
+    period: float | None
+    doc: str
+
+
+class ModuleInfo(TypedDict):
+    """The reply of ``/module/M/info``."""
+
+    name: str
+    component: str
+    version: str
+    doc: str
+    revision: int
+    services: list[ServiceInfo]
+    ports: list[PortInfo]
+    exceptions: list[ExceptionInfo]
+    tasks: list[TaskInfo]
+
+
+class ExceptionObject(TypedDict):
+    """``{"ex": id, "detail": {...}}``."""
+
+    ex: str
+    detail: NotRequired[dict[str, Any]]
+
+
+class StatusObject(TypedDict):
+    """The reply of send/status/wait/abort and the data of a ``request`` event."""
+
+    id: str
+    status: Literal["sent", "done", "error"]
+    output: NotRequired[dict[str, Any]]
+    exception: NotRequired[ExceptionObject]
+
+
+def parse_status(data: Any) -> StatusObject:
+    """Check a status object.
+
+    Raises:
+        ProtocolError: when it lacks an id or a known status, or an ended one lacks its payload.
+    """
+    if not isinstance(data, Mapping) or not isinstance(data.get("id"), str):
+        raise ProtocolError(f"expected a request status object with an id, got {data!r:.200}")
+    status = data.get("status")
+    if status not in ("sent", "done", "error"):
+        raise ProtocolError(f"unknown request status {status!r} in {data!r:.200}")
+    if status == "error" and not isinstance(data.get("exception"), Mapping):
+        raise ProtocolError(f"an error status without its exception: {data!r:.200}")
+    if status == "done" and not isinstance(data.get("output", {}), Mapping):
+        raise ProtocolError(f"a done status whose output is not an object: {data!r:.200}")
+    return data  # type: ignore[return-value]
+
+
+def check_info(data: Any) -> ModuleInfo:
+    """Check the top level of an ``/info`` reply (the client is lenient below that).
+
+    Raises:
+        ProtocolError: when the description is not an object with services and ports.
+    """
+    if not isinstance(data, Mapping) or not isinstance(data.get("services"), list):
+        raise ProtocolError(f"/info did not describe a module: {data!r:.200}")
+    info = dict(data)
+    info.setdefault("ports", [])
+    info.setdefault("exceptions", [])
+    info.setdefault("tasks", [])
+    info.setdefault("doc", "")
+    info.setdefault("component", info.get("name", ""))
+    return info  # type: ignore[return-value]
+
+
+def base_url(address: str | None) -> str:
+    """Turn ``host:port``, ``host``, ``:port`` or ``http://host:port/`` into ``http://host:port``.
+
+    Raises:
+        ValueError: for an address that names no host.
+    """
+    text = (address or DEFAULT_ADDRESS).strip()
+    if not re.match(r"^[a-zA-Z][a-zA-Z0-9+.-]*://", text):
+        text = "http://" + text
+    parts = urlsplit(text)
+    if parts.scheme not in ("http", "https"):
+        raise ValueError(f"genomix gateways speak http, not {parts.scheme!r}")
+    host = parts.hostname or "localhost"
+    port = parts.port or (8080 if parts.scheme == "http" else 443)
+    shown = f"[{host}]" if ":" in host else host
+    return f"{parts.scheme}://{shown}:{port}{parts.path.rstrip('/')}"
+
+
+def request_number(request_id: str) -> str:
+    """The ``n`` of ``demo::n`` (the gateway accepts both forms; the short one is path-safe)."""
+    return request_id.rpartition("::")[2]
