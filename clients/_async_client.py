@@ -10,8 +10,10 @@ from collections.abc import Callable, Generator
 from typing import Any, Self
 
 import aiohttp
+import orjson
 
-from ._errors import ClientClosed, GenomixError, ProtocolError, RequestTimeout
+from ._binary import BINARY_TYPE, decode_binary
+from ._errors import ClientClosed, GenomixError, ProtocolError, RemoteError, RequestTimeout
 from ._http import HttpGateway
 from ._listen import ListenStream
 from ._module import ModuleDescription, ModuleProxy, build_members, dress
@@ -78,6 +80,8 @@ class AsyncClient:
         self._closed: ClientClosed | None = None
         #: The genomix protocol version the gateway speaks (``/version``).
         self.genomix_version = ""
+        #: What the gateway offers beyond genomix (``binary``, ``since``, ``watch``, ``wait``).
+        self.features: frozenset[str] = frozenset()
         #: Called with each AsyncModule built (the sync client wraps them).
         self.on_module: Callable[[AsyncModule], None] | None = None
 
@@ -118,6 +122,7 @@ class AsyncClient:
             self._gateway = HttpGateway(self.url, self._http)
             timeout = _OPEN_TIMEOUT
             self.genomix_version = (await self._gateway.get_text("/version", timeout=timeout)).strip()
+            self.features = await self._read_features(timeout)
             name = await self._gateway.get_text("/session/start", {"s": self._session_wanted}, timeout=timeout)
             self._gateway.session_name = name.strip()
             self._tracker = RequestTracker(self._gateway, self._report)
@@ -130,6 +135,16 @@ class AsyncClient:
             raise
         self._opened = True
         return self
+
+    async def _read_features(self, timeout: float) -> frozenset[str]:
+        """The extensions listed by an aiogenomix gateway at ``/`` (none from a plain genomixd)."""
+        assert self._gateway is not None
+        try:
+            index = await self._gateway.get_json("/", timeout=timeout)
+        except (RemoteError, ProtocolError):
+            return frozenset()
+        features = index.get("features", []) if isinstance(index, dict) else []
+        return frozenset(f for f in features if isinstance(f, str))
 
     async def aclose(self) -> None:
         """Stop the session (``/session/stop``) and release everything; safe to call twice.
@@ -239,8 +254,9 @@ class AsyncClient:
                      doc=spec.doc)
 
     def _port_function(self, instance: str, port: PortSpec) -> Callable[..., Any]:
-        async def read(name: str | None = None, *, raw: bool = False, timeout: Any = USE_CLIENT_DEFAULT) -> Any:
-            return await self.read(instance, port, name, raw=raw, timeout=timeout)
+        async def read(name: str | None = None, *, since: int | None = None, raw: bool = False,
+                       timeout: Any = USE_CLIENT_DEFAULT) -> Any:
+            return await self.read(instance, port, name, since=since, raw=raw, timeout=timeout)
 
         return dress(read, name=port.pyname, qualname=f"{instance}.{port.pyname}", signature=port.signature,
                      doc=port.doc)
@@ -275,18 +291,35 @@ class AsyncClient:
                                  "wait for it or abort() it (the exception's .request)", request=handle)
         return await handle.result()
 
-    async def read(self, instance: str, port: PortSpec, element: str | None = None, *, raw: bool = False,
-                   timeout: Any = USE_CLIENT_DEFAULT) -> Any:
-        """Read a port; what the generated port functions call."""
+    async def read(self, instance: str, port: PortSpec, element: str | None = None, *, since: int | None = None,
+                   raw: bool = False, timeout: Any = USE_CLIENT_DEFAULT) -> Any:
+        """Read a port; what the generated port functions call.
+
+        The binary form is used when the gateway offers it (``/`` lists
+        ``binary``), except for ``raw`` reads, which return the genomix JSON.
+        """
         gateway = self._check_open()
         params = {"name": element} if element is not None else {}
-        data = await gateway.get_json(f"/module/{instance}/read/{port.name}", params,
-                                      timeout=self._timeout(timeout), module=instance, service=port.name)
+        if since is not None:
+            params["since"] = str(int(since))
+        path = f"/module/{instance}/read/{port.name}"
+        kwargs: dict[str, Any] = {"timeout": self._timeout(timeout), "module": instance, "service": port.name}
+        if "binary" in self.features and not raw:
+            ctype, body = await gateway.get(path, params | {"format": "binary"}, **kwargs)
+            if ctype == BINARY_TYPE:
+                _, data, extra = decode_binary(body)
+                decoded = port.decode(data)
+                return (decoded, int(extra.get("lost", 0))) if since is not None else decoded
+            wrapped = orjson.loads(body)  # a gateway that answered JSON after all
+        else:
+            wrapped = await gateway.get_json(path, params, **kwargs)
         if raw:
-            return data
-        if not isinstance(data, dict) or port.name not in data:
-            raise ProtocolError(f"read {instance}/{port.name}: expected {{{port.name!r}: data}}, got {data!r:.200}")
-        return port.decode(data[port.name])
+            return wrapped
+        if not isinstance(wrapped, dict) or port.name not in wrapped:
+            raise ProtocolError(
+                f"read {instance}/{port.name}: expected {{{port.name!r}: data}}, got {wrapped!r:.200}")
+        decoded = port.decode(wrapped[port.name])
+        return (decoded, int(wrapped.get("lost", 0))) if since is not None else decoded
 
     async def _abort(self, handle: AsyncRequest, timeout: float | None) -> None:
         gateway = self._check_open()

@@ -289,6 +289,7 @@ class PortSpec:
         if self.multiple:
             params.append(inspect.Parameter("name", inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation=str))
         params += [
+            inspect.Parameter("since", inspect.Parameter.KEYWORD_ONLY, default=None, annotation=Optional[int]),
             inspect.Parameter("raw", inspect.Parameter.KEYWORD_ONLY, default=False, annotation=bool),
             inspect.Parameter("timeout", inspect.Parameter.KEYWORD_ONLY, default=USE_CLIENT_DEFAULT,
                               annotation=Optional[float]),
@@ -301,6 +302,9 @@ class PortSpec:
         if self.multiple:
             lines.append("    name: The element of this multiple port to read.")
         lines += [
+            "    since: Only the chunks after this chunk index (ports of numbered chunks, such as the",
+            "        audio window); the result is then ``(data, lost)``, lost counting the chunks the",
+            "        port no longer held.",
             f"    raw: Return the reply as sent, ``{{\"{self.name}\": data}}`` (plain JSON, no numpy).",
             "    timeout: Seconds to wait for the reply (None: no limit).", "",
             "Returns:", f"    {t['name']}: the data (numeric sequences as numpy arrays, structs as Records).",

@@ -211,8 +211,9 @@ class Client:
                      doc=spec.doc)
 
     def _port_function(self, instance: str, port: PortSpec) -> Callable[..., Any]:
-        def read(name: str | None = None, *, raw: bool = False, timeout: Any = USE_CLIENT_DEFAULT) -> Any:
-            return self._run(self._core.read(instance, port, name, raw=raw, timeout=timeout))
+        def read(name: str | None = None, *, since: int | None = None, raw: bool = False,
+                 timeout: Any = USE_CLIENT_DEFAULT) -> Any:
+            return self._run(self._core.read(instance, port, name, since=since, raw=raw, timeout=timeout))
 
         return dress(read, name=port.pyname, qualname=f"{instance}.{port.pyname}", signature=port.signature,
                      doc=port.doc)

@@ -84,5 +84,5 @@ def test_docstring_and_module_doc() -> None:
     description = ModuleDescription(INFO)  # type: ignore[arg-type]
     assert "Instance odd2 of component odd 0.1." in description.doc()
     cams = description.ports["Cams"]
-    assert list(cams.signature.parameters) == ["name", "raw", "timeout"]
+    assert list(cams.signature.parameters) == ["name", "since", "raw", "timeout"]
     assert description.exceptions["BAD"].__name__ == "BAD"

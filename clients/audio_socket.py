@@ -1,0 +1,324 @@
+"""A client of the dedicated audio socket (2014 format): numpy frames, indices, head positions, losses.
+
+The server of the ``capture`` component answers ``Read Port - Index <k>`` with
+little-endian int32 ``[n][left n·FPC][right n·FPC][last index]``; the merged
+``kemarcapture`` component appends ``[n positions as float32 degrees]``.  The
+reply does not carry the chunk size, so the client must be told it
+(``transfer_rate * chunk_time / 1000``, see ``GetCaptureConfig``) and whether
+positions follow.
+
+The client keeps the index of the last chunk it holds and asks only for newer
+ones, so consecutive reads give a gap-free stream unless it reads less often
+than the port's length, in which case each block says how many chunks were
+lost.  Two flavours share one decoder: :class:`AudioSocketClient` (blocking,
+for scripts and notebooks) and :class:`AsyncAudioSocketClient` (asyncio)::
+
+    with AudioSocketClient("localhost", 8081) as audio:
+        block = audio.read()              # block.frames: (N, 2) int32
+
+    async with AsyncAudioSocketClient("localhost", 8081, positions=True) as audio:
+        async for block in audio.stream():
+            ...
+"""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import socket
+import time
+from collections.abc import AsyncIterator, Iterator
+from typing import Self
+
+import numpy as np
+import numpy.typing as npt
+
+from ._errors import TransportError
+
+__all__ = ["AudioBlock", "AudioSocketError", "AudioSocketClient", "AsyncAudioSocketClient", "DEFAULT_PORT"]
+
+DEFAULT_PORT = 8081
+_ERROR_MARK = b"ERRO"
+#: A reply announcing more chunks than this is not a reply of this protocol.
+_MAX_CHUNKS = 1 << 20
+
+
+class AudioSocketError(TransportError):
+    """The audio socket refused a request, closed the connection, or sent something unreadable."""
+
+
+@dataclasses.dataclass(frozen=True)
+class AudioBlock:
+    """The new chunks of one read.
+
+    Attributes:
+        frames: ``(count * frames_per_chunk, 2)`` int32 frames, left then right, oldest first.
+        count: How many chunks arrived.
+        first_index: Index of the first chunk in *frames* (``last_index + 1`` when none).
+        last_index: The server's newest chunk, now the client's index.
+        lost: Chunks between the previous read and this one that the server no
+            longer held.
+        positions: Head position in degrees at the end of each chunk (float32,
+            shape ``(count,)``), or None from a server without positions.
+        restarted: The server's index went backwards (a new capture started); the
+            client started over from index 0.
+    """
+
+    frames: npt.NDArray[np.int32]
+    count: int
+    first_index: int
+    last_index: int
+    lost: int
+    positions: npt.NDArray[np.float32] | None
+    restarted: bool = False
+
+    @property
+    def left(self) -> npt.NDArray[np.int32]:
+        """The left channel."""
+        return self.frames[:, 0]
+
+    @property
+    def right(self) -> npt.NDArray[np.int32]:
+        """The right channel."""
+        return self.frames[:, 1]
+
+
+class _Protocol:
+    """What both clients share: the request, the reply layout and the index bookkeeping."""
+
+    def __init__(self, frames_per_chunk: int, positions: bool, index: int) -> None:
+        if frames_per_chunk < 1:
+            raise ValueError(f"frames_per_chunk must be >= 1, not {frames_per_chunk}")
+        if index < 0:
+            raise ValueError(f"index must be >= 0, not {index}")
+        self.frames_per_chunk = frames_per_chunk
+        self.positions = positions
+        self.index = index
+
+    def request(self) -> bytes:
+        return f"Read Port - Index {self.index}\n".encode("ascii")
+
+    def count_of(self, header: bytes) -> int:
+        """The chunk count from the first 4 bytes of a reply (which must not be an error line)."""
+        count = int.from_bytes(header, "little", signed=True)
+        if not 0 <= count <= _MAX_CHUNKS:
+            raise AudioSocketError(f"the server announced {count} chunks: not a dedicated-socket reply")
+        return count
+
+    def body_size(self, count: int) -> int:
+        """Bytes after the count word."""
+        return 4 * (2 * count * self.frames_per_chunk + 1 + (count if self.positions else 0))
+
+    def decode(self, count: int, body: bytes) -> AudioBlock:
+        """Decode the body of a reply and move the index forward."""
+        samples = count * self.frames_per_chunk
+        values = np.frombuffer(body, dtype="<i4", count=2 * samples + 1)
+        frames = np.empty((samples, 2), dtype=np.int32)
+        frames[:, 0] = values[:samples]
+        frames[:, 1] = values[samples:2 * samples]
+        last = int(values[-1])
+        positions = None
+        if self.positions:
+            positions = np.frombuffer(body, dtype="<f4", count=count, offset=4 * (2 * samples + 1)).astype(np.float32)
+        lost = max(0, last - self.index - count)
+        self.index = max(self.index, last)
+        return AudioBlock(frames, count, last - count + 1, last, lost, positions)
+
+
+def _error_text(line: bytes) -> str:
+    return line.decode("utf-8", "replace").strip()
+
+
+class AudioSocketClient:
+    """A blocking dedicated-socket client.
+
+    Args:
+        host: The server's address.
+        port: Its port (``audio_socket_port`` of the gateway, 8081 by default).
+        frames_per_chunk: Frames per chunk of the running capture.
+        positions: Whether the server appends head positions (``kemarcapture``).
+        index: The last chunk index already held (0: none).
+        timeout: Seconds to wait for the server before :class:`AudioSocketError`.
+    """
+
+    def __init__(self, host: str = "127.0.0.1", port: int = DEFAULT_PORT, *, frames_per_chunk: int = 2205,
+                 positions: bool = False, index: int = 0, timeout: float = 10.0) -> None:
+        self.host, self.port, self.timeout = host, port, timeout
+        self._protocol = _Protocol(frames_per_chunk, positions, index)
+        self._sock: socket.socket | None = None
+
+    @property
+    def index(self) -> int:
+        """The index of the last chunk the client holds."""
+        return self._protocol.index
+
+    def connect(self) -> None:
+        """Open the connection (done by the first read if needed).
+
+        Raises:
+            AudioSocketError: when the server cannot be reached.
+        """
+        if self._sock is None:
+            try:
+                self._sock = socket.create_connection((self.host, self.port), timeout=self.timeout)
+            except OSError as exc:
+                raise AudioSocketError(f"cannot reach the audio socket at {self.host}:{self.port}: {exc}") from exc
+            self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+
+    def close(self) -> None:
+        """Close the connection (idempotent)."""
+        sock, self._sock = self._sock, None
+        if sock is not None:
+            sock.close()
+
+    def __enter__(self) -> Self:
+        self.connect()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _receive(self, size: int) -> bytes:
+        assert self._sock is not None
+        buffer = bytearray(size)
+        view, got = memoryview(buffer), 0
+        while got < size:
+            n = self._sock.recv_into(view[got:])
+            if n == 0:
+                raise AudioSocketError("the audio socket closed the connection")
+            got += n
+        return bytes(buffer)
+
+    def read(self) -> AudioBlock:
+        """Ask for the chunks newer than :attr:`index` and return them.
+
+        Raises:
+            AudioSocketError: on a refused request or a broken connection.
+        """
+        self.connect()
+        assert self._sock is not None
+        protocol = self._protocol
+        restarted = False
+        while True:
+            previous = protocol.index
+            try:
+                self._sock.sendall(protocol.request())
+                header = self._receive(4)
+                if header == _ERROR_MARK:
+                    rest = self._sock.makefile("rb").readline()
+                    raise AudioSocketError(f"the audio socket refused the request: {_error_text(header + rest)}")
+                count = protocol.count_of(header)
+                block = protocol.decode(count, self._receive(protocol.body_size(count)))
+            except AudioSocketError:
+                self.close()
+                raise
+            except OSError as exc:
+                self.close()
+                raise AudioSocketError(f"audio socket connection failed: {exc}") from exc
+            if block.last_index >= previous:
+                return dataclasses.replace(block, restarted=True) if restarted else block
+            # The server's index went back: a new capture.  Start over from its beginning.
+            protocol.index, restarted = 0, True
+
+    def stream(self, interval: float = 0.01) -> Iterator[AudioBlock]:
+        """Yield blocks of new chunks forever, polling every *interval* seconds when none is new."""
+        while True:
+            block = self.read()
+            if block.count:
+                yield block
+            else:
+                time.sleep(interval)
+
+
+class AsyncAudioSocketClient:
+    """An asyncio dedicated-socket client (same arguments as :class:`AudioSocketClient`)."""
+
+    def __init__(self, host: str = "127.0.0.1", port: int = DEFAULT_PORT, *, frames_per_chunk: int = 2205,
+                 positions: bool = False, index: int = 0, timeout: float = 10.0) -> None:
+        self.host, self.port, self.timeout = host, port, timeout
+        self._protocol = _Protocol(frames_per_chunk, positions, index)
+        self._reader: asyncio.StreamReader | None = None
+        self._writer: asyncio.StreamWriter | None = None
+
+    @property
+    def index(self) -> int:
+        """The index of the last chunk the client holds."""
+        return self._protocol.index
+
+    async def connect(self) -> None:
+        """Open the connection (done by the first read if needed).
+
+        Raises:
+            AudioSocketError: when the server cannot be reached.
+        """
+        if self._writer is None:
+            try:
+                async with asyncio.timeout(self.timeout):
+                    self._reader, self._writer = await asyncio.open_connection(self.host, self.port)
+            except (OSError, TimeoutError) as exc:
+                raise AudioSocketError(f"cannot reach the audio socket at {self.host}:{self.port}: {exc}") from exc
+
+    async def aclose(self) -> None:
+        """Close the connection (idempotent)."""
+        writer, self._writer, self._reader = self._writer, None, None
+        if writer is not None:
+            writer.close()
+            try:
+                await writer.wait_closed()
+            except ConnectionError:
+                pass  # already reset by the server: closed either way
+
+    async def __aenter__(self) -> Self:
+        await self.connect()
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.aclose()
+
+    async def _exchange(self) -> AudioBlock:
+        assert self._reader is not None and self._writer is not None
+        protocol = self._protocol
+        self._writer.write(protocol.request())
+        await self._writer.drain()
+        header = await self._reader.readexactly(4)
+        if header == _ERROR_MARK:
+            rest = await self._reader.readline()
+            raise AudioSocketError(f"the audio socket refused the request: {_error_text(header + rest)}")
+        count = protocol.count_of(header)
+        return protocol.decode(count, await self._reader.readexactly(protocol.body_size(count)))
+
+    async def read(self) -> AudioBlock:
+        """Ask for the chunks newer than :attr:`index` and return them.
+
+        Raises:
+            AudioSocketError: on a refused request, a broken connection or a timeout.
+        """
+        await self.connect()
+        protocol = self._protocol
+        restarted = False
+        while True:
+            previous = protocol.index
+            try:
+                # asyncio.timeout rather than wait_for, which on Python 3.11 may lose a
+                # cancellation that races with the reply.
+                async with asyncio.timeout(self.timeout):
+                    block = await self._exchange()
+            except AudioSocketError:
+                await self.aclose()
+                raise
+            except (OSError, asyncio.IncompleteReadError, TimeoutError) as exc:
+                await self.aclose()
+                raise AudioSocketError(f"audio socket connection failed: {exc!r}") from exc
+            if block.last_index >= previous:
+                return dataclasses.replace(block, restarted=True) if restarted else block
+            # The server's index went back: a new capture.  Start over from its beginning.
+            protocol.index, restarted = 0, True
+
+    async def stream(self, interval: float = 0.01) -> AsyncIterator[AudioBlock]:
+        """Yield blocks of new chunks forever, polling every *interval* seconds when none is new."""
+        while True:
+            block = await self.read()
+            if block.count:
+                yield block
+            else:
+                await asyncio.sleep(interval)

@@ -1,0 +1,232 @@
+"""The capture backend interface, the clock-paced base, and backend selection by device string.
+
+Device strings::
+
+    sim                  the default simulated binaural scene
+    sim:<scene.json>     a simulated scene from a JSON file (see _scene)
+    file:<path.wav>      a WAV file played at the capture rate, ending with the file
+    pa | pa:<name|index> a PortAudio input device (``portaudio:`` works too)
+    alsa:<name> | <name> an ALSA PCM: hw:1,0, plughw:1,0, default, null, ...
+
+Every backend hands out :class:`Chunk` objects of exactly ``frames_per_chunk``
+int32 stereo frames with the time of their first frame, and says in each
+chunk whether frames were lost before it.
+"""
+
+from __future__ import annotations
+
+import abc
+import dataclasses
+from collections.abc import Callable
+from typing import ClassVar, Self
+
+import numpy as np
+import numpy.typing as npt
+
+from ..core import Clock
+
+__all__ = ["Chunk", "CaptureBackend", "PacedBackend", "open_backend", "split_device", "Azimuth"]
+
+#: A callable giving the current head azimuth in degrees (positive to the left).
+Azimuth = Callable[[], float]
+
+
+@dataclasses.dataclass(frozen=True)
+class Chunk:
+    """One chunk of captured frames.
+
+    Attributes:
+        frames: ``(frames_per_chunk, 2)`` int32 frames, left then right.
+        time: POSIX time (on the runtime clock) of the first frame.
+        overrun: Whether the device or the hand-over lost data just before this chunk.
+        lost_frames: How many frames were lost just before this chunk (an
+            estimate after a device overrun; exact when the hand-over dropped chunks).
+    """
+
+    frames: npt.NDArray[np.int32]
+    time: float
+    overrun: bool = False
+    lost_frames: int = 0
+
+    @property
+    def left(self) -> npt.NDArray[np.int32]:
+        """The left channel (a view)."""
+        return self.frames[:, 0]
+
+    @property
+    def right(self) -> npt.NDArray[np.int32]:
+        """The right channel (a view)."""
+        return self.frames[:, 1]
+
+
+class CaptureBackend(abc.ABC):
+    """A source of chunks: open it, read chunks, close it.
+
+    Use as ``async with backend: async for chunk in backend: ...``.
+
+    Args:
+        device: The device string (for messages).
+        rate: Frames per second.
+        frames_per_chunk: Frames in each chunk (the ALSA period).
+        clock: The runtime clock used for timestamps and, for simulated
+            sources, pacing.
+    """
+
+    #: The backend's name in messages (``ALSA``, ``PortAudio``, ...).
+    kind: ClassVar[str] = "capture"
+
+    def __init__(self, device: str, rate: int, frames_per_chunk: int, clock: Clock) -> None:
+        self.device = device
+        self.rate = rate
+        self.frames_per_chunk = frames_per_chunk
+        self.clock = clock
+        #: Overrun events reported so far.
+        self.overruns = 0
+        #: Frames lost so far (as reported with the chunks).
+        self.lost_frames = 0
+        self._closed = False
+
+    @property
+    def chunk_duration(self) -> float:
+        """Seconds of audio per chunk."""
+        return self.frames_per_chunk / self.rate
+
+    @abc.abstractmethod
+    async def open(self) -> None:
+        """Open and start the device.
+
+        Raises:
+            DeviceNotFound: when the device does not exist.
+            BackendUnavailable: when the backend's library is missing.
+            DeviceError: when the device refuses the configuration.
+        """
+
+    @abc.abstractmethod
+    async def _read(self) -> Chunk | None:
+        """Wait for the next chunk (None at the end of a finite source)."""
+
+    async def read(self) -> Chunk | None:
+        """Wait for the next chunk; None when a finite source (a file) has ended.
+
+        Raises:
+            DeviceError: when the device fails.
+        """
+        chunk = await self._read()
+        if chunk is not None and chunk.overrun:
+            self.overruns += 1
+            self.lost_frames += chunk.lost_frames
+        return chunk
+
+    @abc.abstractmethod
+    async def _close(self) -> None:
+        """Stop and release the device."""
+
+    async def aclose(self) -> None:
+        """Stop and release the device (idempotent)."""
+        if not self._closed:
+            self._closed = True
+            await self._close()
+
+    async def __aenter__(self) -> Self:
+        await self.open()
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.aclose()
+
+    def __aiter__(self) -> Self:
+        return self
+
+    async def __anext__(self) -> Chunk:
+        chunk = await self.read()
+        if chunk is None:
+            raise StopAsyncIteration
+        return chunk
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.device!r} {self.rate} Hz, {self.frames_per_chunk} frames/chunk>"
+
+
+class PacedBackend(CaptureBackend):
+    """A generated source released in real time by the runtime clock.
+
+    Chunk *k* (from 0) covers ``[k·T, (k+1)·T)`` after the start and is released
+    when the clock reaches its end, as a sound card would deliver it.  A reader
+    that falls behind gets the late chunks at once, so nothing is dropped.
+    """
+
+    def __init__(self, device: str, rate: int, frames_per_chunk: int, clock: Clock) -> None:
+        super().__init__(device, rate, frames_per_chunk, clock)
+        self._origin = 0.0
+        self._start_wall = 0.0
+        self._produced = 0
+
+    async def open(self) -> None:
+        self._origin = self.clock.now()
+        self._start_wall = self.clock.wall()
+
+    @abc.abstractmethod
+    def _produce(self, count: int) -> npt.NDArray[np.int32] | None:
+        """Generate the next *count* frames (None at the end of the source)."""
+
+    async def _read(self) -> Chunk | None:
+        index = self._produced
+        await self.clock.sleep_until(self._origin + (index + 1) * self.chunk_duration)
+        frames = self._produce(self.frames_per_chunk)
+        if frames is None:
+            return None
+        self._produced += 1
+        return Chunk(frames, self._start_wall + index * self.chunk_duration)
+
+    async def _close(self) -> None:
+        pass
+
+
+def split_device(device: str) -> tuple[str, str]:
+    """Split a device string into ``(backend, argument)``.
+
+    >>> split_device("hw:1,0"), split_device("sim"), split_device("pa:2")
+    (('alsa', 'hw:1,0'), ('sim', ''), ('portaudio', '2'))
+    """
+    head, sep, tail = device.partition(":")
+    if head in ("sim", "file", "alsa"):
+        return head, tail
+    if head in ("pa", "portaudio"):
+        return "portaudio", tail
+    return "alsa", device
+
+
+def open_backend(device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
+                 azimuth: Azimuth | None = None) -> CaptureBackend:
+    """Create (not yet open) the backend a device string names.
+
+    Args:
+        device: See the module docstring.
+        rate: Frames per second.
+        frames_per_chunk: Frames per chunk.
+        clock: The runtime clock.
+        azimuth: Head azimuth source for the simulated scene (default: 0°).
+
+    Raises:
+        SceneError: for a scene file that cannot be used.
+    """
+    kind, argument = split_device(device)
+    backend: CaptureBackend
+    if kind == "sim":
+        from ._sim_backend import SimulatedSceneBackend
+
+        backend = SimulatedSceneBackend(device, rate, frames_per_chunk, clock,
+                                        scene_file=argument or None, azimuth=azimuth)
+    elif kind == "file":
+        from ._wav_backend import WavFileBackend
+
+        backend = WavFileBackend(device, rate, frames_per_chunk, clock, path=argument)
+    elif kind == "portaudio":
+        from ._portaudio import PortAudioBackend
+
+        backend = PortAudioBackend(device, rate, frames_per_chunk, clock, name=argument)
+    else:
+        from ._alsa import AlsaBackend
+
+        backend = AlsaBackend(device, rate, frames_per_chunk, clock, pcm_name=argument)
+    return backend

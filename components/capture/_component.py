@@ -1,0 +1,292 @@
+"""The ``capture`` component: the binaural audio stream server (seed chapter 5, appendix 9.5.1)."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from typing import Annotated, Any, ClassVar
+
+from ..core import Component, ComponentHost, OutPort, String, Task, ULong, activity, attribute, function
+from ._backend import Azimuth, CaptureBackend, Chunk, open_backend, split_device
+from ._errors import CaptureError, DeviceNotFound
+from ._head_link import simulated_head_azimuth
+from ._socket_server import DEFAULT_PORT, DedicatedSocketServer
+from ._types import (
+    ALREADY_CAPTURING, DEVICE_ERROR, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, NO_SUCH_DEVICE, SOCKET_ERROR,
+    CaptureConfig, CaptureStatus, PortData, Timestamp,
+)
+from ._window import ChunkWindow
+
+__all__ = ["Capture", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK", "RATE_RANGE", "frames_per_chunk"]
+
+log = logging.getLogger(__name__)
+
+#: The largest port accepted (both channels, int32): beyond, ERROR_SEQUENCE_ENOMEM.
+MAX_PORT_BYTES = 256 * 2**20
+#: Sample rates a capture may ask for, in Hz.
+RATE_RANGE = (1000, 384_000)
+#: The largest chunk, in frames (about 2.7 s at 384 kHz).
+MAX_FRAMES_PER_CHUNK = 2**20
+
+
+def frames_per_chunk(transfer_rate: int, chunk_time: int) -> int:
+    """Frames in a chunk of *chunk_time* ms at *transfer_rate* Hz.
+
+    Raises:
+        INVALID_CHUNK_TIME: when that is not a whole number of frames, or out of range.
+    """
+    if not RATE_RANGE[0] <= transfer_rate <= RATE_RANGE[1]:
+        raise INVALID_CHUNK_TIME(what=f"transfer_rate {transfer_rate} Hz is outside "
+                                      f"{RATE_RANGE[0]}…{RATE_RANGE[1]} Hz")
+    frames, remainder = divmod(transfer_rate * chunk_time, 1000)
+    if remainder:
+        raise INVALID_CHUNK_TIME(what=f"{chunk_time} ms at {transfer_rate} Hz is {transfer_rate * chunk_time / 1000} "
+                                      "frames, not a whole number")
+    if not 1 <= frames <= MAX_FRAMES_PER_CHUNK:
+        raise INVALID_CHUNK_TIME(what=f"{chunk_time} ms at {transfer_rate} Hz is {frames} frames per chunk, "
+                                      f"outside 1…{MAX_FRAMES_PER_CHUNK}")
+    return frames
+
+
+class Capture(Component, name="capture", version="1.1"):
+    """Binaural audio stream server: captures a stereo sound device and streams the newest chunks.
+
+    The ``Port`` out port holds the last ``Port_chunks`` chunks (non-interleaved
+    int32 left and right samples, oldest first) with the index of the newest
+    chunk and the capture start time.  ``DedicatedSocket`` also serves them in
+    binary over TCP: ``Read Port - Index <k>`` gets the chunks after *k*.
+    Devices: ``sim`` (simulated binaural scene), ``sim:<scene.json>``,
+    ``file:<path.wav>``, ``pa:<name>`` (PortAudio) or any ALSA name (``hw:1,0``).
+    """
+
+    retrieve_data = Task(doc="Reads chunks from the sound device and publishes them on Port")
+    socket = Task(doc="Serves the dedicated TCP socket")
+    Port = OutPort(PortData, doc="The last Port_chunks chunks of binaural audio, oldest first")
+
+    #: Whether the port and the socket carry a head position per chunk (the merged component).
+    port_positions: ClassVar[bool] = False
+    #: The struct published on Port.
+    port_data: ClassVar[type[PortData]] = PortData
+
+    def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
+        super().__init__(host, instance, argv)
+        #: Where the simulated scene reads the head azimuth (None: the simulated
+        #: KEMAR drive of the host if there is one, else 0°).  Set it to steer the
+        #: simulated head from a script or a test.
+        self.head_azimuth: Azimuth | None = None
+        self._config = CaptureConfig(device="", transfer_rate=44100, chunk_time=50, Port_chunks=20)
+        self._window: ChunkWindow | None = None
+        self._backend: CaptureBackend | None = None
+        self._server: DedicatedSocketServer | None = None
+        self._socket_open = asyncio.Event()
+
+    @classmethod
+    def service_defaults(cls, host: ComponentHost) -> dict[str, dict[str, Any]]:
+        """StartCapture's default device comes from the host (``--audio-device``; ``sim`` by default)."""
+        defaults = super().service_defaults(host)
+        defaults.setdefault("StartCapture", {})["device"] = host.settings.get("audio_device", "sim")
+        return defaults
+
+    async def on_stop(self) -> None:
+        # Activities are interrupted before on_stop, so the socket task has closed
+        # the server; closing again covers a server opened outside an activity.
+        if self._server is not None:
+            await self._server.aclose()
+        await super().on_stop()
+
+    # -- reading the state from Python ------------------------------------------------------
+
+    @property
+    def window(self) -> ChunkWindow | None:
+        """The chunk window of the current (or last) capture."""
+        return self._window
+
+    @property
+    def socket_port(self) -> int:
+        """The TCP port the dedicated socket listens on (0 while closed)."""
+        return self._server.port if self._server is not None else 0
+
+    async def wait_socket(self) -> int:
+        """Wait until the dedicated socket listens (DedicatedSocket binds it as it starts); return its port."""
+        await self._socket_open.wait()
+        return self.socket_port
+
+    @property
+    def capturing(self) -> bool:
+        """Whether a capture is running."""
+        return self._backend is not None
+
+    # -- capture -----------------------------------------------------------------------------
+
+    def _validate_start(self, device: str, transfer_rate: int, chunk_time: int, Port_chunks: int) -> None:
+        frames = frames_per_chunk(transfer_rate, chunk_time)
+        size = 2 * 4 * frames * Port_chunks
+        if Port_chunks < 1 or size > MAX_PORT_BYTES:
+            raise ERROR_SEQUENCE_ENOMEM(what=f"a port of {Port_chunks} chunks of {frames} frames "
+                                             f"({size} bytes) is outside 1 chunk…{MAX_PORT_BYTES} bytes")
+        # Checked by request rather than by state: a StartCapture just sent has not
+        # run yet, but its request exists.
+        running = [r for r in self.requests.running() if r.service.name == "StartCapture"]
+        if running:
+            raise ALREADY_CAPTURING(device=running[0].inputs["device"])
+
+    def _azimuth_source(self, device: str) -> Azimuth | None:
+        if self.head_azimuth is not None or split_device(device)[0] != "sim":
+            return self.head_azimuth
+        return simulated_head_azimuth(self.host)
+
+    async def _chunk_position(self) -> float:
+        """The head position (degrees) published with each chunk, read as the chunk arrives."""
+        raise NotImplementedError(f"{type(self).__name__} publishes no head positions")
+
+    async def _open(self, device: str, rate: int, frames: int) -> CaptureBackend:
+        try:
+            backend = open_backend(device, rate, frames, self.clock, azimuth=self._azimuth_source(device))
+            await backend.open()
+        except DeviceNotFound as exc:
+            raise NO_SUCH_DEVICE(device=device, available=exc.available) from exc
+        except CaptureError as exc:  # library missing, device refusing the format, bad scene/WAV file
+            raise DEVICE_ERROR(device=device, what=str(exc)) from exc
+        return backend
+
+    @activity(task=retrieve_data, throws=(INVALID_CHUNK_TIME, ERROR_SEQUENCE_ENOMEM, NO_SUCH_DEVICE, DEVICE_ERROR,
+                                          ALREADY_CAPTURING), validate=_validate_start)
+    async def StartCapture(
+        self,
+        device: Annotated[String, "Name of the sound device"] = "hw:1,0",
+        transfer_rate: Annotated[ULong, "Sample rate in Hz"] = 44100,
+        chunk_time: Annotated[ULong, "Size of transfer chunks in milliseconds"] = 50,
+        Port_chunks: Annotated[ULong, "Size of the Port in number of chunks"] = 20,
+    ) -> None:
+        """Capture from a sound device and publish the newest chunks on Port, until StopCapture.
+
+        A second StartCapture while one runs ends in ALREADY_CAPTURING and leaves the running one alone.
+        """
+        frames = frames_per_chunk(transfer_rate, chunk_time)
+        backend = await self._open(device, transfer_rate, frames)
+        window = ChunkWindow(Port_chunks, frames, with_positions=self.port_positions)
+        self._config = CaptureConfig(device, transfer_rate, chunk_time, Port_chunks)
+        self._window, self._backend = window, backend
+        log.info("%s: capturing %s at %d Hz, %d frames per chunk, %d chunks on Port",
+                 self.instance, device, transfer_rate, frames, Port_chunks)
+        try:
+            if self.port_positions:
+                await self._pump_with_positions(backend, window)
+            else:
+                while (chunk := await backend.read()) is not None:
+                    self._publish_chunk(window, chunk, None)
+        except CaptureError as exc:
+            raise DEVICE_ERROR(device=device, what=str(exc)) from exc
+        finally:
+            self._backend = None
+            await backend.aclose()
+
+    async def _pump_with_positions(self, backend: CaptureBackend, window: ChunkWindow) -> None:
+        """Publish chunks in order, each with the head position read as it arrived.
+
+        The position is a bus round trip; waiting for it before reading the next
+        chunk would delay the capture (and a simulated scene would be rendered
+        late).  So a reader starts a position query as each chunk arrives and
+        hands both over, and this loop publishes them in order.  At most one
+        query is in flight: a chunk that arrives during one shares its answer,
+        so a slow or silent bus delays publication but never piles up queries.
+        """
+        handed: asyncio.Queue[tuple[Chunk, asyncio.Task[float]] | None] = asyncio.Queue()
+        queries: list[asyncio.Task[float]] = []
+
+        async def read() -> None:
+            try:
+                while (chunk := await backend.read()) is not None:
+                    if not queries or queries[-1].done():
+                        queries[:] = [asyncio.create_task(self._chunk_position())]
+                    handed.put_nowait((chunk, queries[-1]))
+            finally:
+                handed.put_nowait(None)
+
+        reader = asyncio.create_task(read(), name=f"{self.instance} chunk reader")
+        try:
+            while (item := await handed.get()) is not None:
+                chunk, position = item
+                self._publish_chunk(window, chunk, await position)
+            await reader  # the end of the stream, or the device's error
+        finally:
+            # Stopped or failed: nothing started here outlives the capture.
+            for task in (reader, *queries):
+                task.cancel()
+            await asyncio.gather(reader, *queries, return_exceptions=True)
+
+    def _publish_chunk(self, window: ChunkWindow, chunk: Chunk, position: float | None) -> None:
+        index = window.append(chunk.left, chunk.right, position)
+        if chunk.overrun:
+            log.warning("%s: %s lost %d frames before chunk %d", self.instance, self._config.device,
+                        chunk.lost_frames, index)
+        # The capture start, re-anchored on the newest chunk: after an overrun the
+        # frames of later chunks keep computable times (ts + frame / rate).
+        start = chunk.time - (index - 1) * window.frames_per_chunk / self._config.transfer_rate
+        self.Port.publish(self._port_value(window, start))
+
+    def _port_value(self, window: ChunkWindow, start: float) -> PortData:
+        snapshot = window.snapshot()
+        fields: dict[str, Any] = {"positions": snapshot.positions} if snapshot.positions is not None else {}
+        return self.port_data(transfer_rate=self._config.transfer_rate, nbframes=snapshot.left.size,
+                              index=snapshot.last_index, ts=Timestamp.from_seconds(start),
+                              left=snapshot.left.reshape(-1), right=snapshot.right.reshape(-1), **fields)
+
+    @function(interrupts=("StartCapture",))
+    def StopCapture(self) -> None:
+        """Stop the capture (StartCapture ends, interrupted); the Port keeps its last chunks."""
+
+    @attribute
+    def GetCaptureConfig(self) -> CaptureConfig:
+        """The parameters of the current (or last) capture."""
+        return self._config
+
+    @function
+    def GetCaptureStatus(self) -> CaptureStatus:
+        """Whether the capture runs, its index and overruns, and the dedicated socket's port and clients."""
+        backend, window, server = self._backend, self._window, self._server
+        return CaptureStatus(
+            capturing=backend is not None, device=self._config.device,
+            index=window.last_index if window is not None else 0,
+            overruns=backend.overruns if backend is not None else 0,
+            lost_frames=backend.lost_frames if backend is not None else 0,
+            socket_port=server.port if server is not None else 0,
+            socket_clients=server.clients if server is not None else 0,
+        )
+
+    # -- the dedicated socket ----------------------------------------------------------------
+
+    def _validate_socket(self) -> None:
+        if self._server is not None or any(r.service.name == "DedicatedSocket" for r in self.requests.running()):
+            raise SOCKET_ERROR(port=self.socket_port, what=f"the dedicated socket is already open "
+                                                           f"on port {self.socket_port}")
+
+    @activity(task=socket, throws=(SOCKET_ERROR,), validate=_validate_socket)
+    async def DedicatedSocket(self) -> None:
+        """Serve Port's chunks over TCP (``Read Port - Index <k>``) until CloseSocket.
+
+        The port is the gateway's ``--audio-socket-port`` (8081 by default); read it with GetCaptureStatus.
+        """
+        settings = self.host.settings
+        server = DedicatedSocketServer(lambda: self._window, host=settings.get("audio_socket_host", "127.0.0.1"),
+                                       port=settings.get("audio_socket_port", DEFAULT_PORT),
+                                       with_positions=self.port_positions)
+        try:
+            await server.start()
+        except OSError as exc:
+            raise SOCKET_ERROR(port=server.requested_port, what=str(exc)) from exc
+        self._server = server
+        self._socket_open.set()
+        log.info("%s: dedicated socket open on port %d", self.instance, server.port)
+        try:
+            # Serve until interrupted (CloseSocket, abort or kill): the server's own
+            # tasks answer the clients.
+            await asyncio.get_running_loop().create_future()
+        finally:
+            self._server = None
+            self._socket_open.clear()
+            await server.aclose()
+
+    @activity(task=socket, interrupts=("DedicatedSocket",))
+    async def CloseSocket(self) -> None:
+        """Close the dedicated socket and disconnect its clients (nothing to do when it is closed)."""

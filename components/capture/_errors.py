@@ -1,0 +1,62 @@
+"""The exception tree of the capture package (backends, scenes, the dedicated socket).
+
+::
+
+    ComponentError                                 (components.core)
+    └── CaptureError                               anything capture refuses or fails at
+        ├── DeviceNotFound (LookupError)           no such sound device; says what exists
+        ├── BackendUnavailable (ImportError)       the backend's library is not installed
+        ├── DeviceError (OSError)                  the device failed while open or opening
+        ├── SceneError (ValueError)                a bad simulated-scene description or WAV file
+        └── RequestError (ValueError)              a malformed dedicated-socket request
+
+The component turns these into its declared genom3 exceptions, so that a user
+sees ``::capture::NO_SUCH_DEVICE`` with the device and the available devices.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from aiogenomix.components.core import ComponentError
+
+__all__ = [
+    "CaptureError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "SceneError", "RequestError",
+]
+
+
+class CaptureError(ComponentError):
+    """Base of every error of the capture package."""
+
+
+class DeviceNotFound(CaptureError, LookupError):
+    """The named sound device does not exist.
+
+    Args:
+        device: The device string as the user gave it.
+        available: What exists instead (device strings the user could pass).
+        backend: Which backend looked (``ALSA``, ``PortAudio``, ...).
+    """
+
+    def __init__(self, device: str, available: Sequence[str], backend: str) -> None:
+        self.device = device
+        self.available = list(available)
+        self.backend = backend
+        listed = ", ".join(self.available) if self.available else "none"
+        super().__init__(f"no such {backend} capture device {device!r} (available: {listed})")
+
+
+class BackendUnavailable(CaptureError, ImportError):
+    """The Python library a backend needs cannot be imported."""
+
+
+class DeviceError(CaptureError, OSError):
+    """The sound device failed while opening, configuring or reading it."""
+
+
+class SceneError(CaptureError, ValueError):
+    """A simulated scene description or a WAV source that cannot be used."""
+
+
+class RequestError(CaptureError, ValueError):
+    """A dedicated-socket request that does not follow ``Read Port - Index <k>``."""

@@ -1,0 +1,120 @@
+"""The dedicated-socket wire format of 2014 (seed section 5.4, Table 6.3), sans I/O.
+
+A client sends the ASCII line ``Read Port - Index <k>`` (LF or CRLF), *k* being
+the index of the last chunk it holds.  The server answers with little-endian
+int32 values::
+
+    [n] [left: n * FPC] [right: n * FPC] [last index]
+
+and the merged capture + KEMAR component appends ``[n positions as float32
+degrees]``, the head position at the end of each chunk.  So 10 chunks of 2205
+frames take ``4 * (10 * (2 * 2205 + 1) + 2) = 176448`` bytes.
+
+A request that does not parse is answered with one ASCII line starting with
+``ERROR`` (readable with ``nc``; a binary client sees the impossible count
+``b"ERRO"``) and the connection is closed.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from ._errors import RequestError
+from ._window import WindowRead
+
+__all__ = [
+    "REQUEST_PREFIX", "MAX_REQUEST_LINE", "ERROR_PREFIX", "RequestParser", "parse_request", "encode_request",
+    "encode_reply", "encode_error", "reply_size",
+]
+
+REQUEST_PREFIX = "Read Port - Index "
+#: The original server read requests into a 512-byte buffer; longer lines are refused.
+MAX_REQUEST_LINE = 512
+ERROR_PREFIX = b"ERROR "
+
+# Lenient about spacing and letter case, strict about the number: a negative or
+# fractional index has no meaning and is refused rather than guessed at.
+_REQUEST = re.compile(rb"\s*read\s+port\s*-\s*index\s+(\d{1,19})\s*", re.IGNORECASE)
+
+
+def parse_request(line: bytes) -> int:
+    """Return the index *k* of one request line (without its line ending).
+
+    Raises:
+        RequestError: when the line is not ``Read Port - Index <k>``.
+    """
+    match = _REQUEST.fullmatch(line)
+    if match is None:
+        shown = line[:60].decode("ascii", "replace")
+        raise RequestError(f"expected 'Read Port - Index <k>' with k >= 0, got {shown!r}")
+    return int(match.group(1))
+
+
+def encode_request(index: int) -> bytes:
+    """The request line asking for the chunks after *index*."""
+    if index < 0:
+        raise ValueError(f"a chunk index is >= 0, not {index}")
+    return f"{REQUEST_PREFIX}{index}\n".encode("ascii")
+
+
+class RequestParser:
+    """Splits the bytes a client sends into request indices.
+
+    Feed it whatever arrives; it returns the complete requests so far and keeps
+    a partial line for the next call.
+    """
+
+    def __init__(self) -> None:
+        self._pending = bytearray()
+
+    def feed(self, data: bytes) -> list[int]:
+        """Add received bytes and return the indices of the complete requests.
+
+        Raises:
+            RequestError: at the first malformed line, or a line longer than
+                :data:`MAX_REQUEST_LINE` (the stream cannot be trusted after it).
+        """
+        self._pending += data
+        indices = []
+        while (end := self._pending.find(b"\n")) >= 0:
+            line = bytes(self._pending[:end])
+            del self._pending[:end + 1]
+            if len(line) > MAX_REQUEST_LINE:
+                raise RequestError(f"request line longer than {MAX_REQUEST_LINE} bytes")
+            indices.append(parse_request(line.rstrip(b"\r")))
+        if len(self._pending) > MAX_REQUEST_LINE:
+            raise RequestError(f"request line longer than {MAX_REQUEST_LINE} bytes")
+        return indices
+
+
+def reply_size(count: int, frames_per_chunk: int, *, with_positions: bool = False) -> int:
+    """The size in bytes of a reply carrying *count* chunks."""
+    return 4 * (2 + 2 * count * frames_per_chunk + (count if with_positions else 0))
+
+
+def encode_reply(chunks: WindowRead, *, with_positions: bool = False) -> bytes:
+    """Encode the reply carrying *chunks* (from :meth:`ChunkWindow.since`).
+
+    Raises:
+        ValueError: when positions are asked for but the chunks carry none.
+    """
+    count, fpc = chunks.left.shape
+    samples = count * fpc
+    # One buffer written in place: the header, both channels and the trailer.
+    values = np.empty(2 + 2 * samples, dtype="<i4")
+    values[0] = count
+    values[1:1 + samples] = chunks.left.reshape(-1)
+    values[1 + samples:1 + 2 * samples] = chunks.right.reshape(-1)
+    values[-1] = chunks.last_index
+    if not with_positions:
+        return values.tobytes()
+    if chunks.positions is None:
+        raise ValueError("the reply needs positions but the window keeps none")
+    return values.tobytes() + chunks.positions.astype("<f4").tobytes()
+
+
+def encode_error(message: str) -> bytes:
+    """The one-line reply to a request that cannot be served."""
+    return ERROR_PREFIX + message.replace("\n", " ").encode("utf-8", "replace") + b"\n"

@@ -1,0 +1,124 @@
+"""The IDL types and declared exceptions of the capture component (seed appendix 9.5.1)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Annotated
+
+import numpy as np
+
+from ..core import Boolean, GenomException, Long, String, ULong, ULongLong, idl_struct, sequence
+
+__all__ = [
+    "Timestamp", "PortData", "CaptureConfig", "CaptureStatus", "Samples", "DeviceList",
+    "INVALID_CHUNK_TIME", "ERROR_SEQUENCE_ENOMEM", "NO_SUCH_DEVICE", "DEVICE_ERROR", "ALREADY_CAPTURING",
+    "SOCKET_ERROR",
+]
+
+#: Samples of one channel, carried as an int32 numpy array.
+Samples = sequence(Long, numpy=True)
+DeviceList = sequence(String)
+
+
+def _no_samples() -> np.ndarray:
+    return np.zeros(0, dtype=np.int32)
+
+
+@idl_struct("capture::timestamp_t")
+class Timestamp:
+    """A POSIX time split into seconds and nanoseconds."""
+
+    tv_sec: Long = 0
+    tv_nsec: Long = 0
+
+    @classmethod
+    def from_seconds(cls, seconds: float) -> Timestamp:
+        """Split a POSIX time in seconds."""
+        whole = math.floor(seconds)
+        nsec = min(999_999_999, round((seconds - whole) * 1e9))
+        return cls(tv_sec=whole, tv_nsec=nsec)
+
+    def seconds(self) -> float:
+        """The time as POSIX seconds."""
+        return self.tv_sec + self.tv_nsec * 1e-9
+
+
+@idl_struct("capture::port_t")
+class PortData:
+    """The newest chunks of the capture, oldest first (the linear port of the seed, section 5.2.1).
+
+    ``index`` counts the chunks published since the capture started, so the
+    newest chunk has index ``index`` and the port holds chunks
+    ``index - Port_chunks + 1 … index`` (zeros before the first ones).  Frame
+    ``j`` of chunk ``i`` was captured at ``ts + ((i - 1) * chunk frames + j) / transfer_rate``.
+    """
+
+    transfer_rate: ULong = 0
+    nbframes: ULong = 0
+    index: ULong = 0
+    ts: Timestamp = dataclasses.field(default_factory=Timestamp)
+    left: Samples = dataclasses.field(default_factory=_no_samples)
+    right: Samples = dataclasses.field(default_factory=_no_samples)
+
+
+@dataclasses.dataclass
+class CaptureConfig:
+    """The outputs of GetCaptureConfig: the parameters of the current (or last) capture."""
+
+    device: Annotated[String, "Name of the sound device"] = ""
+    transfer_rate: Annotated[ULong, "Sample rate in Hz"] = 0
+    chunk_time: Annotated[ULong, "Size of transfer chunks in milliseconds"] = 0
+    Port_chunks: Annotated[ULong, "Size of the Port in number of chunks"] = 0
+
+
+@dataclasses.dataclass
+class CaptureStatus:
+    """The outputs of GetCaptureStatus."""
+
+    capturing: Annotated[Boolean, "Whether a capture is running"] = False
+    device: Annotated[String, "The device of the current (or last) capture"] = ""
+    index: Annotated[ULongLong, "Chunks published since the capture started"] = 0
+    overruns: Annotated[ULong, "Times the device or the hand-over lost frames"] = 0
+    lost_frames: Annotated[ULongLong, "Frames lost in those overruns"] = 0
+    socket_port: Annotated[ULong, "TCP port of the dedicated socket (0: closed)"] = 0
+    socket_clients: Annotated[ULong, "Clients connected to the dedicated socket"] = 0
+
+
+class INVALID_CHUNK_TIME(GenomException):
+    """transfer_rate * chunk_time / 1000 is not a whole number of frames, or is out of range."""
+
+    what: String
+
+
+class ERROR_SEQUENCE_ENOMEM(GenomException):
+    """The port (Port_chunks chunks of both channels) cannot be allocated: too large, or empty."""
+
+    what: String
+
+
+class NO_SUCH_DEVICE(GenomException):
+    """The sound device does not exist; ``available`` lists the devices that do."""
+
+    device: String
+    available: DeviceList
+
+
+class DEVICE_ERROR(GenomException):
+    """The sound device (or its library) failed while opening or capturing."""
+
+    device: String
+    what: String
+
+
+class ALREADY_CAPTURING(GenomException):
+    """A capture is running: StopCapture it before starting another."""
+
+    device: String
+
+
+class SOCKET_ERROR(GenomException):
+    """The dedicated socket cannot be opened (port in use, already open, ...)."""
+
+    port: ULong
+    what: String

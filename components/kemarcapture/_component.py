@@ -1,0 +1,80 @@
+"""The ``kemarcapture`` component: audio capture and the KEMAR head in one (seed section 6.5, appendix 9.5.3)."""
+
+from __future__ import annotations
+
+import functools
+import logging
+import math
+from typing import Any
+
+from ..capture import Capture
+from ..core import OutPort, activity
+from ..kemar import BUS_ERROR, Kemar, KemarError
+from ._types import KemarPortData, MoveIndexes
+
+__all__ = ["KemarCapture"]
+
+log = logging.getLogger(__name__)
+
+def _declaration(service: Any, **changes: Any) -> dict[str, Any]:
+    """The declaration options of a service of another component, with *changes*."""
+    _kind, options = service.__genom_service__
+    return {**options, **changes}
+
+
+class KemarCapture(Capture, Kemar, name="kemarcapture", version="1.0"):
+    """Binaural capture and the motorised KEMAR head in one component, each chunk tagged with the head azimuth.
+
+    Every service of ``capture`` and ``kemar``.  Port also carries ``positions``,
+    the head azimuth (degrees, positive = left) read from the drive as each chunk
+    arrives; the dedicated socket appends them as float32 to each reply.
+    MoveAbsolutePosition publishes (chunk index, azimuth) on Indexes when it
+    starts and when the head arrives.  With the simulated scene the sound turns
+    with the simulated head.
+    """
+
+    Port = OutPort(KemarPortData, doc="The last Port_chunks chunks of binaural audio and the head azimuth "
+                                      "at the end of each, oldest first")
+    Indexes = OutPort(MoveIndexes, doc="Chunk index and head azimuth at the start and the end of the last "
+                                       "MoveAbsolutePosition")
+
+    port_positions = True
+    port_data = KemarPortData
+
+    async def on_start(self) -> None:
+        await super().on_start()
+        self.Indexes.publish(MoveIndexes())
+        #: Chunks published with a NaN position because the drive did not answer in time.
+        self.position_failures = 0
+
+    async def _read_position(self) -> float:
+        """The head azimuth from the drive now, or NaN when the drive does not answer.
+
+        A chunk is not held back by a failing head: the failure is in the data
+        (NaN), counted in :attr:`position_failures`, and logged.  The driver's own
+        time-out (the host's ``can_timeout``) bounds the wait.
+        """
+        try:
+            return await self.head().read_position()
+        except (KemarError, BUS_ERROR) as exc:
+            self.position_failures += 1
+            log.warning("%s: head position unavailable (%s): published as NaN", self.instance, exc)
+            return math.nan
+
+    async def _chunk_position(self) -> float:
+        return await self._read_position()
+
+    def _current_index(self) -> int:
+        window = self.window
+        return window.last_index if window is not None else 0
+
+    @activity(**_declaration(Kemar.MoveAbsolutePosition, doc=(
+        "Turn the head to an azimuth and wait until it is there; publish (chunk index, azimuth) on Indexes "
+        "at the start and on arrival.")))
+    @functools.wraps(Kemar.MoveAbsolutePosition)
+    async def MoveAbsolutePosition(self, *args: Any, **kwargs: Any) -> None:
+        start = MoveIndexes(startIndex=self._current_index(), startPosition=await self._read_position())
+        self.Indexes.publish(start)
+        await Kemar.MoveAbsolutePosition(self, *args, **kwargs)
+        self.Indexes.publish(MoveIndexes(start.startIndex, start.startPosition, self._current_index(),
+                                         await self._read_position(), arrived=True))

@@ -1,0 +1,42 @@
+"""The IDL types of the merged capture + KEMAR component (seed appendix 9.5.3, section 6.5)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..capture import PortData
+from ..core import Boolean, Double, ULong, idl_struct, sequence
+
+__all__ = ["KemarPortData", "MoveIndexes", "Positions"]
+
+#: Head positions in degrees, one per chunk, carried as a float64 numpy array.
+Positions = sequence(Double, numpy=True)
+
+
+def _no_positions() -> np.ndarray:
+    return np.zeros(0, dtype=np.float64)
+
+
+@idl_struct("kemarcapture::port_t")
+@dataclasses.dataclass
+class KemarPortData(PortData):
+    """The capture port plus the head position (degrees) at the end of each chunk, oldest first."""
+
+    positions: Positions = dataclasses.field(default_factory=_no_positions)
+
+
+@idl_struct("kemarcapture::position_audio_indexes_movement")
+class MoveIndexes:
+    """Chunk index and head position when a MoveAbsolutePosition starts, and when it arrives.
+
+    Published at the start (``arrived`` false, the end members zero) and again
+    on arrival; an interrupted move publishes no arrival.
+    """
+
+    startIndex: ULong = 0
+    startPosition: Double = 0.0
+    endIndex: ULong = 0
+    endPosition: Double = 0.0
+    arrived: Boolean = False
