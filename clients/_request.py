@@ -82,8 +82,10 @@ class AsyncRequest:
     async def wait(self, timeout: float | None = None) -> bool:
         """Wait until the request ends or *timeout* seconds pass; return whether it ended."""
         if not self._ended.done():
+            # asyncio.timeout rather than wait_for, which on 3.11 can lose a cancellation racing the end.
             try:
-                await asyncio.wait_for(asyncio.shield(self._ended), timeout)
+                async with asyncio.timeout(timeout):
+                    await asyncio.shield(self._ended)
             except TimeoutError:
                 return False
         return True

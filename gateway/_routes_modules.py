@@ -84,8 +84,10 @@ async def wait(request: web.Request) -> web.Response:
         timeout = min(float(request.query.get("timeout", MAX_WAIT)), MAX_WAIT)
     except ValueError:
         raise BadQuery("timeout must be a number of seconds") from None
+    # asyncio.timeout rather than wait_for, which on 3.11 can lose a cancellation racing the end.
     try:
-        await asyncio.wait_for(found.ended.wait(), timeout)
+        async with asyncio.timeout(timeout):
+            await found.ended.wait()
     except TimeoutError:
         pass
     return json_reply(found.status_object())

@@ -52,7 +52,8 @@ async def listen(request: web.Request) -> web.StreamResponse:
         await stream.prepare(request)
         while True:
             try:
-                await asyncio.wait_for(listener.ready.wait(), ping_interval)
+                async with asyncio.timeout(ping_interval):
+                    await listener.ready.wait()
             except TimeoutError:
                 await stream.write(PING)
                 continue

@@ -13,8 +13,9 @@ from ._head_link import simulated_head_azimuth
 from ._socket_server import DEFAULT_PORT, DedicatedSocketServer
 from ._types import (
     ALREADY_CAPTURING, DEVICE_ERROR, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, NO_SUCH_DEVICE, SOCKET_ERROR,
-    CaptureConfig, CaptureStatus, PortData, Timestamp,
+    CaptureConfig, CaptureStatus, PortData,
 )
+from ._port_view import PortView
 from ._window import ChunkWindow
 
 __all__ = ["Capture", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK", "RATE_RANGE", "frames_per_chunk"]
@@ -79,6 +80,11 @@ class Capture(Component, name="capture", version="1.1"):
         self._backend: CaptureBackend | None = None
         self._server: DedicatedSocketServer | None = None
         self._socket_open = asyncio.Event()
+
+    async def on_start(self) -> None:
+        """Publish an empty Port: incremental readers may start before the first capture."""
+        await super().on_start()
+        self.Port.publish(PortView(None, make=self.port_data))
 
     @classmethod
     def service_defaults(cls, host: ComponentHost) -> dict[str, dict[str, Any]]:
@@ -225,12 +231,8 @@ class Capture(Component, name="capture", version="1.1"):
         start = chunk.time - (index - 1) * window.frames_per_chunk / self._config.transfer_rate
         self.Port.publish(self._port_value(window, start))
 
-    def _port_value(self, window: ChunkWindow, start: float) -> PortData:
-        snapshot = window.snapshot()
-        fields: dict[str, Any] = {"positions": snapshot.positions} if snapshot.positions is not None else {}
-        return self.port_data(transfer_rate=self._config.transfer_rate, nbframes=snapshot.left.size,
-                              index=snapshot.last_index, ts=Timestamp.from_seconds(start),
-                              left=snapshot.left.reshape(-1), right=snapshot.right.reshape(-1), **fields)
+    def _port_value(self, window: ChunkWindow, start: float) -> PortView:
+        return PortView(window, self._config.transfer_rate, start, self.port_data)
 
     @function(interrupts=("StartCapture",))
     def StopCapture(self) -> None:

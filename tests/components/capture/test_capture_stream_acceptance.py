@@ -1,22 +1,32 @@
-"""Issue 5, acceptance 1: a minute of simulated capture streamed to four socket clients with no gap.
+"""Issue 5, acceptance 1: a minute of simulated capture streamed to six readers with no gap.
 
 The capture runs at 44.1 kHz, 50 ms chunks, 20 chunks on the port, for 60 s of
-runtime clock (1.2 s of real time at the tests' time scale).  Each client reads
-after every publication of the port (awaited, never slept for), so it never
-falls behind; a fifth client pauses for longer than the port and must report
-exactly the chunks it missed.  Samples must equal an offline rendering of the
-same seeded scene with the same head motion.
+runtime clock (6 s of real time: slow enough that a reader on a loaded machine
+keeps within the port's 20 chunks).  Four dedicated-socket clients read after
+every publication of the port (awaited, never slept for); two HTTP readers go
+through a real gateway: the generated Python client asking ``Port(since=k)``
+(binary form) after every publication, and a ``watch`` event stream.  A
+seventh reader pauses for longer than the port and must report exactly the
+chunks it missed.  Samples must equal an offline rendering of the same seeded
+scene with the same head motion.
 """
 
 from __future__ import annotations
 
 import asyncio
 import math
+from collections.abc import AsyncIterator
 
+import aiohttp
 import numpy as np
+import orjson
+import pytest
 
+from aiogenomix.clients import aconnect
 from aiogenomix.clients.audio_socket import AsyncAudioSocketClient, AudioBlock
 from aiogenomix.components.capture import DEFAULT_SCENE, Capture, SphericalHeadRenderer
+from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.gateway import GatewayConfig, serve
 
 RATE, FPC, PORT_CHUNKS = 44100, 2205, 20
 CHUNKS = 1200  # 60 s of 50 ms chunks
@@ -55,7 +65,55 @@ async def pause_then_read(capture: Capture, port: int) -> tuple[AudioBlock, Audi
         return first, await client.read()
 
 
-async def test_a_minute_of_capture_reaches_every_client_without_a_gap(capture: Capture) -> None:
+@pytest.fixture
+async def served() -> AsyncIterator[tuple[Capture, str]]:
+    """The capture component on a 10× clock, also served by a gateway on a free port."""
+    async with ComponentHost(clock=ScaledClock(10), settings={"audio_socket_port": 0, "audio_device": "sim"},
+                             factories={"capture": Capture}) as host:
+        capture = await host.load("capture")
+        assert isinstance(capture, Capture)
+        async with serve(GatewayConfig(port=0), host=host) as url:
+            yield capture, url
+
+
+async def since_reader(capture: Capture, url: str, until: int) -> list[tuple[int, np.ndarray, int]]:
+    """The generated client, asking only for new chunks after every publication."""
+    reads = []
+    async with aconnect(url) as client:
+        port = (await client.module("capture")).Port
+        index, version = 0, capture.Port.version
+        while index < until:
+            version = await capture.Port.wait_published(version)
+            data, lost = await port(since=index)
+            count = data.left.size // FPC
+            if count:
+                reads.append((data.index - count + 1, np.stack([data.left, data.right], axis=1), lost))
+            index = data.index
+    return reads
+
+
+async def watch_reader(url: str, until: int) -> list[tuple[int, np.ndarray, int]]:
+    """A ``watch`` event stream: each event holds the chunks this reader has not had."""
+    reads = []
+    async with aiohttp.ClientSession() as http:
+        async with http.get(f"{url}/module/capture/watch/Port", params={"since": "0"}) as stream:
+            async for line in stream.content:
+                if not line.startswith(b"data: "):
+                    continue
+                event = orjson.loads(line[6:])
+                port = event["Port"]
+                count = len(port["left"]) // FPC
+                if count:
+                    frames = np.stack([np.asarray(port["left"], np.int32), np.asarray(port["right"], np.int32)],
+                                      axis=1)
+                    reads.append((port["index"] - count + 1, frames, event["lost"]))
+                if port["index"] >= until:
+                    return reads
+    return reads
+
+
+async def test_a_minute_of_capture_reaches_every_reader_without_a_gap(served: tuple[Capture, str]) -> None:
+    capture, url = served
     motion = iter(head_motion())
     capture.head_azimuth = lambda: next(motion)
     socket = await capture.send("DedicatedSocket")
@@ -63,9 +121,12 @@ async def test_a_minute_of_capture_reaches_every_client_without_a_gap(capture: C
     start = capture.clock.now()
     request = await capture.send("StartCapture", {"device": "sim", "transfer_rate": RATE, "chunk_time": 50,
                                                   "Port_chunks": PORT_CHUNKS})
+    watcher = asyncio.create_task(watch_reader(url, CHUNKS))
     followers = [asyncio.create_task(follow(capture, port, CHUNKS)) for _ in range(4)]
+    reader = asyncio.create_task(since_reader(capture, url, CHUNKS))
     pauser = asyncio.create_task(pause_then_read(capture, port))
     results = await asyncio.gather(*followers)
+    http_results = await asyncio.gather(reader, watcher)
     first, after_pause = await pauser
     await capture.send("StopCapture")
     await request.ended.wait()
@@ -79,6 +140,14 @@ async def test_a_minute_of_capture_reaches_every_client_without_a_gap(capture: C
         assert indices == list(range(1, len(indices) + 1)) and len(indices) >= CHUNKS
         assert sum(b.lost for b in blocks) == 0
         frames = np.concatenate([b.frames for b in blocks])
+        np.testing.assert_array_equal(frames, reference[:len(frames)])
+
+    for reads in http_results:
+        first_indices = [first for first, _, _ in reads]
+        counts = [len(frames) // FPC for _, frames, _ in reads]
+        assert first_indices == list(np.cumsum([1] + counts[:-1]))  # contiguous from chunk 1
+        assert sum(counts) >= CHUNKS and sum(lost for _, _, lost in reads) == 0
+        frames = np.concatenate([frames for _, frames, _ in reads])
         np.testing.assert_array_equal(frames, reference[:len(frames)])
 
     # The pausing client: the port's length of newest chunks, and an exact count of the rest.
