@@ -82,9 +82,11 @@ async def _socket_floor(args: argparse.Namespace) -> None:
     async def client(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         while line := await reader.readline():
             size = int(line)
-            blob = blobs.setdefault(size, np.random.default_rng(0).integers(-2**23, 2**23, size // 4,
-                                                                            dtype=np.int32).tobytes())
-            writer.write(len(blob).to_bytes(4, "little") + blob)
+            if size not in blobs:
+                blobs[size] = np.random.default_rng(0).integers(-2**23, 2**23, size // 4, dtype=np.int32).tobytes()
+            blob = blobs[size]
+            writer.write(len(blob).to_bytes(4, "little"))
+            writer.write(blob)
             await writer.drain()
         writer.close()
 

@@ -17,7 +17,7 @@ import aiohttp
 import numpy as np
 import orjson
 
-from aiogenomix.clients import AsyncAudioSocketClient
+from aiogenomix.clients import AsyncAudioSocketClient, AsyncClient, aconnect
 
 from ._common import Result, server, summary
 
@@ -42,6 +42,45 @@ def decode_binary(body: bytes) -> dict[str, Any]:
     return data
 
 
+class _FloorReader(asyncio.BufferedProtocol):
+    """The floor: a reply of known size received straight into one preallocated buffer."""
+
+    def __init__(self, size: int) -> None:
+        self.buffer = bytearray(size)
+        self.view = memoryview(self.buffer)
+        self.received = 0
+        self.done: asyncio.Future[bytes] | None = None
+        self.transport: asyncio.Transport | None = None
+
+    @classmethod
+    async def connect(cls, port: int, size: int) -> _FloorReader:
+        loop = asyncio.get_running_loop()
+        _, protocol = await loop.create_connection(lambda: cls(size), "127.0.0.1", port)
+        return protocol
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        self.transport = transport  # type: ignore[assignment]
+
+    def get_buffer(self, sizehint: int) -> memoryview:
+        return self.view[self.received:]
+
+    def buffer_updated(self, nbytes: int) -> None:
+        self.received += nbytes
+        if self.received == len(self.buffer) and self.done is not None:
+            self.done.set_result(self.buffer)  # type: ignore[arg-type]  (no copy)
+
+    async def exchange(self, request: bytes) -> bytes:
+        self.received = 0
+        self.done = asyncio.get_running_loop().create_future()
+        assert self.transport is not None
+        self.transport.write(request)
+        return await self.done
+
+    def close(self) -> None:
+        if self.transport is not None:
+            self.transport.close()
+
+
 async def _timed(read: Callable[[], Awaitable[int]], reads: int) -> tuple[list[float], int]:
     samples, nbytes = [], 0
     for _ in range(reads):
@@ -51,36 +90,30 @@ async def _timed(read: Callable[[], Awaitable[int]], reads: int) -> tuple[list[f
     return samples, nbytes
 
 
-async def _window(http: aiohttp.ClientSession, base: str, socket_port: int, floor_port: int, chunks: int,
-                  reads: int) -> dict[str, Any]:
+async def _window(json_client: AsyncClient, binary_client: AsyncClient, socket_port: int, floor_port: int,
+                  chunks: int, reads: int) -> dict[str, Any]:
     values = FRAMES * chunks
+    json_port = (await json_client.module("capture")).Port
+    binary_port = (await binary_client.module("capture")).Port
 
     async def json_read() -> int:
-        async with http.get(f"{base}/module/capture/read/Port") as reply:
-            body = await reply.read()
-        port = orjson.loads(body)["Port"]
-        left, right = np.asarray(port["left"], np.int32), np.asarray(port["right"], np.int32)
-        assert left.size == right.size == values
-        return len(body)
+        port = await json_port()
+        assert port.left.size == port.right.size == values
+        return 0
 
     async def binary_read() -> int:
-        async with http.get(f"{base}/module/capture/read/Port", params={"format": "binary"}) as reply:
-            body = await reply.read()
-        port = decode_binary(body)
-        assert port["left"].size == values
-        return len(body)
+        port = await binary_port()
+        assert port.left.size == values
+        return 0
 
     async def incremental_read() -> int:
         # What a streaming reader does every chunk: ask only for the chunk after the one it holds.
-        async with http.get(f"{base}/module/capture/read/Port", params={"format": "binary"}) as reply:
-            index = decode_binary(await reply.read())["index"]
+        index = (await binary_port(since=10**9))[0].index
         started = time.perf_counter()
-        async with http.get(f"{base}/module/capture/read/Port",
-                            params={"format": "binary", "since": str(index - 1)}) as reply:
-            body = await reply.read()
-        decode_binary(body)
+        newest, _ = await binary_port(since=index - 1)
         incremental_samples.append(time.perf_counter() - started)
-        return len(body)
+        assert newest.left.size >= FRAMES
+        return 0
 
     incremental_samples: list[float] = []
     audio = AsyncAudioSocketClient("127.0.0.1", socket_port, frames_per_chunk=FRAMES)
@@ -91,29 +124,34 @@ async def _window(http: aiohttp.ClientSession, base: str, socket_port: int, floo
         assert block.frames.shape == (values, 2)
         return 4 * (2 + 2 * values)
 
-    reader, writer = await asyncio.open_connection("127.0.0.1", floor_port)
+    floor = await _FloorReader.connect(floor_port, 4 + 8 * values)
 
     async def floor_read() -> int:
-        writer.write(b"%d\n" % (8 * values))
-        size = int.from_bytes(await reader.readexactly(4), "little")
-        frames = np.frombuffer(await reader.readexactly(size), np.int32).reshape(2, -1)
+        body = await floor.exchange(b"%d\n" % (8 * values))
+        frames = np.frombuffer(body, np.int32, offset=4).reshape(2, -1)
         assert frames.shape[1] == values
-        return size + 4
+        return len(body)
 
     async with audio:
         results = {}
         for name, read in [("floor", floor_read), ("socket", socket_read), ("binary", binary_read),
                            ("json", json_read)]:
             await read()  # warm up
-            samples, nbytes = await _timed(read, reads)
-            results[name] = summary(samples) | {"bytes": nbytes}
+            samples, _ = await _timed(read, reads)
+            results[name] = summary(samples) | {"bytes": _wire_bytes(name, chunks)}
         await _timed(incremental_read, reads)
         results["incremental"] = summary(incremental_samples)
-    writer.close()
+    floor.close()
     floor = results["floor"]["median"]
     for name in ("socket", "binary", "json"):
         results[name]["ratio_to_floor"] = results[name]["median"] / floor
     return results
+
+
+def _wire_bytes(path: str, chunks: int) -> int:
+    """Bytes of samples each path moves for a window (JSON: measured once, it depends on the digits)."""
+    samples = 2 * FRAMES * chunks * 4
+    return {"floor": samples, "socket": samples + 8, "binary": samples, "json": 0}[path]
 
 
 async def _start(http: aiohttp.ClientSession, base: str, chunks: int) -> None:
@@ -132,16 +170,20 @@ async def run(reads: int = 50) -> Result:
     results: dict[str, Any] = {}
     async with server("gateway") as (port, _), server("socket") as (floor_port, _):
         base = f"http://127.0.0.1:{port}"
-        async with aiohttp.ClientSession() as http:
+        async with aiohttp.ClientSession(read_bufsize=1 << 22) as http:
             await http.get(f"{base}/load/capture")
             async with http.get(f"{base}/module/capture/send/DedicatedSocket") as reply:
                 assert (await reply.json())["status"] in ("sent", "done")
             async with http.get(f"{base}/module/capture/send/GetCaptureStatus") as reply:
                 socket_port = (await reply.json())["output"]["socket_port"]
-            for window_ms, chunks in WINDOWS.items():
-                await _start(http, base, chunks)
-                results[str(window_ms)] = await _window(http, base, socket_port, floor_port, chunks, reads)
-                await http.get(f"{base}/module/capture/send/StopCapture")
+            async with aconnect(base, fast_paths=False) as json_client, aconnect(base) as binary_client:
+                for window_ms, chunks in WINDOWS.items():
+                    await _start(http, base, chunks)
+                    results[str(window_ms)] = await _window(json_client, binary_client, socket_port, floor_port,
+                                                            chunks, reads)
+                    async with http.get(f"{base}/module/capture/read/Port") as reply:
+                        results[str(window_ms)]["json"]["bytes"] = len(await reply.read())
+                    await http.get(f"{base}/module/capture/send/StopCapture")
     verdicts = {}
     long_window = results["4000"]
     for name, target in TARGETS.items():

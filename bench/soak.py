@@ -47,7 +47,7 @@ async def run(seconds: float = 120.0) -> Result:
     """Report chunks lost, the gateway's CPU share and its memory at start and end."""
     async with server("gateway") as (port, pid):
         base = f"http://127.0.0.1:{port}"
-        async with aiohttp.ClientSession() as http:
+        async with aiohttp.ClientSession(read_bufsize=1 << 22) as http:
             await http.get(f"{base}/load/capture")
             await http.get(f"{base}/module/capture/send/DedicatedSocket")
             async with http.get(f"{base}/module/capture/send/GetCaptureStatus") as reply:

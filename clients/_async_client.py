@@ -13,6 +13,7 @@ import aiohttp
 import orjson
 
 from ._binary import BINARY_TYPE, decode_binary
+from ._fastjson import loads_with_arrays
 from ._errors import ClientClosed, GenomixError, ProtocolError, RemoteError, RequestTimeout
 from ._http import HttpGateway
 from ._listen import ListenStream
@@ -61,11 +62,14 @@ class AsyncClient:
         token: Bearer token, for a gateway started with ``--token``.
         reconnect_timeout: Seconds without an event stream after which pending requests
             fail with TransportError (reconnection continues).
+        fast_paths: Use the gateway's binary port reads when it offers them (False: plain
+            genomix JSON, as with any genomixd).
     """
 
     def __init__(self, address: str | None = None, *, session: str | None = None, timeout: float | None = None,
-                 token: str | None = None, reconnect_timeout: float = 30.0) -> None:
+                 token: str | None = None, reconnect_timeout: float = 30.0, fast_paths: bool = True) -> None:
         self.url = base_url(address)
+        self._fast_paths = fast_paths
         self.timeout = timeout
         self._session_wanted = session or ""
         self._token = token
@@ -117,12 +121,14 @@ class AsyncClient:
             return self
         headers = {"Authorization": f"Bearer {self._token}"} if self._token else None
         # No pooled-connection limit: the listen stream holds one connection for ever.
-        self._http = aiohttp.ClientSession(headers=headers, connector=aiohttp.TCPConnector(limit=0))
+        # A large read buffer: port replies of megabytes arrive without pausing the socket every 64 kB.
+        self._http = aiohttp.ClientSession(headers=headers, connector=aiohttp.TCPConnector(limit=0),
+                                           read_bufsize=1 << 22)
         try:
             self._gateway = HttpGateway(self.url, self._http)
             timeout = _OPEN_TIMEOUT
             self.genomix_version = (await self._gateway.get_text("/version", timeout=timeout)).strip()
-            self.features = await self._read_features(timeout)
+            self.features = await self._read_features(timeout) if self._fast_paths else frozenset()
             name = await self._gateway.get_text("/session/start", {"s": self._session_wanted}, timeout=timeout)
             self._gateway.session_name = name.strip()
             self._tracker = RequestTracker(self._gateway, self._report)
@@ -310,9 +316,12 @@ class AsyncClient:
                 _, data, extra = decode_binary(body)
                 decoded = port.decode(data)
                 return (decoded, int(extra.get("lost", 0))) if since is not None else decoded
-            wrapped = orjson.loads(body)  # a gateway that answered JSON after all
         else:
-            wrapped = await gateway.get_json(path, params, **kwargs)
+            _, body = await gateway.get(path, params, **kwargs)
+        try:
+            wrapped = orjson.loads(body) if raw else loads_with_arrays(body, port.name, port.numeric_members)
+        except orjson.JSONDecodeError:
+            raise ProtocolError(f"read {instance}/{port.name}: expected JSON, got {body[:200]!r}") from None
         if raw:
             return wrapped
         if not isinstance(wrapped, dict) or port.name not in wrapped:

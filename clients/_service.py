@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 import keyword
 from collections.abc import Mapping, Sequence
@@ -14,7 +15,7 @@ from typing import Any, Callable, Literal, Optional  # noqa: UP035
 import numpy
 
 from ._errors import short_name
-from ._types import Record, annotation_source, decode, encode
+from ._types import NUMPY_DTYPES, Record, annotation_source, decode, encode
 from ._wire import ModuleInfo, ParameterInfo, PortInfo, ServiceInfo
 
 __all__ = [
@@ -311,6 +312,16 @@ class PortSpec:
             "", "Raises:", "    NotFound: when the port (or element) does not exist.",
         ]
         self.doc = "\n".join(lines)
+
+    @functools.cached_property
+    def numeric_members(self) -> dict[str, numpy.dtype[Any]]:
+        """The numeric sequence members of the port's struct, with their dtypes (parsed fast)."""
+        t = self.info["type"]
+        members = t.get("members", []) if t.get("kind") == "struct" else []
+        return {m["name"]: numpy.dtype(NUMPY_DTYPES[m["type"]["element"]["kind"]]).newbyteorder("<")
+                for m in members
+                if m["type"]["kind"] in ("sequence", "array") and m["type"]["element"]["kind"] in NUMPY_DTYPES
+                and m["type"]["element"]["kind"] != "boolean"}
 
     def decode(self, data: Any) -> Any:
         """Decode the unwrapped port data."""

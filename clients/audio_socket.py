@@ -39,6 +39,7 @@ __all__ = ["AudioBlock", "AudioSocketError", "AudioSocketClient", "AsyncAudioSoc
 
 DEFAULT_PORT = 8081
 _ERROR_MARK = b"ERRO"
+_READ_LIMIT = 1 << 23
 #: A reply announcing more chunks than this is not a reply of this protocol.
 _MAX_CHUNKS = 1 << 20
 
@@ -152,6 +153,12 @@ class AudioSocketClient:
         """The index of the last chunk the client holds."""
         return self._protocol.index
 
+    def seek(self, index: int) -> None:
+        """Make the next read ask for the chunks after *index* (0: the whole port)."""
+        if index < 0:
+            raise ValueError(f"a chunk index is never negative, not {index}")
+        self._protocol.index = index
+
     def connect(self) -> None:
         """Open the connection (done by the first read if needed).
 
@@ -245,6 +252,12 @@ class AsyncAudioSocketClient:
         """The index of the last chunk the client holds."""
         return self._protocol.index
 
+    def seek(self, index: int) -> None:
+        """Make the next read ask for the chunks after *index* (0: the whole port)."""
+        if index < 0:
+            raise ValueError(f"a chunk index is never negative, not {index}")
+        self._protocol.index = index
+
     async def connect(self) -> None:
         """Open the connection (done by the first read if needed).
 
@@ -254,7 +267,10 @@ class AsyncAudioSocketClient:
         if self._writer is None:
             try:
                 async with asyncio.timeout(self.timeout):
-                    self._reader, self._writer = await asyncio.open_connection(self.host, self.port)
+                    # A reader limit above the largest reply: a 4 s window arrives without
+                    # the stream pausing the socket every 128 kB.
+                    self._reader, self._writer = await asyncio.open_connection(self.host, self.port,
+                                                                               limit=_READ_LIMIT)
             except (OSError, TimeoutError) as exc:
                 raise AudioSocketError(f"cannot reach the audio socket at {self.host}:{self.port}: {exc}") from exc
 

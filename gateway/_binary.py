@@ -45,7 +45,8 @@ def encode_binary(port: str, data: Any, **extra: Any) -> list[bytes | memoryview
     """Encode JSON-ready port *data* (numpy arrays left as arrays) into binary parts.
 
     Returns:
-        The parts of the body, to be written in order (the arrays are not copied).
+        The parts of the body, to be written in order (the arrays are not copied: write
+        them all before the next await if the arrays may change).
     """
     arrays: list[np.ndarray] = []
     skeleton = _extract(data, arrays)
@@ -53,9 +54,9 @@ def encode_binary(port: str, data: Any, **extra: Any) -> list[bytes | memoryview
     payload: list[bytes | memoryview] = []
     offset = 0
     for array in arrays:
-        little = array if array.dtype.byteorder in "<|" or array.dtype.itemsize == 1 else array.astype(
-            array.dtype.newbyteorder("<"))
-        little = np.ascontiguousarray(little)
+        wanted = array.dtype.newbyteorder("<")
+        # Native int32 on this (little-endian) machine is already right: no copy then.
+        little = np.ascontiguousarray(array if array.dtype == wanted else array.astype(wanted))
         padding = -offset % _ALIGN
         if padding:
             payload.append(b"\0" * padding)
@@ -64,4 +65,5 @@ def encode_binary(port: str, data: Any, **extra: Any) -> list[bytes | memoryview
         payload.append(memoryview(little).cast("B"))
         offset += little.nbytes
     header = orjson.dumps({"port": port, "data": skeleton, "arrays": described, **extra})
-    return [MAGIC, struct.pack("<I", len(header)), header, *payload]
+    # The small parts go out as one write; the arrays follow without being copied.
+    return [MAGIC + struct.pack("<I", len(header)) + header, *payload]

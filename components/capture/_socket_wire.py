@@ -94,7 +94,7 @@ def reply_size(count: int, frames_per_chunk: int, *, with_positions: bool = Fals
     return 4 * (2 + 2 * count * frames_per_chunk + (count if with_positions else 0))
 
 
-def encode_reply(chunks: WindowRead, *, with_positions: bool = False) -> bytes:
+def encode_reply(chunks: WindowRead, *, with_positions: bool = False) -> bytes | memoryview:
     """Encode the reply carrying *chunks* (from :meth:`ChunkWindow.since`).
 
     Raises:
@@ -109,7 +109,7 @@ def encode_reply(chunks: WindowRead, *, with_positions: bool = False) -> bytes:
     values[1 + samples:1 + 2 * samples] = chunks.right.reshape(-1)
     values[-1] = chunks.last_index
     if not with_positions:
-        return values.tobytes()
+        return memoryview(values).cast("B")  # the buffer itself: no second copy of the samples
     if chunks.positions is None:
         raise ValueError("the reply needs positions but the window keeps none")
     return values.tobytes() + chunks.positions.astype("<f4").tobytes()

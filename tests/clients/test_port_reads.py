@@ -1,0 +1,80 @@
+"""Port reads of the generated client: binary when offered, fast JSON otherwise, incremental with since=."""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator
+
+import numpy as np
+import orjson
+import pytest
+
+from aiogenomix.clients import aconnect
+from aiogenomix.clients._fastjson import loads_with_arrays
+from aiogenomix.components.capture import Capture
+from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.gateway import GatewayConfig, serve
+
+
+@pytest.fixture
+async def capturing() -> AsyncIterator[tuple[Capture, str]]:
+    """A running simulated capture (8 chunks on the port, full), served on a free port."""
+    async with ComponentHost(clock=ScaledClock(20), settings={"audio_socket_port": 0},
+                             factories={"capture": Capture}) as host:
+        capture = await host.load("capture")
+        assert isinstance(capture, Capture)
+        await capture.send("StartCapture", {"device": "sim", "Port_chunks": 8})
+        while capture.Port.read().index < 8:
+            await capture.Port.wait_published()
+        async with serve(GatewayConfig(port=0), host=host) as url:
+            yield capture, url
+
+
+@pytest.mark.parametrize("fast_paths", [True, False], ids=["binary", "json"])
+async def test_port_reads_give_numpy_arrays_equal_to_the_json(capturing: tuple[Capture, str],
+                                                            fast_paths: bool) -> None:
+    capture, url = capturing
+    async with aconnect(url, fast_paths=fast_paths) as client:
+        assert ("binary" in client.features) is fast_paths
+        port = (await client.module("capture")).Port
+        data = await port()
+        raw = (await port(raw=True))["Port"]
+    assert isinstance(data.left, np.ndarray) and data.left.dtype == np.int32
+    assert data.left.size == data.nbframes == 8 * 2205
+    # raw is read after data: the window may have moved on by then, but never backwards.
+    assert raw["index"] >= data.index
+    shift = (raw["index"] - data.index) * 2205
+    np.testing.assert_array_equal(data.left[shift:], np.asarray(raw["left"], np.int32)[:data.left.size - shift])
+
+
+@pytest.mark.parametrize("fast_paths", [True, False], ids=["binary", "json"])
+async def test_since_returns_only_new_chunks_and_losses(capturing: tuple[Capture, str], fast_paths: bool) -> None:
+    capture, url = capturing
+    async with aconnect(url, fast_paths=fast_paths) as client:
+        port = (await client.module("capture")).Port
+        while capture.Port.read().index < 30:
+            await capture.Port.wait_published()
+        whole = await port()
+        newest, lost = await port(since=whole.index - 1)
+        assert lost == 0 and newest.index >= whole.index
+        assert newest.left.size == (newest.index - whole.index + 1) * 2205
+        np.testing.assert_array_equal(newest.left[:2205], whole.left[-2205:])
+        _, lost = await port(since=whole.index - 20)  # the port holds 8 chunks: 12 or more were lost
+        assert lost >= 12
+
+
+def test_fast_json_falls_back_whenever_it_cannot_be_sure() -> None:
+    arrays = {"left": np.dtype("<i4")}
+    padding = " " * (1 << 16)  # above the size where the fast path applies
+    cases = [
+        {"P": {"meta": {"left": [9]}, "left": [3, 4], "pad": padding}},  # a nested "left" comes first
+        {"P": {"left": [1, None, 3], "pad": padding}},                # null in the array
+        {"P": {"left": [1, 2**40], "pad": padding}},                  # out of the dtype's range
+        {"P": {"left": [[1], [2]], "pad": padding}},                  # nested arrays
+    ]
+    for case in cases:
+        body = orjson.dumps(case)
+        parsed = loads_with_arrays(body, "P", arrays)
+        assert parsed == orjson.loads(body)  # the plain parse: lists, not arrays
+        assert isinstance(parsed["P"]["left"], list)
+    fast = loads_with_arrays(orjson.dumps({"P": {"left": list(range(-5, 5)), "pad": padding}}), "P", arrays)
+    assert isinstance(fast["P"]["left"], np.ndarray) and fast["P"]["left"].tolist() == list(range(-5, 5))
