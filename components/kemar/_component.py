@@ -1,0 +1,237 @@
+"""The ``kemar`` component: the KEMAR head over CAN, with the services of the seed's ``.gen``."""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator
+from typing import Annotated
+
+from ..core import Component, ComponentHost, Double, Out, OutPort, Task, activity, function
+from ._driver import HarmonicaDriver
+from ._errors import (
+    BusError,
+    CodecError,
+    DriveCommandError,
+    DriveFault,
+    DriveTimeout,
+    HomingFailed,
+    InvalidCommand,
+    MotionStopped,
+    MotionTimeout,
+    NotHomed,
+    SdoAbortError,
+    SimulatedDriveError,
+)
+from ._head import HeadConfig, HeadState, KemarHead
+from ._simdrive import SimulatedHarmonica
+from ._types import (
+    BUS_ERROR,
+    BUS_TIMEOUT,
+    DRIVE_ERROR,
+    DRIVE_FAULT,
+    HOMING_FAILED,
+    INVALID_VELOCITY,
+    MOTION_STOPPED,
+    NOT_HOMED,
+    KemarState,
+    Timestamp,
+)
+
+__all__ = ["Kemar", "simulated_rig", "parse_bus", "RIG_KEY"]
+
+#: The key of the simulated drive among the host's shared objects.
+RIG_KEY = "kemar.rig"
+
+#: The services that move the head; each interrupts the others.
+MOTIONS = ("Homing", "MoveAbsolutePosition", "MoveRelativePosition", "ControlInSpeed")
+
+_BUS_THROWS = (DRIVE_FAULT, BUS_TIMEOUT, BUS_ERROR, DRIVE_ERROR)
+
+
+def parse_bus(setting: str) -> tuple[str, str | None]:
+    """Split the ``can`` setting into a python-can (interface, channel).
+
+    ``"virtual"`` gives ``("virtual", None)``: the simulated drive in-process.
+    ``"socketcan:can0"`` gives ``("socketcan", "can0")``.
+
+    Raises:
+        BusError: The setting has no ``interface:channel`` form.
+    """
+    if setting == "virtual":
+        return "virtual", None
+    interface, sep, channel = setting.partition(":")
+    if not sep or not interface or not channel:
+        raise BusError(f"bad CAN bus {setting!r}: use 'virtual' or INTERFACE:CHANNEL such as socketcan:can0")
+    return interface, channel
+
+
+def simulated_rig(host: ComponentHost) -> SimulatedHarmonica | None:
+    """The host's simulated KEMAR drive (started on first use), or None on a real bus.
+
+    The capture simulation reads ``simulated_rig(host).head_azimuth`` (degrees,
+    positive = left, thread-safe) to turn the sound scene with the head.
+    """
+    if host.settings.get("can", "virtual") != "virtual":
+        return None
+    rig = host.shared(RIG_KEY, lambda: SimulatedHarmonica(clock=host.clock).start())
+    assert isinstance(rig, SimulatedHarmonica)
+    return rig
+
+
+@contextlib.contextmanager
+def _as_genom_exceptions() -> Iterator[None]:
+    """Turn the head stack's errors into the component's declared exceptions."""
+    try:
+        yield
+    except NotHomed as exc:
+        raise NOT_HOMED(message=str(exc)) from exc
+    except DriveFault as exc:
+        raise DRIVE_FAULT(message=str(exc)) from exc
+    except DriveTimeout as exc:
+        raise BUS_TIMEOUT(message=str(exc)) from exc
+    except DriveCommandError as exc:
+        raise DRIVE_ERROR(message=str(exc), code=exc.code) from exc
+    except HomingFailed as exc:
+        raise HOMING_FAILED(message=str(exc)) from exc
+    except (MotionStopped, MotionTimeout) as exc:
+        raise MOTION_STOPPED(message=str(exc)) from exc
+    except (BusError, SdoAbortError, CodecError, SimulatedDriveError) as exc:
+        raise BUS_ERROR(message=str(exc)) from exc
+
+
+class Kemar(Component, name="kemar", version="1.0"):
+    """The motorised KEMAR head: an Elmo Harmonica drive on a CAN bus turns the head between two limit switches.
+
+    Call Homing first: it finds both limit switches and makes the midpoint azimuth 0 (positive = left).
+    The bus is the gateway's ``--can`` setting: ``virtual`` runs a simulated drive in-process.
+    """
+
+    motion = Task(period=0.01, doc="Drives the head; CurrentPosition publishes once per period")
+    currentState = OutPort(KemarState, doc="Head azimuth (deg, positive = left), speed (deg/s), limits and time")
+
+    config: HeadConfig = HeadConfig()
+
+    async def on_start(self) -> None:
+        self._head: KemarHead | None = None
+        self._driver: HarmonicaDriver | None = None
+        self.currentState.publish(KemarState())
+        if self.host.settings.get("can", "virtual") == "virtual":
+            # Start the simulated rig at load time, so the sound scene has a head to follow.
+            self.head()
+
+    async def on_stop(self) -> None:
+        driver, self._driver, self._head = self._driver, None, None
+        if driver is not None:
+            await driver.aclose()
+
+    def head(self) -> KemarHead:
+        """The head logic, opening the bus on first use.
+
+        Raises:
+            BUS_ERROR: The bus cannot be opened.
+        """
+        if self._head is None:
+            with _as_genom_exceptions():
+                interface, channel = parse_bus(self.host.settings.get("can", "virtual"))
+                if channel is None:
+                    rig = simulated_rig(self.host)
+                    assert rig is not None
+                    channel = rig.channel
+                timeout = float(self.host.settings.get("can_timeout", 0.5))
+                driver = HarmonicaDriver.open(interface, channel, timeout=timeout)
+                driver.start()
+            self._driver = driver
+            self._head = KemarHead(driver, self.clock, self.config, on_state=self._publish)
+        return self._head
+
+    def _publish(self, state: HeadState) -> None:
+        self.currentState.publish(
+            KemarState(state.position, state.speed, state.max_left, state.max_right,
+                       Timestamp.from_seconds(state.timestamp))
+        )
+
+    # ------------------------------------------------------------------ validation
+
+    def _check_velocity(self, velocity: float, *, signed: bool = False) -> None:
+        maximum = self.config.max_speed_deg
+        if (abs(velocity) if signed else velocity) > maximum or (velocity < 0 and not signed):
+            raise INVALID_VELOCITY(velocity=velocity, maximum=maximum)
+
+    def _check_homed(self) -> None:
+        if not self.head().homed:
+            raise NOT_HOMED(message="the head is not homed: call Homing first")
+
+    def _validate_move(self, target: float, velocity: float) -> None:
+        self._check_velocity(velocity)
+        self._check_homed()
+
+    def _validate_speed_control(self, velocity: float) -> None:
+        self._check_velocity(velocity, signed=True)
+        self._check_homed()
+
+    # ------------------------------------------------------------------ services
+
+    @activity(task=motion, interrupts=MOTIONS, throws=(HOMING_FAILED, *_BUS_THROWS))
+    async def Homing(self) -> None:
+        """Find both limit switches, centre the head between them and make that azimuth 0 (speed: 100 deg/s)."""
+        with _as_genom_exceptions():
+            await self.head().home()
+
+    @activity(task=motion, interrupts=("CurrentPosition",), throws=_BUS_THROWS)
+    async def CurrentPosition(self) -> None:
+        """Publish the head state on currentState once per motion period, until StopCurrentPosition."""
+        head = self.head()
+        with _as_genom_exceptions():
+            while True:
+                await head.read_state()
+                await self.motion.tick()
+
+    @function(interrupts=("CurrentPosition",))
+    def StopCurrentPosition(self) -> None:
+        """Stop publishing the head state (interrupts CurrentPosition)."""
+
+    @function(throws=(INVALID_VELOCITY, BUS_ERROR))
+    def SetVelocity(self, velocity: Annotated[Double, "Speed of position control in deg/s"] = 100.0) -> None:
+        """Set the speed of the next position moves (Homing sets it back to 100 deg/s)."""
+        head = self.head()
+        try:
+            head.set_speed(velocity)
+        except InvalidCommand:
+            raise INVALID_VELOCITY(velocity=velocity, maximum=self.config.max_speed_deg) from None
+
+    @activity(task=motion, interrupts=MOTIONS, throws=(NOT_HOMED, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS),
+              validate=_validate_move)
+    async def MoveAbsolutePosition(
+        self,
+        target: Annotated[Double, "Azimuth in degrees (positive = left), kept 0.5 deg inside the limits"] = 0.0,
+        velocity: Annotated[Double, "Speed in deg/s; 0 = the current speed (SetVelocity)"] = 0.0,
+    ) -> None:
+        """Turn the head to an azimuth and wait until it is there."""
+        with _as_genom_exceptions():
+            await self.head().move_absolute(target, velocity or None)
+
+    @activity(task=motion, interrupts=MOTIONS, throws=(NOT_HOMED, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS),
+              validate=_validate_move)
+    async def MoveRelativePosition(
+        self,
+        target: Annotated[Double, "Degrees to turn from the present azimuth (positive = left)"] = 0.0,
+        velocity: Annotated[Double, "Speed in deg/s; 0 = the current speed (SetVelocity)"] = 0.0,
+    ) -> None:
+        """Turn the head by an angle from where it is (the final azimuth is kept inside the limits)."""
+        with _as_genom_exceptions():
+            await self.head().move_relative(target, velocity or None)
+
+    @activity(task=motion, interrupts=MOTIONS, throws=(NOT_HOMED, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS),
+              validate=_validate_speed_control)
+    async def ControlInSpeed(
+        self, velocity: Annotated[Double, "Angular speed in deg/s (positive = left); 0 stops the head"] = 0.0
+    ) -> None:
+        """Turn the head at a constant speed until 0 is asked or it comes 3 degrees from a limit."""
+        with _as_genom_exceptions():
+            await self.head().control_in_speed(velocity)
+
+    @function(throws=_BUS_THROWS)
+    async def GetPosition(self) -> Annotated[Double, Out("position", "Head azimuth in degrees (positive = left)")]:
+        """Read the head azimuth from the drive (before Homing, the zero is wherever the head was at power-up)."""
+        with _as_genom_exceptions():
+            return await self.head().read_position()

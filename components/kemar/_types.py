@@ -1,0 +1,100 @@
+"""The IDL types and declared exceptions of the kemar component (seed appendix 9.5.2 and 9.5.3)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from ..core import Double, GenomException, Long, String, idl_struct
+
+__all__ = [
+    "Timestamp",
+    "KemarState",
+    "NOT_HOMED",
+    "INVALID_VELOCITY",
+    "DRIVE_FAULT",
+    "BUS_TIMEOUT",
+    "BUS_ERROR",
+    "DRIVE_ERROR",
+    "HOMING_FAILED",
+    "MOTION_STOPPED",
+]
+
+
+@idl_struct("kemar::timestamp_t")
+class Timestamp:
+    """A POSIX time split into seconds and nanoseconds."""
+
+    tv_sec: Long = 0
+    tv_nsec: Long = 0
+
+    @classmethod
+    def from_seconds(cls, seconds: float) -> Timestamp:
+        """Split a POSIX time in seconds."""
+        whole = math.floor(seconds)
+        return cls(tv_sec=whole, tv_nsec=min(999_999_999, round((seconds - whole) * 1e9)))
+
+    def seconds(self) -> float:
+        """The time as POSIX seconds."""
+        return self.tv_sec + self.tv_nsec * 1e-9
+
+
+@idl_struct("kemar::state")
+class KemarState:
+    """The head: azimuth (deg, positive = left), speed (deg/s), the limits found by Homing (deg), and when."""
+
+    position: Double = 0.0
+    speed: Double = 0.0
+    maxLeft: Double = 0.0
+    maxRight: Double = 0.0
+    timestamp: Timestamp = dataclasses.field(default_factory=Timestamp)
+
+
+class NOT_HOMED(GenomException):
+    """The head has no reference yet: call Homing before moving it."""
+
+    message: String
+
+
+class INVALID_VELOCITY(GenomException):
+    """A speed is negative, zero where a speed is needed, or above the drive's maximum (deg/s)."""
+
+    velocity: Double
+    maximum: Double
+
+
+class DRIVE_FAULT(GenomException):
+    """The drive latched a motor fault or sent an emergency; the motor is off until the next Homing."""
+
+    message: String
+
+
+class BUS_TIMEOUT(GenomException):
+    """The drive did not answer on the CAN bus (unpowered, unplugged or not started)."""
+
+    message: String
+
+
+class BUS_ERROR(GenomException):
+    """The CAN bus could not be opened or refused a frame."""
+
+    message: String
+
+
+class DRIVE_ERROR(GenomException):
+    """The drive refused a command; ``code`` is its Elmo error code (EC)."""
+
+    message: String
+    code: Long
+
+
+class HOMING_FAILED(GenomException):
+    """Homing did not find both limit switches or could not centre the head."""
+
+    message: String
+
+
+class MOTION_STOPPED(GenomException):
+    """The head stopped away from its target (a limit switch, the drive, or a time-out)."""
+
+    message: String
