@@ -69,6 +69,11 @@ def _service(r: dict[str, Any]) -> str:
         f"| generated client, blocking function call (send, event, clean) | {_ms(c['median'])} | {_ms(c['p99'])} |",
         f"| bare aiohttp GET round trip (floor) | {_ms(b['median'])} | {_ms(b['p99'])} |",
         f"| activity `done` event: end on the server → client receipt | {_ms(a['median'])} | {_ms(a['p99'])} |",
+        f"| KEMAR `GetPosition`: client → gateway → driver → virtual CAN → simulated drive → back "
+        f"| {_ms(r['kemar_get_position']['median'])} | {_ms(r['kemar_get_position']['p99'])} |",
+        "",
+        f"The seed reports {r['seed_drive_reply_ms']} ms for the real Elmo drive alone to answer a position "
+        "query; here the drive is simulated, so the figure is the software path a real reply would add to.",
         "",
         f"Ratio {r['ratio']:.2f}× the bare round trip (target ≤ {r['target_ratio']}×): **{r['verdict']}**. "
         f"For comparison, rosbridge + roslibpy publish a {r['rosbridge_service_median_ms']} ms median service call.",

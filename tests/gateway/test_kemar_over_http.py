@@ -1,0 +1,73 @@
+"""The KEMAR head through the gateway and the generated client: moves, faults, other sessions unharmed."""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import AsyncIterator
+
+import pytest
+
+from aiogenomix.clients import Interrupted, RemoteError, aconnect
+from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.kemar import MotorFault, simulated_rig
+from aiogenomix.gateway import GatewayConfig, serve
+
+
+@pytest.fixture
+async def rig() -> AsyncIterator[tuple[ComponentHost, str]]:
+    """A gateway on a 50× clock whose host we can reach (to inject drive faults)."""
+    async with ComponentHost(clock=ScaledClock(50), settings={"can": "virtual", "audio_socket_port": 0}) as host:
+        async with serve(GatewayConfig(port=0), host=host) as url:
+            yield host, url
+
+
+async def test_head_moves_and_reports_its_state(rig: tuple[ComponentHost, str]) -> None:
+    _, url = rig
+    async with aconnect(url, timeout=30) as client:
+        kemar = await client.load("kemar")
+        await kemar.Homing()
+        await kemar.MoveAbsolutePosition(30)
+        state = await kemar.currentState()
+        assert state.position == pytest.approx(30, abs=0.1)
+        assert state.maxLeft == pytest.approx(90, abs=0.5) and state.maxRight == pytest.approx(-90, abs=0.5)
+        await kemar.MoveRelativePosition(-50)
+        assert (await kemar.currentState()).position == pytest.approx(-20, abs=0.1)
+
+        first = await kemar.MoveAbsolutePosition(80, ack=True)
+        await kemar.MoveAbsolutePosition(-10)
+        with pytest.raises(Interrupted) as interrupted:
+            await first.result()
+        assert interrupted.value.by == "MoveAbsolutePosition"
+        assert (await kemar.currentState()).position == pytest.approx(-10, abs=0.1)
+
+
+async def test_faults_end_requests_clearly_and_nothing_else_is_disturbed(rig: tuple[ComponentHost, str]) -> None:
+    host, url = rig
+    async with aconnect(url, timeout=30) as head_session, aconnect(url, timeout=30) as demo_session:
+        kemar = await head_session.load("kemar")
+        demo = await demo_session.load("demo")
+        with pytest.raises(kemar.NOT_HOMED):
+            await kemar.MoveAbsolutePosition(10)
+        robot = await demo.GotoPosition(0.8, ack=True)  # another session's activity, running meanwhile
+
+        await kemar.Homing()
+        drive = simulated_rig(host)
+        assert drive is not None
+        drive.inject_fault(MotorFault.POSITION_TRACKING, 0x8611)
+        with pytest.raises(RemoteError) as fault:
+            await kemar.MoveAbsolutePosition(40)
+        assert fault.value.ex == "::kemar::DRIVE_FAULT"
+        assert "tracking" in str(fault.value).lower()
+
+        drive.set_silent(True)
+        with pytest.raises(RemoteError) as silent:
+            await asyncio.wait_for(kemar.GetPosition(), 30)  # an error, never a hang
+        assert silent.value.ex == "::kemar::BUS_TIMEOUT"
+        drive.set_silent(False)
+
+        await kemar.Homing()  # recovers
+        await kemar.MoveAbsolutePosition(15)
+        assert (await kemar.currentState()).position == pytest.approx(15, abs=0.1)
+
+        await robot.result()
+        assert (await demo.Mobile()).position == pytest.approx(0.8)
