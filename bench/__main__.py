@@ -44,13 +44,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", nargs="+", choices=list(BENCHMARKS), default=list(BENCHMARKS))
     parser.add_argument("--quick", action="store_true", help="short runs, to check the benchmarks work")
     parser.add_argument("--no-write", action="store_true", help="print only; leave docs/benchmarks.md alone")
+    parser.add_argument("--render", action="store_true",
+                        help="only rewrite docs/benchmarks.md from bench/results/latest.json")
     args = parser.parse_args(argv)
+    path = ROOT / "bench" / "results" / "latest.json"
+    if args.render:
+        saved = json.loads(path.read_text())
+        (ROOT / "docs" / "benchmarks.md").write_text(render(saved["machine"], saved["results"]))
+        return 0
     results = asyncio.run(_run(args.only, args.quick))
     machine = {"date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
                "python": platform.python_version(), "machine": platform.machine(), "cpus": os.cpu_count(),
                "quick": args.quick}
     if not args.no_write:
-        path = ROOT / "bench" / "results" / "latest.json"
         previous = json.loads(path.read_text()) if path.exists() else {"results": {}}
         merged = previous.get("results", {}) | results
         path.write_text(json.dumps({"machine": machine, "results": merged}, indent=1, default=float) + "\n")

@@ -21,7 +21,8 @@ def _ms(value: float) -> str:
 
 def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     """The whole Markdown page."""
-    out = [HEAD.format(quick=" (quick runs)" if machine.get("quick") else "", **machine)]
+    facts = {k: v for k, v in machine.items() if k != "quick"}
+    out = [HEAD.format(quick=" (quick runs)" if machine.get("quick") else "", **facts)]
     if "port_read" in results:
         out.append(_port_read(results["port_read"]))
     if "service" in results:

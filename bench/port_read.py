@@ -10,7 +10,6 @@ import asyncio
 import json
 import struct
 import time
-from collections.abc import Awaitable, Callable
 from typing import Any
 
 import aiohttp
@@ -81,15 +80,6 @@ class _FloorReader(asyncio.BufferedProtocol):
             self.transport.close()
 
 
-async def _timed(read: Callable[[], Awaitable[int]], reads: int) -> tuple[list[float], int]:
-    samples, nbytes = [], 0
-    for _ in range(reads):
-        started = time.perf_counter()
-        nbytes = await read()
-        samples.append(time.perf_counter() - started)
-    return samples, nbytes
-
-
 async def _window(json_client: AsyncClient, binary_client: AsyncClient, socket_port: int, floor_port: int,
                   chunks: int, reads: int) -> dict[str, Any]:
     values = FRAMES * chunks
@@ -133,14 +123,20 @@ async def _window(json_client: AsyncClient, binary_client: AsyncClient, socket_p
         return len(body)
 
     async with audio:
-        results = {}
-        for name, read in [("floor", floor_read), ("socket", socket_read), ("binary", binary_read),
-                           ("json", json_read)]:
+        paths = {"floor": floor_read, "socket": socket_read, "binary": binary_read, "json": json_read,
+                 "incremental": incremental_read}
+        samples: dict[str, list[float]] = {name: [] for name in paths}
+        for read in paths.values():
             await read()  # warm up
-            samples, _ = await _timed(read, reads)
-            results[name] = summary(samples) | {"bytes": _wire_bytes(name, chunks)}
-        await _timed(incremental_read, reads)
-        results["incremental"] = summary(incremental_samples)
+        incremental_samples.clear()
+        # Round robin: a slow moment of the shared machine weighs on every path alike.
+        for _ in range(reads):
+            for name, read in paths.items():
+                started = time.perf_counter()
+                await read()
+                samples[name].append(time.perf_counter() - started)
+        samples["incremental"] = incremental_samples
+        results = {name: summary(values) | {"bytes": _wire_bytes(name, chunks)} for name, values in samples.items()}
     floor.close()
     floor = results["floor"]["median"]
     for name in ("socket", "binary", "json"):
@@ -151,7 +147,7 @@ async def _window(json_client: AsyncClient, binary_client: AsyncClient, socket_p
 def _wire_bytes(path: str, chunks: int) -> int:
     """Bytes of samples each path moves for a window (JSON: measured once, it depends on the digits)."""
     samples = 2 * FRAMES * chunks * 4
-    return {"floor": samples, "socket": samples + 8, "binary": samples, "json": 0}[path]
+    return {"floor": samples, "socket": samples + 8, "binary": samples, "json": 0, "incremental": 0}[path]
 
 
 async def _start(http: aiohttp.ClientSession, base: str, chunks: int) -> None:

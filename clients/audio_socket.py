@@ -33,13 +33,14 @@ from typing import Self
 import numpy as np
 import numpy.typing as npt
 
+from ._receiver import Receiver
+
 from ._errors import TransportError
 
 __all__ = ["AudioBlock", "AudioSocketError", "AudioSocketClient", "AsyncAudioSocketClient", "DEFAULT_PORT"]
 
 DEFAULT_PORT = 8081
 _ERROR_MARK = b"ERRO"
-_READ_LIMIT = 1 << 23
 #: A reply announcing more chunks than this is not a reply of this protocol.
 _MAX_CHUNKS = 1 << 20
 
@@ -53,7 +54,8 @@ class AudioBlock:
     """The new chunks of one read.
 
     Attributes:
-        frames: ``(count * frames_per_chunk, 2)`` int32 frames, left then right, oldest first.
+        frames: ``(count * frames_per_chunk, 2)`` int32 frames, left then right, oldest first: a
+            view of the received reply, not C-contiguous (``np.ascontiguousarray`` makes it so).
         count: How many chunks arrived.
         first_index: Index of the first chunk in *frames* (``last_index + 1`` when none).
         last_index: The server's newest chunk, now the client's index.
@@ -106,21 +108,20 @@ class _Protocol:
             raise AudioSocketError(f"the server announced {count} chunks: not a dedicated-socket reply")
         return count
 
-    def body_size(self, count: int) -> int:
-        """Bytes after the count word."""
-        return 4 * (2 * count * self.frames_per_chunk + 1 + (count if self.positions else 0))
+    def body_buffer(self, count: int) -> npt.NDArray[np.int32]:
+        """A fresh array for the words after the count word, to receive the reply into."""
+        return np.empty(2 * count * self.frames_per_chunk + 1 + (count if self.positions else 0), dtype="<i4")
 
-    def decode(self, count: int, body: bytes) -> AudioBlock:
-        """Decode the body of a reply and move the index forward."""
+    def decode(self, count: int, body: npt.NDArray[np.int32]) -> AudioBlock:
+        """Decode the body of a reply (received into :meth:`body_buffer`) and move the index forward."""
         samples = count * self.frames_per_chunk
-        values = np.frombuffer(body, dtype="<i4", count=2 * samples + 1)
-        frames = np.empty((samples, 2), dtype=np.int32)
-        frames[:, 0] = values[:samples]
-        frames[:, 1] = values[samples:2 * samples]
-        last = int(values[-1])
+        # The reply holds all left samples, then all right ones: the (N, 2) frames are a
+        # view of it, with no copy (np.ascontiguousarray(block.frames) if a C-order array is needed).
+        frames = body[:2 * samples].reshape(2, samples).T
+        last = int(body[2 * samples])
         positions = None
         if self.positions:
-            positions = np.frombuffer(body, dtype="<f4", count=count, offset=4 * (2 * samples + 1)).astype(np.float32)
+            positions = body[2 * samples + 1:].view("<f4")
         lost = max(0, last - self.index - count)
         self.index = max(self.index, last)
         return AudioBlock(frames, count, last - count + 1, last, lost, positions)
@@ -185,16 +186,14 @@ class AudioSocketClient:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def _receive(self, size: int) -> bytes:
+    def _receive_into(self, view: memoryview) -> None:
         assert self._sock is not None
-        buffer = bytearray(size)
-        view, got = memoryview(buffer), 0
-        while got < size:
+        got = 0
+        while got < len(view):
             n = self._sock.recv_into(view[got:])
             if n == 0:
                 raise AudioSocketError("the audio socket closed the connection")
             got += n
-        return bytes(buffer)
 
     def read(self) -> AudioBlock:
         """Ask for the chunks newer than :attr:`index` and return them.
@@ -210,12 +209,15 @@ class AudioSocketClient:
             previous = protocol.index
             try:
                 self._sock.sendall(protocol.request())
-                header = self._receive(4)
+                header = bytearray(4)
+                self._receive_into(memoryview(header))
                 if header == _ERROR_MARK:
                     rest = self._sock.makefile("rb").readline()
                     raise AudioSocketError(f"the audio socket refused the request: {_error_text(header + rest)}")
-                count = protocol.count_of(header)
-                block = protocol.decode(count, self._receive(protocol.body_size(count)))
+                count = protocol.count_of(bytes(header))
+                body = protocol.body_buffer(count)
+                self._receive_into(memoryview(body).cast("B"))
+                block = protocol.decode(count, body)
             except AudioSocketError:
                 self.close()
                 raise
@@ -244,8 +246,7 @@ class AsyncAudioSocketClient:
                  positions: bool = False, index: int = 0, timeout: float = 10.0) -> None:
         self.host, self.port, self.timeout = host, port, timeout
         self._protocol = _Protocol(frames_per_chunk, positions, index)
-        self._reader: asyncio.StreamReader | None = None
-        self._writer: asyncio.StreamWriter | None = None
+        self._receiver: Receiver | None = None
 
     @property
     def index(self) -> int:
@@ -264,25 +265,19 @@ class AsyncAudioSocketClient:
         Raises:
             AudioSocketError: when the server cannot be reached.
         """
-        if self._writer is None:
+        if self._receiver is None:
+            loop = asyncio.get_running_loop()
             try:
                 async with asyncio.timeout(self.timeout):
-                    # A reader limit above the largest reply: a 4 s window arrives without
-                    # the stream pausing the socket every 128 kB.
-                    self._reader, self._writer = await asyncio.open_connection(self.host, self.port,
-                                                                               limit=_READ_LIMIT)
+                    _, self._receiver = await loop.create_connection(Receiver, self.host, self.port)
             except (OSError, TimeoutError) as exc:
                 raise AudioSocketError(f"cannot reach the audio socket at {self.host}:{self.port}: {exc}") from exc
 
     async def aclose(self) -> None:
         """Close the connection (idempotent)."""
-        writer, self._writer, self._reader = self._writer, None, None
-        if writer is not None:
-            writer.close()
-            try:
-                await writer.wait_closed()
-            except ConnectionError:
-                pass  # already reset by the server: closed either way
+        receiver, self._receiver = self._receiver, None
+        if receiver is not None and receiver.transport is not None:
+            receiver.transport.close()
 
     async def __aenter__(self) -> Self:
         await self.connect()
@@ -292,16 +287,18 @@ class AsyncAudioSocketClient:
         await self.aclose()
 
     async def _exchange(self) -> AudioBlock:
-        assert self._reader is not None and self._writer is not None
-        protocol = self._protocol
-        self._writer.write(protocol.request())
-        await self._writer.drain()
-        header = await self._reader.readexactly(4)
+        assert self._receiver is not None and self._receiver.transport is not None
+        protocol, receiver = self._protocol, self._receiver
+        receiver.transport.write(protocol.request())
+        header = bytearray(4)
+        await receiver.receive_into(memoryview(header))
         if header == _ERROR_MARK:
-            rest = await self._reader.readline()
-            raise AudioSocketError(f"the audio socket refused the request: {_error_text(header + rest)}")
-        count = protocol.count_of(header)
-        return protocol.decode(count, await self._reader.readexactly(protocol.body_size(count)))
+            rest = await receiver.receive_line()
+            raise AudioSocketError(f"the audio socket refused the request: {_error_text(bytes(header) + rest)}")
+        count = protocol.count_of(bytes(header))
+        body = protocol.body_buffer(count)
+        await receiver.receive_into(memoryview(body).cast("B"))
+        return protocol.decode(count, body)
 
     async def read(self) -> AudioBlock:
         """Ask for the chunks newer than :attr:`index` and return them.
