@@ -35,7 +35,7 @@ async def _wrk(url: str, seconds: float) -> dict[str, float]:
     return {"requests_per_s": rate, "requests": total, "errors": errors}
 
 
-async def run(seconds: float = 30.0, rounds: int = 3) -> Result:
+async def run(seconds: float = 30.0, rounds: int = 5) -> Result:
     """Throughput of ``send`` of a function (its reply is already ``done``) vs a bare handler."""
     if shutil.which("wrk") is None:
         return {"skipped": "wrk is not installed (./run bench installs it)"}

@@ -252,7 +252,7 @@ class Component:
         except GenomException as exc:
             exc.component = self.genom_name
             raise
-        victims = [r for r in self.requests.running() if r.service.name in spec.interrupts]
+        victims = [r for r in self.requests.running() if r.service.name in spec.interrupts] if spec.interrupts else []
         request = self.requests.create(spec, inputs, session, oneway)
         if victims:
             await asyncio.gather(*(self.interrupt(v, by=spec.name) for v in victims))
