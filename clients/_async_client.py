@@ -393,7 +393,9 @@ class _Connecting:
 
 
 def aconnect(address: str | None = None, **options: Any) -> _Connecting:
-    """Connect an :class:`AsyncClient`: ``client = await aconnect("host:port")`` or ``async with aconnect() as c``.
+    """Open an :class:`AsyncClient` on a gateway.
+
+    Use ``client = await aconnect("host:port")`` or ``async with aconnect() as client``.
 
     Args:
         address: ``host:port`` (default ``localhost:8080``).

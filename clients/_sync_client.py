@@ -187,8 +187,9 @@ class Client:
     def _module(self, core: AsyncModule) -> Module:
         description = core._description
         instance = description.instance
-        module: Module = Module.create(description, build_members(description, lambda s: self._service_function(instance, s),
-                                                   lambda p: self._port_function(instance, p)))
+        members = build_members(description, lambda s: self._service_function(instance, s),
+                                lambda p: self._port_function(instance, p))
+        module: Module = Module.create(description, members)
         self._modules[instance] = module
         return module
 
@@ -247,7 +248,9 @@ class Client:
 
 
 def connect(address: str | None = None, **options: Any) -> Client:
-    """Connect to a gateway: ``client = connect("host:port")``, or ``with connect() as client``.
+    """Open a blocking :class:`Client` on a gateway.
+
+    Use ``client = connect("host:port")``, or ``with connect() as client``.
 
     Args:
         address: ``host:port`` (default ``localhost:8080``), or a URL.

@@ -131,7 +131,7 @@ def generate_source(info: ModuleInfo, source: str = "") -> str:
         f"INSTANCE = {d.instance!r}\nCOMPONENT = {d.component!r}\n",
         "_module: Module | None = None\n_UNSET: Any = object()\n",
         "\ndef bind(client: Client | str | None = None, instance: str = INSTANCE) -> Module:\n"
-        '    """Forward this file\'s functions to *client* (or connect to an address); load the instance if needed."""\n'
+        '    """Forward this file\'s functions to *client* (or connect to an address); load the instance."""\n'
         "    global _module\n"
         "    if not isinstance(client, Client):\n        client = connect(client)\n"
         "    argv = () if instance == COMPONENT else ('-i', instance)\n"

@@ -1,7 +1,7 @@
 """Drive the GenoM3 demo robot and plot ``Mobile.position`` over time (the seed's Figure 4.3, in Python).
 
-    python examples/demo_session.py                        # starts a simulated gateway in-process
-    python examples/demo_session.py --url localhost:8080   # or drive a running gateway
+python examples/demo_session.py                        # starts a simulated gateway in-process
+python examples/demo_session.py --url localhost:8080   # or drive a running gateway
 """
 
 from __future__ import annotations

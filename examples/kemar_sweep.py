@@ -25,6 +25,7 @@ def print_state(state: object, started: float) -> None:
 
 
 def main() -> int:
+    """Home, sweep, print; return the exit status."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--address", default="localhost:8080", help="the gateway (default localhost:8080)")
     parser.add_argument("--amplitude", type=float, default=60.0, help="sweep between -A and +A degrees (default 60)")

@@ -9,7 +9,7 @@ the thread and the clock live in :mod:`._simdrive`.
 from __future__ import annotations
 
 import math
-from typing import Callable
+from collections.abc import Callable
 
 from ._codec import (
     INPUT_FORWARD_LIMIT,

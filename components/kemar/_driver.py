@@ -6,7 +6,7 @@ import asyncio
 import collections
 import logging
 from types import TracebackType
-from typing import Callable
+from collections.abc import Callable
 
 import can
 
@@ -254,7 +254,8 @@ class HarmonicaDriver:
             SdoAbortError: The drive aborted the transfer.
             DriveTimeout: No reply in time.
         """
-        frame = await self._sdo(encode_sdo_download(index, subindex, value, size), f"SDO write 0x{index:04X}:{subindex}")
+        frame = await self._sdo(encode_sdo_download(index, subindex, value, size),
+                                f"SDO write 0x{index:04X}:{subindex}")
         if frame.kind is not SdoKind.DOWNLOAD_ACK:
             raise BusError(f"unexpected SDO reply {frame.kind.value} to a download")
 

@@ -65,7 +65,7 @@ class Trajectory:
         start = self.t0
         if t <= start:
             return p, v, 0.0
-        for (duration, accel), end in zip(self.segments, self._ends):
+        for (duration, accel), end in zip(self.segments, self._ends, strict=True):
             if t < end:
                 dt = t - start
                 return p + v * dt + 0.5 * accel * dt * dt, v + accel * dt, accel
@@ -92,7 +92,7 @@ class Trajectory:
         """
         pieces: list[tuple[float, float, float, float, float]] = []  # start, end, p, v, a
         p, v, start = self.p0, self.v0, self.t0
-        for (duration, accel), end in zip(self.segments, self._ends):
+        for (duration, accel), end in zip(self.segments, self._ends, strict=True):
             pieces.append((start, end, p, v, accel))
             p += v * duration + 0.5 * accel * duration * duration
             v += accel * duration
@@ -128,7 +128,8 @@ def _first_root(c: float, b: float, a: float, s_lo: float, s_hi: float) -> float
     return None
 
 
-def _segments_to_rest_move(distance: float, u: float, speed: float, acc: float, dec: float) -> list[tuple[float, float]]:
+def _segments_to_rest_move(distance: float, u: float, speed: float, acc: float,
+                           dec: float) -> list[tuple[float, float]]:
     """Segments (in the direction frame) from velocity u >= 0 to rest after *distance*.
 
     Assumes the stopping distance ``u²/2dec`` does not exceed *distance*.

@@ -95,7 +95,8 @@ def test_help_renders_info_docs(threaded_gateway_url: str) -> None:
         assert inspect.signature(demo.Monitor).return_annotation is Record
         module_help = pydoc.render_doc(demo, renderer=pydoc.plaintext)
         assert "A virtual mobile robot on a line" in module_help
-        assert "GotoPosition(posRef: float = 0.0" in module_help and "Mobile(*, since: Optional[int] = None, raw: bool = False" in module_help
+        assert "GotoPosition(posRef: float = 0.0" in module_help
+        assert "Mobile(*, since: Optional[int] = None, raw: bool = False" in module_help
 
 
 async def test_outputs_and_argument_forms(gateway_url: str) -> None:

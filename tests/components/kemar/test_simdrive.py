@@ -154,7 +154,7 @@ async def test_head_azimuth_is_readable_from_another_thread(drive: HarmonicaDriv
     thread = threading.Thread(target=lambda: seen.extend(sim.head_azimuth for _ in range(100)))
     thread.start()
     await asyncio.to_thread(thread.join)
-    assert all(b <= a for a, b in zip(seen, seen[1:]))  # turning right: the azimuth decreases
+    assert all(b <= a for a, b in zip(seen, seen[1:], strict=False))  # turning right: the azimuth decreases
     assert -90.0 <= seen[-1] < -40.0
 
 
