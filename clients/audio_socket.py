@@ -131,23 +131,13 @@ def _error_text(line: bytes) -> str:
     return line.decode("utf-8", "replace").strip()
 
 
-class AudioSocketClient:
-    """A blocking dedicated-socket client.
-
-    Args:
-        host: The server's address.
-        port: Its port (``audio_socket_port`` of the gateway, 8081 by default).
-        frames_per_chunk: Frames per chunk of the running capture.
-        positions: Whether the server appends head positions (``kemarcapture``).
-        index: The last chunk index already held (0: none).
-        timeout: Seconds to wait for the server before :class:`AudioSocketError`.
-    """
+class _ClientBase:
+    """What both clients share: the address, the timeout and the index they hold."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = DEFAULT_PORT, *, frames_per_chunk: int = 2205,
                  positions: bool = False, index: int = 0, timeout: float = 10.0) -> None:
         self.host, self.port, self.timeout = host, port, timeout
         self._protocol = _Protocol(frames_per_chunk, positions, index)
-        self._sock: socket.socket | None = None
 
     @property
     def index(self) -> int:
@@ -159,6 +149,21 @@ class AudioSocketClient:
         if index < 0:
             raise ValueError(f"a chunk index is never negative, not {index}")
         self._protocol.index = index
+
+
+class AudioSocketClient(_ClientBase):
+    """A blocking dedicated-socket client.
+
+    Args:
+        host: The server's address.
+        port: Its port (``audio_socket_port`` of the gateway, 8081 by default).
+        frames_per_chunk: Frames per chunk of the running capture.
+        positions: Whether the server appends head positions (``kemarcapture``).
+        index: The last chunk index already held (0: none).
+        timeout: Seconds to wait for the server before :class:`AudioSocketError`.
+    """
+
+    _sock: socket.socket | None = None
 
     def connect(self) -> None:
         """Open the connection (done by the first read if needed).
@@ -239,25 +244,10 @@ class AudioSocketClient:
                 time.sleep(interval)
 
 
-class AsyncAudioSocketClient:
+class AsyncAudioSocketClient(_ClientBase):
     """An asyncio dedicated-socket client (same arguments as :class:`AudioSocketClient`)."""
 
-    def __init__(self, host: str = "127.0.0.1", port: int = DEFAULT_PORT, *, frames_per_chunk: int = 2205,
-                 positions: bool = False, index: int = 0, timeout: float = 10.0) -> None:
-        self.host, self.port, self.timeout = host, port, timeout
-        self._protocol = _Protocol(frames_per_chunk, positions, index)
-        self._receiver: Receiver | None = None
-
-    @property
-    def index(self) -> int:
-        """The index of the last chunk the client holds."""
-        return self._protocol.index
-
-    def seek(self, index: int) -> None:
-        """Make the next read ask for the chunks after *index* (0: the whole port)."""
-        if index < 0:
-            raise ValueError(f"a chunk index is never negative, not {index}")
-        self._protocol.index = index
+    _receiver: Receiver | None = None
 
     async def connect(self) -> None:
         """Open the connection (done by the first read if needed).

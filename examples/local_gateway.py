@@ -2,13 +2,10 @@
 
 from __future__ import annotations
 
-import asyncio
-import concurrent.futures
 import contextlib
-import threading
 from collections.abc import Iterator
 
-from aiogenomix.gateway import GatewayConfig, serve
+from aiogenomix.gateway import GatewayConfig, serve_in_thread
 
 
 @contextlib.contextmanager
@@ -21,26 +18,5 @@ def local_gateway(time_scale: float = 1.0) -> Iterator[str]:
     Args:
         time_scale: Robot seconds per real second (above 1, the robot moves faster).
     """
-    started: concurrent.futures.Future[tuple[str, asyncio.Event]] = concurrent.futures.Future()
-
-    async def main() -> None:
-        try:
-            async with serve(GatewayConfig(port=0, time_scale=time_scale, audio_socket_port=0)) as url:
-                stop = asyncio.Event()
-                started.set_result((url, stop))
-                await stop.wait()
-        except BaseException as exc:
-            if not started.done():
-                started.set_exception(exc)
-            raise
-
-    loop = asyncio.new_event_loop()
-    thread = threading.Thread(target=loop.run_until_complete, args=(main(),), name="local-gateway", daemon=True)
-    thread.start()
-    url, stop = started.result(timeout=30)
-    try:
+    with serve_in_thread(GatewayConfig(port=0, time_scale=time_scale, audio_socket_port=0)) as url:
         yield url
-    finally:
-        loop.call_soon_threadsafe(stop.set)
-        thread.join(timeout=30)
-        loop.close()

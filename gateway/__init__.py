@@ -9,11 +9,11 @@ from ._config import GatewayConfig
 from ._errors import BadQuery, GatewayError, LoadForbidden, NoSuchSession
 from ._replies import SERVER_VERSION
 from ._routes_admin import GENOMIX_PROTOCOL_VERSION
-from ._run import run, serve
+from ._run import run, serve, serve_in_thread
 
 __version__ = SERVER_VERSION
 
 __all__ = [
-    "create_app", "GatewayConfig", "run", "serve", "GatewayError", "NoSuchSession", "BadQuery",
+    "create_app", "GatewayConfig", "run", "serve", "serve_in_thread", "GatewayError", "NoSuchSession", "BadQuery",
     "LoadForbidden", "GENOMIX_PROTOCOL_VERSION", "__version__",
 ]

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import contextlib
 import signal
-from collections.abc import AsyncIterator
+import threading
+from collections.abc import AsyncIterator, Iterator
 
 from aiohttp import web
 
@@ -13,7 +15,7 @@ from ..components.core import ComponentHost
 from ._app import create_app
 from ._config import GatewayConfig
 
-__all__ = ["serve", "run"]
+__all__ = ["serve", "serve_in_thread", "run"]
 
 
 @contextlib.asynccontextmanager
@@ -34,6 +36,40 @@ async def serve(config: GatewayConfig, host: ComponentHost | None = None) -> Asy
         yield f"http://{shown}:{bound_port}"
     finally:
         await runner.cleanup()
+
+
+@contextlib.contextmanager
+def serve_in_thread(config: GatewayConfig, host: ComponentHost | None = None) -> Iterator[str]:
+    """Serve the gateway on an event loop of its own thread while the context is open; yield its URL.
+
+    For scripts and notebooks that want a simulated rig next to a blocking client:
+    the gateway never competes with the caller's thread, even inside Jupyter,
+    whose main thread already runs an event loop.
+    """
+    started: concurrent.futures.Future[tuple[str, asyncio.Event]] = concurrent.futures.Future()
+
+    async def main() -> None:
+        try:
+            async with serve(config, host) as url:
+                stop = asyncio.Event()
+                started.set_result((url, stop))
+                await stop.wait()
+        except BaseException as exc:
+            if not started.done():
+                started.set_exception(exc)
+            raise
+
+    loop = asyncio.new_event_loop()
+    thread = threading.Thread(target=loop.run_until_complete, args=(main(),), name="aiogenomix-gateway",
+                              daemon=True)
+    thread.start()
+    url, stop = started.result(timeout=60)
+    try:
+        yield url
+    finally:
+        loop.call_soon_threadsafe(stop.set)
+        thread.join(timeout=60)
+        loop.close()
 
 
 async def _serve_until_signalled(config: GatewayConfig) -> None:

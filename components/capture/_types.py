@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Annotated
 
 import numpy as np
 
+from .. import core
 from ..core import Boolean, GenomException, Long, String, ULong, ULongLong, idl_struct, sequence
 
 __all__ = [
@@ -26,22 +26,8 @@ def _no_samples() -> np.ndarray:
 
 
 @idl_struct("capture::timestamp_t")
-class Timestamp:
+class Timestamp(core.Timestamp):
     """A POSIX time split into seconds and nanoseconds."""
-
-    tv_sec: Long = 0
-    tv_nsec: Long = 0
-
-    @classmethod
-    def from_seconds(cls, seconds: float) -> Timestamp:
-        """Split a POSIX time in seconds."""
-        whole = math.floor(seconds)
-        nsec = min(999_999_999, round((seconds - whole) * 1e9))
-        return cls(tv_sec=whole, tv_nsec=nsec)
-
-    def seconds(self) -> float:
-        """The time as POSIX seconds."""
-        return self.tv_sec + self.tv_nsec * 1e-9
 
 
 @idl_struct("capture::port_t")

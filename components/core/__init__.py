@@ -17,6 +17,7 @@ from ._ports import Incremental, InPort, InPortRuntime, OutPort, OutPortRuntime
 from ._requests import Request, RequestTracker
 from ._services import NO_DEFAULT, Out, ParamSpec, ServiceSpec, activity, attribute, function
 from ._tasks import Task, TaskRuntime
+from ._timestamp import Timestamp
 from ._types import (
     ArrayType, Boolean, Char, Double, EnumType, Float, IdlType, Long, LongLong, Octet, OptionalType,
     Scalar, SequenceType, Short, String, StringType, StructType, ULong, ULongLong, UShort, array,
@@ -31,8 +32,8 @@ __all__ = [
     # Runtime objects
     "Request", "RequestTracker", "ServiceSpec", "ParamSpec", "NO_DEFAULT", "TaskRuntime",
     "OutPortRuntime", "InPortRuntime", "Incremental",
-    # Clocks
-    "Clock", "RealClock", "ScaledClock", "ManualClock",
+    # Clocks and time
+    "Timestamp", "Clock", "RealClock", "ScaledClock", "ManualClock",
     # Types
     "IdlType", "Scalar", "StringType", "EnumType", "StructType", "SequenceType", "ArrayType",
     "OptionalType", "idl_type", "idl_struct", "idl_enum", "sequence", "array", "optional", "string",

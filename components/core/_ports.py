@@ -118,21 +118,12 @@ class InPort(PortSpec, Generic[T]):
         return InPortRuntime(self, owner)
 
 
-class OutPortRuntime:
-    """The data of one out port of one component instance.
-
-    ``version`` counts publications; :meth:`wait_published` lets a watcher wait
-    for the next one without polling.  Publish from the event-loop thread (use
-    ``loop.call_soon_threadsafe`` from a hardware thread).
-    """
+class _PortRuntime:
+    """What the runtimes of in and out ports share: their declaration and owner."""
 
     def __init__(self, spec: PortSpec, owner: Any) -> None:
         self.spec = spec
         self.owner = owner
-        self.version = 0
-        self._elements: dict[str, Any] = {}
-        self._value: Any = None if spec.multiple else spec.type.zero()
-        self._published: asyncio.Future[None] | None = None
 
     @property
     def name(self) -> str:
@@ -143,6 +134,22 @@ class OutPortRuntime:
     def type(self) -> IdlType:
         """The IDL type of the data."""
         return self.spec.type
+
+
+class OutPortRuntime(_PortRuntime):
+    """The data of one out port of one component instance.
+
+    ``version`` counts publications; :meth:`wait_published` lets a watcher wait
+    for the next one without polling.  Publish from the event-loop thread (use
+    ``loop.call_soon_threadsafe`` from a hardware thread).
+    """
+
+    def __init__(self, spec: PortSpec, owner: Any) -> None:
+        super().__init__(spec, owner)
+        self.version = 0
+        self._elements: dict[str, Any] = {}
+        self._value: Any = None if spec.multiple else spec.type.zero()
+        self._published: asyncio.Future[None] | None = None
 
     def publish(self, value: Any, name: str | None = None) -> None:
         """Publish *value* (for a multiple port, as element *name*)."""
@@ -206,25 +213,14 @@ class ComputedOutPortRuntime(OutPortRuntime):
         return getattr(self.owner, self.spec.compute)()  # type: ignore[attr-defined]
 
 
-class InPortRuntime:
+class InPortRuntime(_PortRuntime):
     """The in port of one component instance: reads the out port it is connected to."""
 
     def __init__(self, spec: PortSpec, owner: Any) -> None:
-        self.spec = spec
-        self.owner = owner
+        super().__init__(spec, owner)
         self.remote: OutPortRuntime | None = None
         self.remote_name = ""
         self.element: str | None = None
-
-    @property
-    def name(self) -> str:
-        """The port name."""
-        return self.spec.name
-
-    @property
-    def type(self) -> IdlType:
-        """The IDL type of the data."""
-        return self.spec.type
 
     @property
     def connected(self) -> bool:

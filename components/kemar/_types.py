@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 
+from .. import core
 from ..core import Double, GenomException, Long, String, idl_struct
 
 __all__ = [
@@ -22,21 +22,8 @@ __all__ = [
 
 
 @idl_struct("kemar::timestamp_t")
-class Timestamp:
+class Timestamp(core.Timestamp):
     """A POSIX time split into seconds and nanoseconds."""
-
-    tv_sec: Long = 0
-    tv_nsec: Long = 0
-
-    @classmethod
-    def from_seconds(cls, seconds: float) -> Timestamp:
-        """Split a POSIX time in seconds."""
-        whole = math.floor(seconds)
-        return cls(tv_sec=whole, tv_nsec=min(999_999_999, round((seconds - whole) * 1e9)))
-
-    def seconds(self) -> float:
-        """The time as POSIX seconds."""
-        return self.tv_sec + self.tv_nsec * 1e-9
 
 
 @idl_struct("kemar::state")
