@@ -6,7 +6,9 @@ from ._errors import BackendUnavailable, CaptureError, DeviceError, DeviceNotFou
 from ._head_model import SphericalHeadRenderer, woodworth_itd
 from ._scene import DEFAULT_SCENE, Scene, Source, load_scene
 from ._socket_server import DedicatedSocketServer
-from ._socket_wire import RequestParser, encode_error, encode_reply, encode_request, parse_request, reply_size
+from ._socket_wire import (
+    RequestParser, encode_error, encode_reply, encode_request, parse_request, reply_parts, reply_size,
+)
 from ._types import (
     ALREADY_CAPTURING, DEVICE_ERROR, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, NO_SUCH_DEVICE, SOCKET_ERROR,
     CaptureConfig, CaptureStatus, PortData, Timestamp,
@@ -24,7 +26,7 @@ __all__ = [
     "Scene", "Source", "DEFAULT_SCENE", "load_scene", "SphericalHeadRenderer", "woodworth_itd",
     # The chunk window and the dedicated socket
     "ChunkWindow", "WindowRead", "DedicatedSocketServer", "RequestParser", "parse_request", "encode_request",
-    "encode_reply", "encode_error", "reply_size",
+    "encode_reply", "reply_parts", "encode_error", "reply_size",
     # Errors
     "CaptureError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "SceneError", "RequestError",
 ]

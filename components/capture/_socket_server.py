@@ -17,7 +17,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ._errors import RequestError
-from ._socket_wire import RequestParser, encode_error, encode_reply
+from ._socket_wire import RequestParser, encode_error, reply_parts
 from ._window import ChunkWindow, WindowRead
 
 __all__ = ["DedicatedSocketServer", "DEFAULT_PORT"]
@@ -99,12 +99,12 @@ class DedicatedSocketServer:
     async def __aexit__(self, *exc: object) -> None:
         await self.aclose()
 
-    def reply_to(self, index: int) -> bytes:
-        """The reply to a request for the chunks after *index*."""
+    def reply_to(self, index: int) -> list[bytes | memoryview]:
+        """The reply to a request for the chunks after *index*, as buffers to write at once."""
         window = self._window()
-        # Views are enough: the reply is encoded before the window can change.
+        # Views are enough: every part is handed to the transport before the window can change.
         chunks = window.since(index, copy=False) if window is not None else _NO_CHUNKS
-        return encode_reply(chunks, with_positions=self.with_positions)
+        return reply_parts(chunks, with_positions=self.with_positions)
 
     async def _serve_client(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         task = asyncio.current_task()
@@ -124,7 +124,8 @@ class DedicatedSocketServer:
                     await writer.drain()
                     break
                 for index in indices:
-                    writer.write(self.reply_to(index))
+                    for part in self.reply_to(index):
+                        writer.write(part)  # the kernel (or the transport's buffer) takes it now
                     self.replies += 1
                     await writer.drain()
         except ConnectionError:

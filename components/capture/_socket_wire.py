@@ -26,7 +26,7 @@ from ._window import WindowRead
 
 __all__ = [
     "REQUEST_PREFIX", "MAX_REQUEST_LINE", "ERROR_PREFIX", "RequestParser", "parse_request", "encode_request",
-    "encode_reply", "encode_error", "reply_size",
+    "encode_reply", "reply_parts", "encode_error", "reply_size",
 ]
 
 REQUEST_PREFIX = "Read Port - Index "
@@ -94,25 +94,33 @@ def reply_size(count: int, frames_per_chunk: int, *, with_positions: bool = Fals
     return 4 * (2 + 2 * count * frames_per_chunk + (count if with_positions else 0))
 
 
-def encode_reply(chunks: WindowRead, *, with_positions: bool = False) -> bytes | memoryview:
-    """Encode the reply carrying *chunks* (from :meth:`ChunkWindow.since`).
+def reply_parts(chunks: WindowRead, *, with_positions: bool = False) -> list[bytes | memoryview]:
+    """The reply carrying *chunks* (from :meth:`ChunkWindow.since`), as buffers to write in order.
+
+    The samples are not copied: the parts are views of the chunks' arrays, so
+    write them all before the window can change.
 
     Raises:
         ValueError: when positions are asked for but the chunks carry none.
     """
     count, fpc = chunks.left.shape
-    samples = count * fpc
-    # One buffer written in place: the header, both channels and the trailer.
-    values = np.empty(2 + 2 * samples, dtype="<i4")
-    values[0] = count
-    values[1:1 + samples] = chunks.left.reshape(-1)
-    values[1 + samples:1 + 2 * samples] = chunks.right.reshape(-1)
-    values[-1] = chunks.last_index
-    if not with_positions:
-        return memoryview(values).cast("B")  # the buffer itself: no second copy of the samples
-    if chunks.positions is None:
-        raise ValueError("the reply needs positions but the window keeps none")
-    return values.tobytes() + chunks.positions.astype("<f4").tobytes()
+    trailer = np.array([chunks.last_index], dtype="<i4").tobytes()
+    if with_positions:
+        if chunks.positions is None:
+            raise ValueError("the reply needs positions but the window keeps none")
+        trailer += chunks.positions.astype("<f4").tobytes()
+    parts: list[bytes | memoryview] = [np.array([count], dtype="<i4").tobytes()]
+    for channel in (chunks.left, chunks.right):
+        samples = np.ascontiguousarray(channel, dtype="<i4")
+        if samples.size:
+            parts.append(memoryview(samples).cast("B"))
+    parts.append(trailer)
+    return parts
+
+
+def encode_reply(chunks: WindowRead, *, with_positions: bool = False) -> bytes:
+    """The reply carrying *chunks* as one bytes object (see :func:`reply_parts`)."""
+    return b"".join(reply_parts(chunks, with_positions=with_positions))
 
 
 def encode_error(message: str) -> bytes:
