@@ -90,8 +90,8 @@ class Gadget(Component, name="gadget", version="2.0"):
 
     @function
     async def Slow(self) -> None:
-        """A function slower than the send grace."""
-        await asyncio.sleep(0.05)
+        """A function slower than the send grace (its time passes when the test advances the clock)."""
+        await self.clock.sleep(1.0)
 
     @classmethod
     def service_defaults(cls, host: ComponentHost) -> dict[str, dict[str, Any]]:
@@ -198,6 +198,7 @@ async def test_slow_function_replies_sent_then_ends(host: ComponentHost) -> None
     gadget = await host.load("gadget")
     request = await gadget.send("Slow", session="s")
     assert request.status == "sent"
+    await host.clock.advance(1.0)  # type: ignore[attr-defined]
     await request.ended.wait()
     assert [e["status"] for e in host.events] == ["sent", "done"]
 
@@ -228,8 +229,7 @@ async def test_periodic_task_and_state_port(host: ComponentHost) -> None:
 
 async def test_ports_publish_wait_and_elements(host: ComponentHost) -> None:
     gadget = await host.load("gadget")
-    waiter = asyncio.create_task(gadget.Level.wait_published())
-    await asyncio.sleep(0)
+    waiter = asyncio.create_task(gadget.Level.wait_published(after_version=0))
     gadget.Level.publish(Reading(3.0))
     assert await waiter == 1
     assert gadget.Level.encoded() == {"value": 3.0}

@@ -118,8 +118,10 @@ async def test_close_fails_a_pending_request(sim: SimulatedHarmonica) -> None:
     sim.set_silent(True)
     driver = HarmonicaDriver.open("virtual", sim.channel, timeout=5.0)
     driver.start()
-    pending = asyncio.create_task(driver.query("PX"))
-    await asyncio.sleep(0)  # let the request be sent
+    with can.Bus(interface="virtual", channel=sim.channel) as spy:
+        pending = asyncio.create_task(driver.query("PX"))
+        # The request is on the bus (and unanswered) once the spy sees it.
+        assert await asyncio.to_thread(spy.recv, 5.0) is not None
     await driver.aclose()
     with pytest.raises(BusError, match="closed"):
         await pending
