@@ -38,13 +38,14 @@ class State:
 
 
 class TOO_FAR_AWAY(GenomException):
-    """The target lies outside the track; ``overshoot`` says by how many metres."""
+    """The target lies outside the track; ``overshoot`` says by how many metres (null: not a number)."""
 
     overshoot: Double
 
 
 def _refuse_off_track(position: float) -> None:
-    if abs(position) > TRACK_END:
+    # A NaN (JSON null) position is nowhere on the track: refused too, with a null overshoot.
+    if not abs(position) <= TRACK_END:
         raise TOO_FAR_AWAY(overshoot=abs(position) - TRACK_END)
 
 

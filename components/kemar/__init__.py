@@ -23,15 +23,15 @@ from ._head import HeadConfig, HeadState, KemarHead, MotionType
 from ._profile import Trajectory, move_duration, plan_jog, plan_move, plan_stop
 from ._simdrive import COUNTS_PER_DEGREE, DEFAULT_NODE_ID, DriveSnapshot, SimulatedHarmonica
 from ._types import (
-    BUS_ERROR, BUS_TIMEOUT, DRIVE_ERROR, DRIVE_FAULT, HOMING_FAILED, INVALID_VELOCITY, MOTION_STOPPED, NOT_HOMED,
-    KemarState, Timestamp,
+    BUS_ERROR, BUS_TIMEOUT, DRIVE_ERROR, DRIVE_FAULT, HOMING_FAILED, INVALID_TARGET, INVALID_VELOCITY,
+    MOTION_STOPPED, NOT_HOMED, KemarState, Timestamp,
 )
 
 __all__ = [
     # The component and its wire types
     "Kemar", "KemarState", "Timestamp", "simulated_rig", "parse_bus", "RIG_KEY",
-    "NOT_HOMED", "INVALID_VELOCITY", "DRIVE_FAULT", "BUS_TIMEOUT", "BUS_ERROR", "DRIVE_ERROR", "HOMING_FAILED",
-    "MOTION_STOPPED",
+    "NOT_HOMED", "INVALID_TARGET", "INVALID_VELOCITY", "DRIVE_FAULT", "BUS_TIMEOUT", "BUS_ERROR", "DRIVE_ERROR",
+    "HOMING_FAILED", "MOTION_STOPPED",
     # Head logic
     "KemarHead", "HeadConfig", "HeadState", "MotionType",
     # Driver and simulated drive

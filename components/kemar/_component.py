@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Iterator
 from typing import Annotated
 
@@ -30,6 +31,7 @@ from ._types import (
     DRIVE_ERROR,
     DRIVE_FAULT,
     HOMING_FAILED,
+    INVALID_TARGET,
     INVALID_VELOCITY,
     MOTION_STOPPED,
     NOT_HOMED,
@@ -154,7 +156,9 @@ class Kemar(Component, name="kemar", version="1.0"):
 
     def _check_velocity(self, velocity: float, *, signed: bool = False) -> None:
         maximum = self.config.max_speed_deg
-        if (abs(velocity) if signed else velocity) > maximum or (velocity < 0 and not signed):
+        # NaN (a JSON null) compares false with everything: refuse it explicitly.
+        if (not math.isfinite(velocity) or (abs(velocity) if signed else velocity) > maximum
+                or (velocity < 0 and not signed)):
             raise INVALID_VELOCITY(velocity=velocity, maximum=maximum)
 
     def _check_homed(self) -> None:
@@ -162,6 +166,8 @@ class Kemar(Component, name="kemar", version="1.0"):
             raise NOT_HOMED(message="the head is not homed: call Homing first")
 
     def _validate_move(self, target: float, velocity: float) -> None:
+        if not math.isfinite(target):
+            raise INVALID_TARGET(target=target)
         self._check_velocity(velocity)
         self._check_homed()
 
@@ -193,14 +199,15 @@ class Kemar(Component, name="kemar", version="1.0"):
     @function(throws=(INVALID_VELOCITY, BUS_ERROR))
     def SetVelocity(self, velocity: Annotated[Double, "Speed of position control in deg/s"] = 100.0) -> None:
         """Set the speed of the next position moves (Homing sets it back to 100 deg/s)."""
+        self._check_velocity(velocity)
         head = self.head()
         try:
             head.set_speed(velocity)
         except InvalidCommand:
             raise INVALID_VELOCITY(velocity=velocity, maximum=self.config.max_speed_deg) from None
 
-    @activity(task=motion, interrupts=MOTIONS, throws=(NOT_HOMED, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS),
-              validate=_validate_move)
+    @activity(task=motion, interrupts=MOTIONS, validate=_validate_move,
+              throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS))
     async def MoveAbsolutePosition(
         self,
         target: Annotated[Double, "Azimuth in degrees (positive = left), kept 0.5 deg inside the limits"] = 0.0,
@@ -210,8 +217,8 @@ class Kemar(Component, name="kemar", version="1.0"):
         with _as_genom_exceptions():
             await self.head().move_absolute(target, velocity or None)
 
-    @activity(task=motion, interrupts=MOTIONS, throws=(NOT_HOMED, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS),
-              validate=_validate_move)
+    @activity(task=motion, interrupts=MOTIONS, validate=_validate_move,
+              throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS))
     async def MoveRelativePosition(
         self,
         target: Annotated[Double, "Degrees to turn from the present azimuth (positive = left)"] = 0.0,

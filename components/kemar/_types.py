@@ -11,6 +11,7 @@ __all__ = [
     "Timestamp",
     "KemarState",
     "NOT_HOMED",
+    "INVALID_TARGET",
     "INVALID_VELOCITY",
     "DRIVE_FAULT",
     "BUS_TIMEOUT",
@@ -41,6 +42,12 @@ class NOT_HOMED(GenomException):
     """The head has no reference yet: call Homing before moving it."""
 
     message: String
+
+
+class INVALID_TARGET(GenomException):
+    """A target azimuth that is not a number (NaN or infinite); finite targets beyond a limit are clamped."""
+
+    target: Double
 
 
 class INVALID_VELOCITY(GenomException):

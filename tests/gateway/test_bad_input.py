@@ -23,6 +23,7 @@ BAD_INPUT = [
     ("unknown enum", "/module/demo/send/SetSpeed", {"input": '{"speedRef":"VERY_FAST"}'}, 400,
      "::genom::serialization"),
     ("refused by validate", GOTO, {"input": '{"posRef":2}'}, 400, "::demo::TOO_FAR_AWAY"),
+    ("null (NaN) position", GOTO, {"input": '{"posRef":null}'}, 400, "::demo::TOO_FAR_AWAY"),
     ("unknown module", "/module/nosuch/send/GotoPosition", {}, 404, "::genomix::no_such_module"),
     ("unknown service", "/module/demo/send/Fly", {}, 404, "::genom::no_such_service"),
     ("unknown port", "/module/demo/read/Nowhere", {}, 404, "::genom::no_such_outport"),

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 from collections.abc import AsyncIterator
 
+import aiohttp
 import pytest
 
 from aiogenomix.clients import Interrupted, RemoteError, aconnect
@@ -71,3 +72,23 @@ async def test_faults_end_requests_clearly_and_nothing_else_is_disturbed(rig: tu
 
         await robot.result()
         assert (await demo.Mobile()).position == pytest.approx(0.8)
+
+
+@pytest.mark.parametrize("query, ex", [
+    ('{"target":null}', "::kemar::INVALID_TARGET"),       # genom's JSON null is a NaN double
+    ('{"target":NaN}', "::kemar::INVALID_TARGET"),
+    ('{"target":Infinity}', "::kemar::INVALID_TARGET"),
+    ('{"target":10,"velocity":-5}', "::kemar::INVALID_VELOCITY"),
+    ('{"target":10,"velocity":null}', "::kemar::INVALID_VELOCITY"),
+])
+async def test_targets_that_are_not_numbers_are_refused(rig: tuple[ComponentHost, str], query: str, ex: str) -> None:
+    host, url = rig
+    async with aconnect(url, timeout=30) as client:
+        kemar = await client.load("kemar")
+        await kemar.Homing()
+        await kemar.MoveAbsolutePosition(12)
+        async with aiohttp.ClientSession() as http:
+            async with http.get(f"{url}/module/kemar/send/MoveAbsolutePosition", params={"input": query}) as reply:
+                assert (reply.status, (await reply.json())["ex"]) == (400, ex)
+        # Refused before anything moved: the head is where it was.
+        assert (await kemar.GetPosition()) == pytest.approx(12, abs=0.1)
