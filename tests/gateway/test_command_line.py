@@ -1,0 +1,32 @@
+"""Command-line flags reach the components: bus, audio device, socket port."""
+
+from __future__ import annotations
+
+import aiohttp
+
+from aiogenomix.gateway import serve
+from aiogenomix.gateway.__main__ import parse_args
+
+
+def test_flags_make_the_configuration() -> None:
+    config = parse_args(["--host", "0.0.0.0", "--port", "0", "--can", "socketcan:can0", "--audio-device", "hw:1,0",
+                         "--audio-socket-port", "9000", "--time-scale", "4", "--load", "demo", "--load",
+                         "demo:-i demo2", "--components", "demo,kemar"])
+    assert (config.host, config.port, config.can, config.audio_device) == ("0.0.0.0", 0, "socketcan:can0", "hw:1,0")
+    assert (config.audio_socket_port, config.time_scale) == (9000, 4.0)
+    assert config.preload == ["demo", "demo:-i demo2"] and config.components == ["demo", "kemar"]
+    assert config.host_settings()["audio_socket_host"] == "0.0.0.0"
+    assert config.simulated_parts() == []  # a real bus and a real sound card
+
+
+async def test_the_audio_device_flag_is_the_default_shown_by_info() -> None:
+    config = parse_args(["--port", "0", "--audio-device", "hw:1,0", "--audio-socket-port", "0",
+                         "--load", "capture", "--load", "demo:-i demo2"])
+    async with serve(config) as url, aiohttp.ClientSession() as http:
+        async with http.get(f"{url}/module/capture/info") as reply:
+            info = await reply.json()
+        start = next(s for s in info["services"] if s["name"] == "StartCapture")
+        device = next(p for p in start["parameters"] if p["name"] == "device")
+        assert device["default"] == "hw:1,0"
+        async with http.get(f"{url}/") as reply:
+            assert (await reply.json())["loaded"] == {"capture": "capture", "demo2": "demo"}
