@@ -278,7 +278,8 @@ class AsyncClient:
         timeout = self._timeout(options.timeout)
         loop = asyncio.get_running_loop()
         deadline = None if timeout is None else loop.time() + timeout
-        params = {"input": json.dumps(inputs, separators=(",", ":"))}
+        # Raw UTF-8, as genom3 expects: it does not decode \uXXXX escapes (see docs/protocol.md).
+        params = {"input": json.dumps(inputs, separators=(",", ":"), ensure_ascii=False)}
         if options.oneway:
             params["oneway"] = "1"
         epoch = self._tracker.epoch
