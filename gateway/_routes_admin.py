@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pathlib
 import shlex
 
 import orjson
@@ -10,7 +11,7 @@ from aiohttp import web
 from ..components.core import NoSuchModule
 from ._errors import BadQuery, LoadForbidden
 from ._keys import CONFIG, HOST, SESSIONS
-from ._replies import SERVER_VERSION, json_reply, text_reply
+from ._replies import SERVER_HEADER, SERVER_VERSION, json_reply, text_reply
 
 __all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "FEATURES"]
 
@@ -18,7 +19,7 @@ __all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "FEATURES"]
 GENOMIX_PROTOCOL_VERSION = "1.7.3"
 
 #: What this gateway offers beyond genomix (clients use the fast paths only when listed).
-FEATURES = ["wait", "binary", "since", "watch"]
+FEATURES = ["wait", "binary", "since", "watch", "console"]
 
 routes = web.RouteTableDef()
 
@@ -36,6 +37,15 @@ async def index(request: web.Request) -> web.Response:
         "simulated": request.app[CONFIG].simulated_parts(),
         "features": FEATURES,
     })
+
+
+_CONSOLE = (pathlib.Path(__file__).parent / "console.html").read_bytes()
+
+
+@routes.get("/console")
+async def console(request: web.Request) -> web.Response:
+    """A browser console: modules, services with forms built from /info, ports, live events."""
+    return web.Response(body=_CONSOLE, headers={"Content-Type": "text/html; charset=utf-8", **SERVER_HEADER})
 
 
 @routes.get("/version")

@@ -1,0 +1,29 @@
+"""The browser console: served by the gateway, valid JavaScript, built on the public protocol only."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+
+import aiohttp
+import pytest
+
+
+async def test_the_console_is_served(http: aiohttp.ClientSession, tmp_path) -> None:
+    async with http.get("/console") as reply:
+        assert reply.status == 200
+        assert reply.headers["Content-Type"] == "text/html; charset=utf-8"
+        page = await reply.text()
+        assert int(reply.headers["Content-Length"]) == len(page.encode())
+    script = re.search(r"<script>(.*)</script>", page, re.S).group(1)  # type: ignore[union-attr]
+    # Only documented endpoints, and gateway text never inserted as HTML.
+    used = set(re.findall(r"`/([a-z]+)(?:/|\?|`)", script)) | set(re.findall(r'"/([a-z]+)', script))
+    assert used <= {"", "session", "load", "module"}, used
+    assert "innerHTML" not in script
+    if shutil.which("node") is None:
+        pytest.skip("node is not installed: the syntax check needs it")
+    source = tmp_path / "console.js"
+    source.write_text(script)
+    checked = subprocess.run(["node", "--check", str(source)], capture_output=True, text=True, check=False)
+    assert checked.returncode == 0, checked.stderr
