@@ -6,7 +6,7 @@ import asyncio
 import contextlib
 import enum
 import logging
-from collections.abc import Callable, Iterator
+from collections.abc import Awaitable, Callable, Iterator
 from dataclasses import dataclass
 
 from aiogenomix.components.core._clock import Clock
@@ -356,16 +356,10 @@ class KemarHead:
             DriveFault: The drive faulted.
             DriveTimeout: The drive stopped answering.
         """
-        self._require_homed()
-        speed = self._speed if not speed else self.check_speed(speed)
-        generation = self._next_generation()
-        try:
-            with self._bus_guard():
-                await self._ensure_started()
-                return await self._move_to(self.clamp(target), speed)
-        except asyncio.CancelledError:
-            await self._halt(generation)
-            raise
+        async def absolute() -> float:
+            return target
+
+        return await self._move(absolute, speed)
 
     async def move_relative(self, offset: float, speed: float | None = None) -> HeadState:
         """Move by *offset* degrees from the present azimuth (the target is clamped too).
@@ -373,14 +367,20 @@ class KemarHead:
         Raises:
             Same as :meth:`move_absolute`.
         """
+        async def from_here() -> float:
+            return self.to_degrees(await self.driver.query_int("PX")) + offset
+
+        return await self._move(from_here, speed)
+
+    async def _move(self, target: Callable[[], Awaitable[float]], speed: float | None) -> HeadState:
+        """Run one position move to ``target()`` (read on the bus if needed), halting if it is cancelled."""
         self._require_homed()
         speed = self._speed if not speed else self.check_speed(speed)
         generation = self._next_generation()
         try:
             with self._bus_guard():
                 await self._ensure_started()
-                here = self.to_degrees(await self.driver.query_int("PX"))
-                return await self._move_to(self.clamp(here + offset), speed)
+                return await self._move_to(self.clamp(await target()), speed)
         except asyncio.CancelledError:
             await self._halt(generation)
             raise
