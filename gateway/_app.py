@@ -13,7 +13,7 @@ from . import _routes_admin, _routes_modules, _routes_ports, _routes_sessions
 from ._replies import json_reply
 from ._config import GatewayConfig
 from ._errors import error_middleware
-from ._keys import CONFIG, HOST, LISTENERS, SESSIONS, SHUTDOWN, Shutdown
+from ._keys import CONFIG, HOST, SESSIONS, SHUTDOWN, Shutdown
 from ._sessions import SessionStore
 from ._sse import format_event
 
@@ -53,7 +53,6 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app = web.Application(middlewares=middlewares)
     app[CONFIG] = config
     app[SESSIONS] = SessionStore()
-    app[LISTENERS] = set()
     app[SHUTDOWN] = Shutdown()
     owns_host = host is None
     app[HOST] = host or ComponentHost(clock=ScaledClock(config.time_scale), settings=config.host_settings(),
@@ -83,9 +82,7 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
 
 
 async def _close_streams(app: web.Application) -> None:
-    # Listen streams never end on their own: stop the sessions so each gets
-    # "quit" and its handler returns before the server waits for handlers.
+    # Event streams never end on their own: wake the watch streams, and stop the
+    # sessions so every listener gets "quit" and its handler returns.
     app[SHUTDOWN].set()
     app[SESSIONS].stop_all()
-    for listener in list(app[LISTENERS]):
-        listener.close()

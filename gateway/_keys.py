@@ -8,14 +8,13 @@ from aiohttp import web
 
 from ..components.core import ComponentHost
 from ._config import GatewayConfig
-from ._sessions import Listener, SessionStore
+from ._sessions import SessionStore
 
-__all__ = ["CONFIG", "HOST", "SESSIONS", "LISTENERS", "SHUTDOWN", "Shutdown"]
+__all__ = ["CONFIG", "HOST", "SESSIONS", "SHUTDOWN", "Shutdown"]
 
 CONFIG = web.AppKey("config", GatewayConfig)
 HOST = web.AppKey("host", ComponentHost)
 SESSIONS = web.AppKey("sessions", SessionStore)
-LISTENERS = web.AppKey("listeners", set[Listener])
 
 
 class Shutdown:

@@ -8,7 +8,7 @@ import contextlib
 from aiohttp import web
 
 from ._errors import BadQuery
-from ._keys import CONFIG, LISTENERS, SESSIONS
+from ._keys import CONFIG, SESSIONS
 from ._replies import text_reply
 from ._sse import PING, EventStream
 
@@ -44,8 +44,6 @@ async def listen(request: web.Request) -> web.StreamResponse:
     session = request.app[SESSIONS].get_or_create(_session_name(request))
     transport = request.transport
     listener = session.attach(alive=lambda: transport is not None and not transport.is_closing())
-    listeners = request.app[LISTENERS]
-    listeners.add(listener)
     ping_interval = request.app[CONFIG].ping_interval
     stream = EventStream()
     try:
@@ -66,7 +64,6 @@ async def listen(request: web.Request) -> web.StreamResponse:
         pass  # the client went away: nothing to report to anyone
     finally:
         session.detach(listener)
-        listeners.discard(listener)
     with contextlib.suppress(ConnectionError):
         await stream.write_eof()
     return stream

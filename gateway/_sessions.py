@@ -79,7 +79,6 @@ class Session:
         self.listeners: set[Listener] = set()
         self.backlog: deque[bytes] = deque(maxlen=backlog)
         self.listener_limit = listener_limit
-        self.stopped = False
 
     def deliver(self, frame: bytes) -> None:
         """Send a framed event to every live listener (or keep it until one attaches)."""
@@ -105,7 +104,6 @@ class Session:
 
     def stop(self) -> None:
         """Send ``quit`` to every listener and end their streams."""
-        self.stopped = True
         quit_frame = format_event("quit")
         for listener in self.listeners:
             listener.offer(quit_frame)

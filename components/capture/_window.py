@@ -124,13 +124,6 @@ class ChunkWindow:
         self._last += 1
         return self._last
 
-    def append_frames(self, frames: npt.ArrayLike, position: float | None = None) -> int:
-        """Add the next chunk given as ``(frames_per_chunk, 2)`` interleaved frames."""
-        array = np.asarray(frames)
-        if array.ndim != 2 or array.shape[1] != 2:
-            raise ValueError(f"expected (frames, 2) frames, got shape {array.shape}")
-        return self.append(array[:, 0], array[:, 1], position)
-
     def _rows(self, count: int) -> slice:
         # The newest chunk sits at slot (last-1) % capacity and at that plus capacity;
         # the `count` chunks ending there are the contiguous rows just before `end`.

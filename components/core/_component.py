@@ -106,7 +106,6 @@ class Component:
         self._task_runtimes: dict[str, TaskRuntime] = {}
         self._started = False
         self._killed = False
-        self._state_task: asyncio.Task[None] | None = None
 
     # -- declarations ---------------------------------------------------------------------
 
