@@ -42,7 +42,7 @@ async def _watch_all(port: int, readers: int, seconds: float, latencies: list[fl
 
 
 async def _listen(http: aiohttp.ClientSession, base: str, session: str, ready: asyncio.Event,
-                  pending: dict[str, float], latencies: list[float]) -> None:
+                  latencies: list[float]) -> None:
     async with http.get(f"{base}/session/listen", params={"s": session}) as stream:
         ready.set()
         async for line in stream.content:
@@ -51,7 +51,6 @@ async def _listen(http: aiohttp.ClientSession, base: str, session: str, ready: a
                 event = orjson.loads(line[6:])
                 if event["status"] == "done":
                     latencies.append(received - event["output"]["t"])
-                    pending.pop(event["id"], None)
 
 
 async def _drive(http: aiohttp.ClientSession, base: str, sessions: int, until: float) -> int:
@@ -76,7 +75,7 @@ async def run(seconds: float = 10.0) -> Result:
             await _watch_all(port, READERS, seconds, watch_latencies)
             session_latencies: list[float] = []
             readies = [asyncio.Event() for _ in range(READERS)]
-            listeners = [asyncio.create_task(_listen(http, base, f"fan{i}", readies[i], {}, session_latencies))
+            listeners = [asyncio.create_task(_listen(http, base, f"fan{i}", readies[i], session_latencies))
                          for i in range(READERS)]
             await asyncio.gather(*(ready.wait() for ready in readies))
             await _drive(http, base, READERS, time.monotonic() + seconds)

@@ -153,9 +153,9 @@ async def _window(json_client: AsyncClient, binary_client: AsyncClient, socket_p
 
 
 def _wire_bytes(path: str, chunks: int) -> int:
-    """Bytes of samples each path moves for a window (JSON: measured once, it depends on the digits)."""
-    samples = 2 * FRAMES * chunks * 4
-    return {"floor": samples, "socket": samples + 8, "binary": samples, "json": 0, "incremental": 0}[path]
+    """Bytes of samples a path moves (JSON is measured by the caller: its size depends on the digits)."""
+    samples = 2 * FRAMES * 4 * (1 if path == "incremental" else chunks)
+    return samples + 8 if path == "socket" else samples
 
 
 async def _start(http: aiohttp.ClientSession, base: str, chunks: int) -> None:
