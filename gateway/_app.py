@@ -10,10 +10,10 @@ from aiohttp import web
 
 from ..components.core import ComponentHost, ScaledClock
 from . import _routes_admin, _routes_modules, _routes_ports, _routes_sessions
-from ._replies import json_reply
 from ._config import GatewayConfig
 from ._errors import error_middleware
 from ._keys import CONFIG, HOST, SESSIONS, SHUTDOWN, Shutdown
+from ._replies import json_reply
 from ._sessions import SessionStore
 from ._sse import format_event
 

@@ -56,10 +56,10 @@ def _port(request: web.Request) -> tuple[str, Any]:
     return name, component.port(name)
 
 
-def _incremental(port: Any, value: Any, since: int) -> tuple[Any, int]:
+def _require_incremental(port: Any, value: Any) -> Incremental:
     if not isinstance(value, Incremental):
         raise BadQuery(f"port {port.name} holds no numbered chunks: since= does not apply")
-    return value.since(since)
+    return value
 
 
 @routes.get("/module/{module}/read/{port}")
@@ -71,7 +71,7 @@ async def read(request: web.Request) -> web.StreamResponse:
     value = port.read(element) if isinstance(port, OutPortRuntime) else port.read()
     extra: dict[str, Any] = {}
     if since is not None:
-        value, extra["lost"] = _incremental(port, value, since)
+        value, extra["lost"] = _require_incremental(port, value).since(since)
     data = None if value is None else port.type.encode(value)
     if _wants_binary(request):
         parts = encode_binary(name, data, **extra)
@@ -126,7 +126,7 @@ async def watch(request: web.Request) -> web.StreamResponse:
     element = request.query.get("name")
     since = _since(request)
     if since is not None and port.version:
-        _incremental(port, port.read(element), since)  # refuses since= on a plain port
+        _require_incremental(port, port.read(element))
     shutdown = request.app[SHUTDOWN]
     ping_interval = request.app[CONFIG].ping_interval
     stream = EventStream()
