@@ -217,6 +217,7 @@ class StructType(IdlType):
         self.cls = cls
         self.name = name
         self._members: list[tuple[str, IdlType]] | None = None
+        self._types: dict[str, IdlType] = {}
 
     @property
     def members(self) -> list[tuple[str, IdlType]]:
@@ -224,7 +225,14 @@ class StructType(IdlType):
         if self._members is None:
             hints = typing.get_type_hints(self.cls, include_extras=True)
             self._members = [(f.name, idl_type(hints[f.name])) for f in dataclasses.fields(self.cls)]
+            self._types = dict(self._members)
         return self._members
+
+    @property
+    def member_types(self) -> dict[str, IdlType]:
+        """The member types by name."""
+        self.members  # noqa: B018 - resolves them on first use
+        return self._types
 
     def describe(self) -> dict[str, Any]:
         return {
@@ -238,7 +246,7 @@ class StructType(IdlType):
             return value
         if not isinstance(value, Mapping):
             raise InputError(path, f"expected an object ({self.name}), got {_kind_of(value)}")
-        types_by_name = dict(self.members)
+        types_by_name = self.member_types
         unknown = [key for key in value if key not in types_by_name]
         if unknown:
             where = f"{path}.{unknown[0]}" if path else str(unknown[0])
@@ -260,7 +268,7 @@ class StructType(IdlType):
         kwargs = {}
         for f in dataclasses.fields(self.cls):
             if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
-                kwargs[f.name] = dict(self.members)[f.name].zero()
+                kwargs[f.name] = self.member_types[f.name].zero()
         return self.cls(**kwargs)
 
 
