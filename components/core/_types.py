@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import functools
 import math
 import types
 import typing
@@ -216,23 +217,17 @@ class StructType(IdlType):
     def __init__(self, cls: type, name: str) -> None:
         self.cls = cls
         self.name = name
-        self._members: list[tuple[str, IdlType]] | None = None
-        self._types: dict[str, IdlType] = {}
 
-    @property
+    @functools.cached_property
     def members(self) -> list[tuple[str, IdlType]]:
-        """The ``(name, type)`` pairs of the members, resolved on first use."""
-        if self._members is None:
-            hints = typing.get_type_hints(self.cls, include_extras=True)
-            self._members = [(f.name, idl_type(hints[f.name])) for f in dataclasses.fields(self.cls)]
-            self._types = dict(self._members)
-        return self._members
+        """The ``(name, type)`` pairs of the members (resolved on first use: hints may name later classes)."""
+        hints = typing.get_type_hints(self.cls, include_extras=True)
+        return [(f.name, idl_type(hints[f.name])) for f in dataclasses.fields(self.cls)]
 
-    @property
+    @functools.cached_property
     def member_types(self) -> dict[str, IdlType]:
         """The member types by name."""
-        self.members  # noqa: B018 - resolves them on first use
-        return self._types
+        return dict(self.members)
 
     def describe(self) -> dict[str, Any]:
         return {
