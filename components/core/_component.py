@@ -12,7 +12,6 @@ import asyncio
 import datetime
 import inspect
 import logging
-from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from ._exceptions import (
@@ -216,12 +215,7 @@ class Component:
 
     def decode_inputs(self, spec: ServiceSpec, raw: Any) -> dict[str, Any]:
         """Decode request inputs; inputs not given take the host-dependent defaults first."""
-        inputs = spec.decode_inputs(raw)
-        overrides = self.service_defaults(self.host).get(spec.name, {})
-        if overrides:
-            given = set(raw) if isinstance(raw, Mapping) else set() if raw is None else {spec.inputs[0].name}
-            inputs.update({k: v for k, v in overrides.items() if k not in given})
-        return inputs
+        return spec.decode_inputs(raw, self.service_defaults(self.host).get(spec.name))
 
     async def send(self, name: str, raw_input: Any = None, *, session: str | None = None,
                    oneway: bool = False) -> Request:

@@ -91,11 +91,12 @@ class ServiceSpec:
         inputs = {p.name for p in self.inputs}
         return list(self.inputs) + [p for p in self.outputs if p.name not in inputs]
 
-    def decode_inputs(self, raw: Any) -> dict[str, Any]:
+    def decode_inputs(self, raw: Any, defaults: Mapping[str, Any] | None = None) -> dict[str, Any]:
         """Decode the JSON ``input`` of a request into keyword arguments.
 
-        Missing inputs take their default (or their type's zero value, as genom3
-        leaves IDS members untouched); unknown names are refused.
+        Missing inputs take their default — from *defaults* (set by the host)
+        first, then the declared one, then their type's zero value, as genom3
+        leaves IDS members untouched; unknown names are refused.
 
         Raises:
             InputError: naming the offending parameter.
@@ -117,6 +118,8 @@ class ServiceSpec:
         for param in self.inputs:
             if param.name in raw:
                 decoded[param.name] = param.type.decode(raw[param.name], param.name)
+            elif defaults and param.name in defaults:
+                decoded[param.name] = defaults[param.name]
             elif param.default is not NO_DEFAULT:
                 decoded[param.name] = param.default
             else:
