@@ -20,11 +20,7 @@ def describe(component: Component) -> dict[str, Any]:
     overrides = cls.service_defaults(component.host)
     services = []
     for spec in cls.services().values():
-        described = spec.describe()
-        for param in described["parameters"]:
-            if param["name"] in overrides.get(spec.name, {}):
-                typ = next(p.type for p in spec.inputs if p.name == param["name"])
-                param["default"] = typ.encode(overrides[spec.name][param["name"]])
+        described = spec.describe(overrides.get(spec.name))
         described["throws"] = [exc.ex_id(name) for exc in spec.throws]
         services.append(described)
     exceptions = []

@@ -57,12 +57,14 @@ class ParamSpec:
     doc: str = ""
     default: Any = NO_DEFAULT
 
-    def describe(self) -> dict[str, Any]:
-        """The ``/info`` description of this parameter."""
+    def describe(self, default: Any = NO_DEFAULT) -> dict[str, Any]:
+        """The ``/info`` description of this parameter (*default* replaces the declared one)."""
         described: dict[str, Any] = {"name": self.name, "dir": self.direction, "type": self.type.describe(),
                                      "doc": self.doc}
-        if self.default is not NO_DEFAULT:
-            described["default"] = self.type.encode(self.default)
+        if default is NO_DEFAULT:
+            default = self.default
+        if default is not NO_DEFAULT:
+            described["default"] = self.type.encode(default)
         return described
 
 
@@ -137,12 +139,15 @@ class ServiceSpec:
             return {p.name: p.type.encode(result[p.name]) for p in self.outputs}
         return {p.name: p.type.encode(getattr(result, p.name)) for p in self.outputs}
 
-    def describe(self) -> dict[str, Any]:
-        """The ``/info`` description of this service (``throws`` needs a component name: see Component)."""
+    def describe(self, defaults: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """The ``/info`` description of this service, with host-dependent *defaults* applied.
+
+        ``throws`` is left to the caller: exception ids need the component name.
+        """
         outputs = {p.name for p in self.outputs}
         params = []
         for p in self.parameters:
-            described = p.describe()
+            described = p.describe((defaults or {}).get(p.name, NO_DEFAULT) if p.direction == "in" else NO_DEFAULT)
             if p.direction == "in" and p.name in outputs:
                 described["dir"] = "inout"
             params.append(described)
