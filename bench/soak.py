@@ -9,10 +9,10 @@ from typing import Any
 
 import aiohttp
 
-from aiogenomix.clients import AsyncAudioSocketClient
+from aiogenomix.clients import AsyncAudioSocketClient, aconnect
 
 from ._common import Result, cpu_seconds, rss_bytes, server
-from .port_read import CHUNK_MS, FRAMES, RATE, decode_binary
+from .port_read import CHUNK_MS, FRAMES, RATE
 
 READERS = 8
 PORT_CHUNKS = 20
@@ -30,17 +30,17 @@ async def _socket_reader(port: int, until: float, stats: dict[str, int]) -> None
             await asyncio.sleep(0.1)  # a reader that polls every 100 ms (2 chunks)
 
 
-async def _http_reader(http: aiohttp.ClientSession, base: str, until: float, stats: dict[str, int]) -> None:
-    index = None
-    while time.monotonic() < until:
-        params = {"format": "binary"} if index is None else {"format": "binary", "since": str(index)}
-        async with http.get(f"{base}/module/capture/read/Port", params=params) as reply:
-            data = decode_binary(await reply.read())
-        if index is not None:
-            stats["lost"] += data.get("lost", 0)
-            stats["chunks"] += data["left"].size // FRAMES
-        index = data["index"]
-        await asyncio.sleep(0.1)
+async def _http_reader(base: str, until: float, stats: dict[str, int]) -> None:
+    """The generated client asking for the chunks after the last one it holds (binary form)."""
+    async with aconnect(base) as client:
+        port = (await client.module("capture")).Port
+        index = (await port()).index  # start wherever the window is
+        while time.monotonic() < until:
+            await asyncio.sleep(0.1)  # a reader that polls every 100 ms (2 chunks)
+            data, lost = await port(since=index)
+            stats["lost"] += lost
+            stats["chunks"] += data.left.size // FRAMES
+            index = data.index
 
 
 async def run(seconds: float = 120.0) -> Result:
@@ -60,7 +60,7 @@ async def run(seconds: float = 120.0) -> Result:
             rss_start, cpu_start, wall_start = rss_bytes(pid), cpu_seconds(pid), time.monotonic()
             until = wall_start + seconds
             await asyncio.gather(*(_socket_reader(socket_port, until, s) for s in socket_stats),
-                                 *(_http_reader(http, base, until, s) for s in http_stats))
+                                 *(_http_reader(base, until, s) for s in http_stats))
             cpu_share = (cpu_seconds(pid) - cpu_start) / (time.monotonic() - wall_start)
             rss_end = rss_bytes(pid)
     lost = sum(s["lost"] for s in socket_stats + http_stats)
