@@ -42,7 +42,7 @@ class GatewayConfig:
     def host_settings(self) -> dict[str, Any]:
         """The settings handed to the components."""
         return {"can": self.can, "audio_device": self.audio_device, "audio_socket_port": self.audio_socket_port,
-                "audio_socket_host": self.host}
+                "audio_socket_host": self.host, "audio_socket_token": self.token}
 
     def simulated_parts(self) -> list[str]:
         """Plain words for the parts of the rig that are simulated."""

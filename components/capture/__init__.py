@@ -1,8 +1,13 @@
 """The ``capture`` component (binaural audio stream server), its capture backends and the dedicated socket."""
 
 from ._backend import Azimuth, CaptureBackend, Chunk, PacedBackend, open_backend, split_device
-from ._component import Capture, frames_per_chunk
-from ._errors import BackendUnavailable, CaptureError, DeviceError, DeviceNotFound, RequestError, SceneError
+from ._component import MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, Capture, frames_per_chunk
+from ._errors import (
+    BackendUnavailable, CaptureError, DeviceError, DeviceNotFound, FormatRefused, RequestError, SceneError,
+)
+from ._devices import list_capture_devices
+from ._head_link import simulated_head_azimuth
+from ._line_server import CLOSE, TOKEN_PREFIX, Conversation, LineServer, split_lines
 from ._head_model import SphericalHeadRenderer, woodworth_itd
 from ._scene import DEFAULT_SCENE, Scene, Source, load_scene
 from ._socket_server import DedicatedSocketServer
@@ -17,7 +22,7 @@ from ._window import ChunkWindow, WindowRead
 
 __all__ = [
     # The component and its types
-    "Capture", "PortData", "Timestamp", "CaptureConfig", "CaptureStatus", "frames_per_chunk",
+    "Capture", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK", "RATE_RANGE", "PortData", "Timestamp", "CaptureConfig", "CaptureStatus", "frames_per_chunk",
     "INVALID_CHUNK_TIME", "ERROR_SEQUENCE_ENOMEM", "NO_SUCH_DEVICE", "DEVICE_ERROR", "ALREADY_CAPTURING",
     "SOCKET_ERROR",
     # Backends
@@ -25,8 +30,12 @@ __all__ = [
     # The simulated scene
     "Scene", "Source", "DEFAULT_SCENE", "load_scene", "SphericalHeadRenderer", "woodworth_itd",
     # The chunk window and the dedicated socket
-    "ChunkWindow", "WindowRead", "DedicatedSocketServer", "RequestParser", "parse_request", "encode_request",
+    "ChunkWindow", "WindowRead", "DedicatedSocketServer", "LineServer", "Conversation", "split_lines", "CLOSE",
+    "TOKEN_PREFIX", "RequestParser", "parse_request", "encode_request",
     "encode_reply", "reply_parts", "encode_error", "reply_size",
     # Errors
-    "CaptureError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "SceneError", "RequestError",
+    "CaptureError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "FormatRefused", "SceneError",
+    "RequestError",
+    # The simulated head the scene follows
+    "simulated_head_azimuth", "list_capture_devices",
 ]

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..core import Clock
 from ._backend import CaptureBackend, Chunk
-from ._errors import BackendUnavailable, DeviceError, DeviceNotFound
+from ._errors import BackendUnavailable, DeviceError, DeviceNotFound, FormatRefused
 from ._handoff import ThreadHandoff
 
 __all__ = ["AlsaBackend", "import_alsaaudio", "alsa_capture_devices"]
@@ -109,7 +109,7 @@ class AlsaBackend(CaptureBackend):
         # anything but the exact values, since chunk timing and indices depend on them.
         got = (info.get("rate"), info.get("channels"), info.get("format_name"))
         if got != (self.rate, 2, "S32_LE"):
-            raise DeviceError(f"ALSA device {self.pcm_name!r} gives {got[0]} Hz, {got[1]} channels, "
+            raise FormatRefused(f"ALSA device {self.pcm_name!r} gives {got[0]} Hz, {got[1]} channels, "
                               f"{got[2]}; capture needs {self.rate} Hz, 2 channels, S32_LE")
         if info.get("period_size") != self.frames_per_chunk:
             log.warning("ALSA device %s uses periods of %s frames, not %s: chunks are reassembled",

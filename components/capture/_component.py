@@ -272,7 +272,8 @@ class Capture(Component, name="capture", version="1.1"):
         settings = self.host.settings
         server = DedicatedSocketServer(lambda: self._window, host=settings.get("audio_socket_host", "127.0.0.1"),
                                        port=settings.get("audio_socket_port", DEFAULT_PORT),
-                                       with_positions=self.port_positions)
+                                       with_positions=self.port_positions,
+                                       token=settings.get("audio_socket_token"))
         try:
             await server.start()
         except OSError as exc:

@@ -7,6 +7,7 @@
         ├── DeviceNotFound (LookupError)           no such sound device; says what exists
         ├── BackendUnavailable (ImportError)       the backend's library is not installed
         ├── DeviceError (OSError)                  the device failed while open or opening
+        │   └── FormatRefused                      it opened but refuses the rate, channels or format
         ├── SceneError (ValueError)                a bad simulated-scene description or WAV file
         └── RequestError (ValueError)              a malformed dedicated-socket request
 
@@ -21,7 +22,8 @@ from collections.abc import Sequence
 from aiogenomix.components.core import ComponentError
 
 __all__ = [
-    "CaptureError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "SceneError", "RequestError",
+    "CaptureError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "FormatRefused", "SceneError",
+    "RequestError",
 ]
 
 
@@ -52,6 +54,10 @@ class BackendUnavailable(CaptureError, ImportError):
 
 class DeviceError(CaptureError, OSError):
     """The sound device failed while opening, configuring or reading it."""
+
+
+class FormatRefused(DeviceError):
+    """The device opened but refuses the sample rate, channel count or sample format asked for."""
 
 
 class SceneError(CaptureError, ValueError):

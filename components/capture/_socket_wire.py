@@ -22,6 +22,7 @@ import re
 import numpy as np
 
 from ._errors import RequestError
+from ._line_server import ERROR_PREFIX, MAX_REQUEST_LINE, encode_error, split_lines
 from ._window import WindowRead
 
 __all__ = [
@@ -30,9 +31,6 @@ __all__ = [
 ]
 
 REQUEST_PREFIX = "Read Port - Index "
-#: The original server read requests into a 512-byte buffer; longer lines are refused.
-MAX_REQUEST_LINE = 512
-ERROR_PREFIX = b"ERROR "
 
 # Lenient about spacing and letter case, strict about the number: a negative or
 # fractional index has no meaning and is refused rather than guessed at.
@@ -76,17 +74,7 @@ class RequestParser:
             RequestError: at the first malformed line, or a line longer than
                 :data:`MAX_REQUEST_LINE` (the stream cannot be trusted after it).
         """
-        self._pending += data
-        indices = []
-        while (end := self._pending.find(b"\n")) >= 0:
-            line = bytes(self._pending[:end])
-            del self._pending[:end + 1]
-            if len(line) > MAX_REQUEST_LINE:
-                raise RequestError(f"request line longer than {MAX_REQUEST_LINE} bytes")
-            indices.append(parse_request(line.rstrip(b"\r")))
-        if len(self._pending) > MAX_REQUEST_LINE:
-            raise RequestError(f"request line longer than {MAX_REQUEST_LINE} bytes")
-        return indices
+        return [parse_request(line) for line in split_lines(self._pending, data)]
 
 
 def reply_size(count: int, frames_per_chunk: int, *, with_positions: bool = False) -> int:
@@ -121,8 +109,3 @@ def reply_parts(chunks: WindowRead, *, with_positions: bool = False) -> list[byt
 def encode_reply(chunks: WindowRead, *, with_positions: bool = False) -> bytes:
     """The reply carrying *chunks* as one bytes object (see :func:`reply_parts`)."""
     return b"".join(reply_parts(chunks, with_positions=with_positions))
-
-
-def encode_error(message: str) -> bytes:
-    """The one-line reply to a request that cannot be served."""
-    return ERROR_PREFIX + message.replace("\n", " ").encode("utf-8", "replace") + b"\n"

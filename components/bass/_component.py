@@ -1,0 +1,200 @@
+"""The ``bass`` component: the 2015 binaural audio stream server of Two!Ears (``bass.gen``)."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from typing import Annotated, Any
+
+from ..capture import (
+    MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, Azimuth, CaptureBackend, CaptureError, FormatRefused,
+    list_capture_devices, open_backend, simulated_head_azimuth, split_device,
+)
+from ..core import Component, ComponentHost, Out, OutPort, String, Task, ULong, activity, function
+from ._history import AudioSnapshot, ChunkHistory
+from ._socket_server import FrameSocketServer
+from ._types import AudioPortData, DeviceList, e_device, e_hwparams, e_nodevice, e_nomem, e_socket, e_swparams
+
+__all__ = ["Bass"]
+
+log = logging.getLogger(__name__)
+
+DEFAULT_SOCKET_PORT = 8081
+
+
+class Bass(Component, name="bass", version="1.0"):
+    """Binaural audio stream server (Two!Ears, 2015): streams a stereo sound device on a frame-indexed port.
+
+    ``Acquire`` captures chunks of ``nFramesPerChunk`` frames and publishes the
+    newest ``nChunksOnPort`` chunks on ``Audio`` (``binaudio::portStruct``),
+    with ``lastFrameIndex`` the index of the newest frame.  ``DedicatedSocket``
+    serves the same frames over TCP: ``Read Port - N <n> - nfr <i>`` gets at most
+    *n* frames from frame *i* on (the 2015 MATLAB client's protocol).  Devices:
+    ``sim`` (simulated binaural scene, following the simulated KEMAR head when
+    one is loaded), ``sim:<scene.json>``, ``file:<path.wav>``, ``pa:<name>``
+    (PortAudio) or any ALSA name (``hw:1,0``).
+    """
+
+    capture = Task(doc="Reads chunks from the sound device and publishes them on Audio")
+    socket = Task(doc="Serves the dedicated TCP socket")
+    Audio = OutPort(AudioPortData, doc="The newest nChunksOnPort chunks of binaural audio, indexed by frame")
+
+    def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
+        super().__init__(host, instance, argv)
+        #: Where the simulated scene reads the head azimuth (None: the host's simulated
+        #: KEMAR head if there is one, else 0°).  Set it to steer the scene from a script.
+        self.head_azimuth: Azimuth | None = None
+        self._server: FrameSocketServer | None = None
+        self._socket_open = asyncio.Event()
+        self._close_socket = asyncio.Event()
+
+    async def on_start(self) -> None:
+        """Publish an empty port: readers may connect before the first acquisition."""
+        await super().on_start()
+        self.Audio.publish(AudioSnapshot.empty())
+
+    async def on_stop(self) -> None:
+        if self._server is not None:
+            await self._server.aclose()
+        await super().on_stop()
+
+    @classmethod
+    def service_defaults(cls, host: ComponentHost) -> dict[str, dict[str, Any]]:
+        """Acquire's default device comes from the host (``--audio-device``; ``sim`` by default)."""
+        defaults = super().service_defaults(host)
+        defaults.setdefault("Acquire", {})["device"] = host.settings.get("audio_device", "sim")
+        return defaults
+
+    # -- reading the state from Python ------------------------------------------------------
+
+    @property
+    def snapshot(self) -> AudioSnapshot:
+        """The newest publication of ``Audio``."""
+        snapshot: AudioSnapshot = self.Audio.read()
+        return snapshot
+
+    @property
+    def socket_port(self) -> int:
+        """The TCP port the dedicated socket listens on (0 while closed)."""
+        return self._server.port if self._server is not None else 0
+
+    async def wait_socket(self) -> int:
+        """Wait until the dedicated socket listens; return its port."""
+        await self._socket_open.wait()
+        return self.socket_port
+
+    # -- services ---------------------------------------------------------------------------
+
+    @function(throws=(e_nodevice,))
+    async def ListDevices(self) -> Annotated[DeviceList, Out("devices", "Device strings that Acquire accepts")]:
+        """Print available devices for sound capture on standard output.
+
+        Here they are also the service's output and go to the gateway's log.
+        """
+        devices = await asyncio.to_thread(list_capture_devices)
+        if not devices:
+            raise e_nodevice(what="no capture device found")
+        log.info("%s: capture devices: %s", self.instance, ", ".join(devices))
+        return devices
+
+    def _validate_acquire(self, device: str, sampleRate: int, nFramesPerChunk: int, nChunksOnPort: int) -> None:
+        size = 2 * 4 * nFramesPerChunk * nChunksOnPort
+        if nFramesPerChunk < 1 or nChunksOnPort < 1 or size > MAX_PORT_BYTES:
+            raise e_nomem(what=f"a port of {nChunksOnPort} chunks of {nFramesPerChunk} frames ({size} bytes) "
+                               f"is outside 1 frame…{MAX_PORT_BYTES} bytes")
+        if not RATE_RANGE[0] <= sampleRate <= RATE_RANGE[1]:
+            raise e_hwparams(device=device, what=f"sampleRate {sampleRate} Hz is outside "
+                                                 f"{RATE_RANGE[0]}…{RATE_RANGE[1]} Hz")
+        if nFramesPerChunk > MAX_FRAMES_PER_CHUNK:
+            raise e_hwparams(device=device, what=f"nFramesPerChunk {nFramesPerChunk} is more than the "
+                                                 f"{MAX_FRAMES_PER_CHUNK} frames of the largest period")
+
+    def _azimuth_source(self, device: str) -> Azimuth | None:
+        if self.head_azimuth is not None or split_device(device)[0] != "sim":
+            return self.head_azimuth
+        return simulated_head_azimuth(self.host)
+
+    async def _open(self, device: str, rate: int, frames: int) -> CaptureBackend:
+        try:
+            backend = open_backend(device, rate, frames, self.clock, azimuth=self._azimuth_source(device))
+            await backend.open()
+        except FormatRefused as exc:
+            raise e_hwparams(device=device, what=str(exc)) from exc
+        except CaptureError as exc:  # no such device, library missing, device busy, bad scene/WAV file
+            raise e_device(device=device, what=str(exc)) from exc
+        return backend
+
+    @activity(task=capture, interrupts=("Acquire",), validate=_validate_acquire,
+              throws=(e_nomem, e_device, e_hwparams, e_swparams))
+    async def Acquire(
+        self,
+        device: Annotated[String, "ALSA name of the sound device"] = "hw:1,0",
+        sampleRate: Annotated[ULong, "Sample rate in Hz"] = 44100,
+        nFramesPerChunk: Annotated[ULong, "Chunk size in frames"] = 2205,
+        nChunksOnPort: Annotated[ULong, "Port size in chunks"] = 20,
+    ) -> None:
+        """Acquire data from an audio device and stream it on a port.
+
+        The port restarts zero-filled at frame 0.  A new Acquire interrupts the
+        running one; Stop ends it.  A file source ends the request when the file does.
+        """
+        history = ChunkHistory(nChunksOnPort, nFramesPerChunk, sampleRate)
+        backend = await self._open(device, sampleRate, nFramesPerChunk)
+        self.Audio.publish(history.snapshot)
+        log.info("%s: acquiring %s at %d Hz, %d frames per chunk, %d chunks on Audio",
+                 self.instance, device, sampleRate, nFramesPerChunk, nChunksOnPort)
+        try:
+            while (chunk := await backend.read()) is not None:
+                snapshot = history.append(chunk.left, chunk.right)
+                if chunk.overrun:
+                    log.warning("%s: %s lost %d frames before frame %d", self.instance, device,
+                                chunk.lost_frames, snapshot.last_frame_index - nFramesPerChunk + 1)
+                self.Audio.publish(snapshot)
+        except CaptureError as exc:
+            raise e_device(device=device, what=str(exc)) from exc
+        finally:
+            await backend.aclose()
+
+    @function(interrupts=("Acquire",))
+    def Stop(self) -> None:
+        """Stop acquisition of audio data."""
+
+    def _validate_socket(self) -> None:
+        if self._server is not None or any(r.service.name == "DedicatedSocket" for r in self.requests.running()):
+            raise e_socket(port=self.socket_port, what=f"the dedicated socket is already open on port "
+                                                       f"{self.socket_port}")
+
+    @activity(task=socket, validate=_validate_socket, throws=(e_socket,))
+    async def DedicatedSocket(self) -> None:
+        """Serve the Audio port over TCP (``Read Port - N <n> - nfr <i>``) until CloseSocket.
+
+        The port is the gateway's ``--audio-socket-port`` (8081 by default).
+        CloseSocket ends this request normally (done), as in bass.
+        """
+        settings = self.host.settings
+        server = FrameSocketServer(lambda: self.snapshot, host=settings.get("audio_socket_host", "127.0.0.1"),
+                                   port=settings.get("audio_socket_port", DEFAULT_SOCKET_PORT),
+                                   token=settings.get("audio_socket_token"))
+        try:
+            await server.start()
+        except OSError as exc:
+            raise e_socket(port=server.requested_port, what=str(exc)) from exc
+        self._server = server
+        self._close_socket.clear()
+        self._socket_open.set()
+        log.info("%s: dedicated socket (2015 protocol) open on port %d", self.instance, server.port)
+        try:
+            await self._close_socket.wait()
+        finally:
+            self._server = None
+            self._socket_open.clear()
+            await server.aclose()
+
+    @activity(task=socket)
+    async def CloseSocket(self) -> None:
+        """Close the dedicated socket and disconnect its clients (nothing to do when it is closed)."""
+        serving = [r for r in self.requests.running() if r.service.name == "DedicatedSocket"]
+        self._close_socket.set()
+        for request in serving:
+            if request.task is not None:
+                await asyncio.shield(asyncio.wait({request.task}))

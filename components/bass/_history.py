@@ -1,0 +1,222 @@
+"""The frame-indexed audio port of ``bass``: immutable chunks, and snapshots that never change once published.
+
+The 2015 port (``Ports.c``) is a window of ``nChunksOnPort`` chunks that
+shifts by one chunk per publication, indexed by frame.  Here each captured
+chunk becomes one read-only array, and a publication is an
+:class:`AudioSnapshot`: a tuple of references to the chunks it holds.  So
+publishing costs ``nChunksOnPort`` references, not a copy of the window, and a
+reader holding a snapshot (an HTTP read being written, a socket reply, an
+in port) reads exactly the frames of that publication however many chunks
+arrive meanwhile.
+
+Frame numbering follows ``Ports.c``: the port starts zero-filled with
+``lastFrameIndex`` 0, each chunk adds ``nFramesPerChunk``, and
+``lastFrameIndex`` names the newest frame.  So the first captured frame is
+frame 1, frame *f* (f >= 1) is sample ``f - 1`` of the capture, and the
+oldest frame a port holds is ``max(0, lastFrameIndex - frames on port + 1)``
+(frame 0 being one of the zeros of the fresh port).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import numpy as np
+import numpy.typing as npt
+
+from ._types import AudioPortData
+
+__all__ = ["ChunkHistory", "AudioSnapshot", "FrameRead"]
+
+Int32Array = npt.NDArray[np.int32]
+
+
+def _frozen(array: Int32Array) -> Int32Array:
+    array.flags.writeable = False
+    return array
+
+
+@dataclasses.dataclass(frozen=True)
+class FrameRead:
+    """Consecutive frames taken from a snapshot (``getAudioData`` of the 2015 codels).
+
+    Attributes:
+        left: Left samples, int32, oldest first.
+        right: Right samples, same length.
+        first: Index of the first frame returned (the next frame to read when none is).
+        lost: Frames the reader asked for that the port no longer held (skipped).
+        last_frame_index: The snapshot's newest frame.
+    """
+
+    left: Int32Array
+    right: Int32Array
+    first: int
+    lost: int
+    last_frame_index: int
+
+    @property
+    def count(self) -> int:
+        """How many frames were returned."""
+        return int(self.left.shape[0])
+
+    @property
+    def next(self) -> int:
+        """The index of the frame to ask for next."""
+        return self.first + self.count
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class AudioSnapshot:
+    """One publication of the ``Audio`` port: the chunks it holds, frozen.
+
+    It is :class:`~aiogenomix.components.core.Incremental` by frame index, so the
+    gateway's ``since=`` reads and ``watch`` streams count frames here.  Members
+    of the port struct are attributes (``sampleRate``, ``left``, ...), built
+    from the frozen chunks on first use.
+
+    Attributes:
+        sample_rate: Frames per second.
+        frames_per_chunk: Frames in a chunk.
+        chunks: The ``capacity`` newest chunks, oldest first, each a read-only
+            ``(2, frames_per_chunk)`` int32 array; zeros stand for the chunks
+            before the first one.
+        last_chunk: How many chunks were captured (the newest is ``chunks[-1]``).
+    """
+
+    sample_rate: int
+    frames_per_chunk: int
+    chunks: tuple[Int32Array, ...]
+    last_chunk: int
+
+    @classmethod
+    def empty(cls) -> AudioSnapshot:
+        """The port before any acquisition: no frames, every member zero."""
+        return cls(0, 1, (), 0)
+
+    @property
+    def capacity(self) -> int:
+        """Chunks on the port (``nChunksOnPort``)."""
+        return len(self.chunks)
+
+    @property
+    def frames_on_port(self) -> int:
+        """Frames on the port (``nFramesPerChunk * nChunksOnPort``)."""
+        return self.capacity * self.frames_per_chunk
+
+    @property
+    def last_frame_index(self) -> int:
+        """The index of the newest frame (0 before the first chunk)."""
+        return self.last_chunk * self.frames_per_chunk
+
+    @property
+    def oldest_frame_index(self) -> int:
+        """The index of the oldest frame the port holds."""
+        return max(0, self.last_frame_index - self.frames_on_port + 1)
+
+    @property
+    def index(self) -> int:
+        """The newest frame: the incremental index of this port."""
+        return self.last_frame_index
+
+    def _span(self, first: int, count: int) -> tuple[Int32Array, Int32Array]:
+        """Copies of frames ``first … first + count - 1``, which the snapshot holds."""
+        if count == 0:
+            empty = np.zeros(0, dtype=np.int32)
+            return empty, empty
+        fpc = self.frames_per_chunk
+        # The chunks tuple starts with the frame after lastFrameIndex - frames on port.
+        start = first - (self.last_frame_index - self.frames_on_port + 1)
+        head, offset = divmod(start, fpc)
+        tail = (start + count - 1) // fpc + 1
+        pieces = self.chunks[head:tail]
+        both = pieces[0] if len(pieces) == 1 else np.concatenate(pieces, axis=1)
+        span = both[:, offset:offset + count]
+        return span[0].copy(), span[1].copy()
+
+    def frames(self, next_frame: int, limit: int | None = None) -> FrameRead:
+        """At most *limit* frames from *next_frame* on, as the 2015 socket and ``basc`` read them.
+
+        A *next_frame* older than the port starts at the oldest frame held and
+        counts the skipped ones as lost; one beyond the newest frame gets nothing.
+
+        Raises:
+            ValueError: for a negative frame index or limit.
+        """
+        if next_frame < 0 or (limit is not None and limit < 0):
+            raise ValueError(f"frame index and limit are never negative, not {next_frame} and {limit}")
+        if not self.chunks:
+            empty = np.zeros(0, dtype=np.int32)
+            return FrameRead(empty, empty, next_frame, 0, 0)
+        oldest, newest = self.oldest_frame_index, self.last_frame_index
+        lost = max(0, oldest - next_frame)
+        first = max(next_frame, oldest)
+        count = max(0, newest - first + 1)
+        if limit is not None:
+            count = min(count, limit)
+        left, right = self._span(first, count)
+        return FrameRead(left, right, first, lost, newest)
+
+    # -- the port struct ------------------------------------------------------------------
+
+    def _struct(self, left: Int32Array, right: Int32Array) -> AudioPortData:
+        return AudioPortData(sampleRate=self.sample_rate, nChunksOnPort=self.capacity,
+                             nFramesPerChunk=self.frames_per_chunk, lastFrameIndex=self.last_frame_index,
+                             left=left, right=right)
+
+    @functools.cached_property
+    def data(self) -> AudioPortData:
+        """The whole port as ``binaudio::portStruct`` (zeros before the first frames)."""
+        if not self.chunks:
+            return AudioPortData()
+        both = np.concatenate(self.chunks, axis=1)
+        return self._struct(both[0], both[1])
+
+    def __getattr__(self, name: str) -> object:
+        # The struct's members (sampleRate, left, ...) come from the materialised data.
+        if name.startswith("_") or name not in AudioPortData.__dataclass_fields__:
+            raise AttributeError(name)
+        return getattr(self.data, name)
+
+    def since(self, index: int) -> tuple[AudioPortData, int]:
+        """The frames after frame *index* as the port struct, and how many of those the port no longer held."""
+        read = self.frames(index + 1)
+        return self._struct(read.left, read.right), read.lost
+
+
+class ChunkHistory:
+    """The chunks of one acquisition, kept as immutable arrays; each append returns the new snapshot.
+
+    Args:
+        capacity: Chunks on the port (``nChunksOnPort``).
+        frames_per_chunk: Frames in a chunk.
+        sample_rate: Frames per second (reported in the port).
+
+    Raises:
+        ValueError: for a capacity or a chunk size below 1.
+    """
+
+    def __init__(self, capacity: int, frames_per_chunk: int, sample_rate: int) -> None:
+        if capacity < 1 or frames_per_chunk < 1:
+            raise ValueError(f"a port needs nChunksOnPort >= 1 and nFramesPerChunk >= 1, "
+                             f"not {capacity} and {frames_per_chunk}")
+        # One shared zero chunk stands for every chunk before the first.
+        zero = _frozen(np.zeros((2, frames_per_chunk), dtype=np.int32))
+        self.snapshot = AudioSnapshot(sample_rate, frames_per_chunk, (zero,) * capacity, 0)
+
+    def append(self, left: npt.ArrayLike, right: npt.ArrayLike) -> AudioSnapshot:
+        """Add the next chunk (its samples are copied once, into a read-only array) and return the snapshot.
+
+        Raises:
+            ValueError: for a chunk of the wrong size.
+        """
+        old = self.snapshot
+        shape = (old.frames_per_chunk,)
+        if np.shape(left) != shape or np.shape(right) != shape:
+            raise ValueError(f"a chunk is {old.frames_per_chunk} frames per channel, got "
+                             f"{np.shape(left)} and {np.shape(right)}")
+        chunk = np.empty((2, old.frames_per_chunk), dtype=np.int32)
+        chunk[0], chunk[1] = left, right
+        self.snapshot = dataclasses.replace(old, chunks=(*old.chunks[1:], _frozen(chunk)),
+                                            last_chunk=old.last_chunk + 1)
+        return self.snapshot

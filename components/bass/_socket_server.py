@@ -1,0 +1,52 @@
+"""The 2015 dedicated-socket server: ``Read Port - N <n> - nfr <i>`` answered from the newest ``Audio`` snapshot."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from ..capture import CLOSE, LineServer
+from ._history import AudioSnapshot
+from ._socket_wire import HEADER, FrameRequestParser, encode_frame_reply
+
+__all__ = ["FrameSocketServer"]
+
+
+class _FrameConversation:
+    """One client of the 2015 protocol."""
+
+    def __init__(self, snapshot: Callable[[], AudioSnapshot | None]) -> None:
+        self._snapshot = snapshot
+        self._parser = FrameRequestParser()
+
+    def feed(self, data: bytes) -> list[bytes | bytearray | None]:
+        replies: list[bytes | bytearray | None] = []
+        for request in self._parser.feed(data):
+            if request is None:
+                replies.append(CLOSE)
+                break
+            snapshot = self._snapshot()
+            if snapshot is None:
+                # No acquisition yet: nothing to send, and the client keeps its place.
+                replies.append(_empty_reply(request.next_frame))
+            else:
+                replies.append(encode_frame_reply(snapshot.frames(request.next_frame, request.frames)))
+        return replies
+
+
+def _empty_reply(next_frame: int) -> bytes:
+    return HEADER.pack(0, 0, next_frame)
+
+
+class FrameSocketServer(LineServer):
+    """Serve the frame-indexed 2015 protocol to any number of clients.
+
+    Args:
+        snapshot: Returns the port's newest publication (None before the first acquisition).
+        host: The address to bind (``0.0.0.0`` for every interface).
+        port: The TCP port; 0 picks a free one (read :attr:`port` after :meth:`start`).
+        token: When set, every client must first send ``Token <token>``.
+    """
+
+    def __init__(self, snapshot: Callable[[], AudioSnapshot | None], *, host: str = "127.0.0.1",
+                 port: int = 8081, token: str | None = None) -> None:
+        super().__init__(lambda: _FrameConversation(snapshot), host=host, port=port, token=token)

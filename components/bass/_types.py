@@ -1,0 +1,82 @@
+"""The IDL types and exceptions of ``bass`` (``bassStruct.idl`` and ``bass.gen`` of the 2015 Two!Ears stack)."""
+
+from __future__ import annotations
+
+import dataclasses
+import numpy as np
+
+from ..core import GenomException, Long, String, ULong, ULongLong, idl_struct, sequence
+
+__all__ = ["AudioPortData", "Samples", "DeviceList", "e_nomem", "e_nodevice", "e_device", "e_hwparams",
+           "e_swparams", "e_socket"]
+
+#: Samples of one channel, carried as an int32 numpy array.
+Samples = sequence(Long, numpy=True)
+DeviceList = sequence(String)
+
+
+def _no_samples() -> np.ndarray:
+    return np.zeros(0, dtype=np.int32)
+
+
+@idl_struct("binaudio::portStruct")
+class AudioPortData:
+    """The newest frames of the capture, oldest first, indexed by frame.
+
+    Frames are numbered from the start of the acquisition: the first captured
+    frame is frame 1, and ``lastFrameIndex`` is the index of the newest frame,
+    the last element of ``left`` and ``right``; it grows by ``nFramesPerChunk``
+    with each chunk.  A full read holds ``nFramesPerChunk * nChunksOnPort``
+    frames, zeros before the first ones (frame 0 and below).  An incremental read
+    (``since=k``) holds frames ``k + 1 … lastFrameIndex`` that the port still has.
+    """
+
+    sampleRate: ULong = 0
+    nChunksOnPort: ULong = 0
+    nFramesPerChunk: ULong = 0
+    lastFrameIndex: ULongLong = 0
+    left: Samples = dataclasses.field(default_factory=_no_samples)
+    right: Samples = dataclasses.field(default_factory=_no_samples)
+
+
+# The exceptions of bass.gen carry no data there; each carries a message here,
+# so that a user reads why, not only what.
+
+class e_nomem(GenomException):
+    """The port cannot be allocated: nFramesPerChunk * nChunksOnPort frames is empty or too large."""
+
+    what: String
+
+
+class e_nodevice(GenomException):
+    """No capture device can be found."""
+
+    what: String
+
+
+class e_device(GenomException):
+    """The sound device cannot be opened, or failed while capturing (an overrun ends the acquisition)."""
+
+    device: String
+    what: String
+
+
+class e_hwparams(GenomException):
+    """The device refuses the hardware parameters (sample rate, format, channels, period)."""
+
+    device: String
+    what: String
+
+
+class e_swparams(GenomException):
+    """The device refuses the software parameters (start threshold, wake-up size)."""
+
+    device: String
+    what: String
+
+
+class e_socket(GenomException):
+    """The dedicated socket cannot be opened (port in use, already open); an aiogenomix addition to bass.gen."""
+
+    port: ULong
+    what: String

@@ -1,0 +1,223 @@
+"""A TCP server for the dedicated sockets: text request lines in, binary replies out, many clients at once.
+
+Both generations of the Two!Ears dedicated socket (2014 ``Read Port - Index
+<k>``, 2015 ``Read Port - N <n> - nfr <i>``) are conversations of the same
+shape, so one server carries both; what differs is a :class:`Conversation`
+that turns the bytes a client sends into replies.
+
+Each connection is an asyncio task that answers its requests in order; a slow
+client only waits for its own socket (``drain``), never delays another or the
+capture.  Every reply is an immutable ``bytes`` object: since Python 3.12 a
+transport may keep the buffer it was handed until the client drains it, so
+handing it a view of the live audio window would send whatever the next chunk
+wrote there.
+
+With a token (the gateway's ``--token``), a client's first line must be
+``Token <token>``; anything else gets one ``ERROR ...`` line and the connection
+is closed, so a client without credentials never reads audio.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import hmac
+import logging
+import socket
+from collections.abc import Callable
+from typing import Protocol
+
+from ._errors import RequestError
+
+__all__ = ["Conversation", "LineServer", "CLOSE", "TOKEN_PREFIX", "ERROR_PREFIX", "MAX_REQUEST_LINE",
+           "encode_error", "split_lines"]
+
+log = logging.getLogger(__name__)
+
+#: The original servers read requests into a 512-byte buffer; longer lines are refused.
+MAX_REQUEST_LINE = 512
+ERROR_PREFIX = b"ERROR "
+#: The first line a client sends to a server that has a token: ``Token <token>``.
+TOKEN_PREFIX = b"Token "
+#: A reply that ends the conversation (the client said ``Close``).
+CLOSE = None
+
+
+class Conversation(Protocol):
+    """One client's side of a dedicated-socket protocol, sans I/O."""
+
+    def feed(self, data: bytes) -> list[bytes | bytearray | None]:
+        """Take received bytes; return the replies to the complete requests, in order.
+
+        Each reply must be a buffer that nothing changes afterwards.
+
+        A ``None`` (:data:`CLOSE`) ends the connection after the replies before it.
+
+        Raises:
+            RequestError: for a request that cannot be served (the stream cannot be
+                trusted after it, so the connection is closed).
+        """
+
+
+def split_lines(pending: bytearray, data: bytes) -> list[bytes]:
+    """Add *data* to *pending* and take out the complete lines (without LF or CRLF).
+
+    Raises:
+        RequestError: for a line longer than :data:`MAX_REQUEST_LINE` bytes.
+    """
+    pending += data
+    lines = []
+    while (end := pending.find(b"\n")) >= 0:
+        line = bytes(pending[:end]).rstrip(b"\r")
+        del pending[:end + 1]
+        if len(line) > MAX_REQUEST_LINE:
+            raise RequestError(f"request line longer than {MAX_REQUEST_LINE} bytes")
+        lines.append(line)
+    if len(pending) > MAX_REQUEST_LINE:
+        raise RequestError(f"request line longer than {MAX_REQUEST_LINE} bytes")
+    return lines
+
+
+def encode_error(message: str) -> bytes:
+    """The one-line reply to a request that cannot be served (readable with ``nc``)."""
+    return ERROR_PREFIX + message.replace("\n", " ").encode("utf-8", "replace") + b"\n"
+
+
+class _TokenGate:
+    """Checks the ``Token <token>`` line a client must send first; passes what follows it on."""
+
+    def __init__(self, token: str) -> None:
+        self._expected = TOKEN_PREFIX + token.encode("utf-8")
+        self._pending = bytearray()
+        self.passed = False
+
+    def feed(self, data: bytes) -> bytes:
+        """Take received bytes; return those after the token line once it was right.
+
+        Raises:
+            RequestError: when the first line is not the right token.
+        """
+        self._pending += data
+        end = self._pending.find(b"\n")
+        if end < 0:
+            if len(self._pending) > MAX_REQUEST_LINE:
+                raise RequestError("this socket needs 'Token <token>' as its first line")
+            return b""
+        line = bytes(self._pending[:end]).rstrip(b"\r")
+        rest = bytes(self._pending[end + 1:])
+        self._pending.clear()
+        if not hmac.compare_digest(line, self._expected):
+            raise RequestError("this socket needs 'Token <token>' as its first line (the gateway's --token)")
+        self.passed = True
+        return rest
+
+
+class LineServer:
+    """Serve a line-request protocol to any number of TCP clients.
+
+    Args:
+        conversation: Makes the protocol state of one new client.
+        host: The address to bind (``0.0.0.0`` for every interface).
+        port: The TCP port; 0 picks a free one (read :attr:`port` after :meth:`start`).
+        token: When set, every client must first send ``Token <token>``.
+    """
+
+    def __init__(self, conversation: Callable[[], Conversation], *, host: str = "127.0.0.1", port: int = 8081,
+                 token: str | None = None) -> None:
+        self._conversation = conversation
+        self.host = host
+        self.requested_port = port
+        self.token = token
+        self._server: asyncio.Server | None = None
+        self._connections: set[asyncio.Task[None]] = set()
+        #: Replies sent since the start (all clients).
+        self.replies = 0
+
+    @property
+    def port(self) -> int:
+        """The port actually listened on (0 before :meth:`start`)."""
+        if self._server is None or not self._server.sockets:
+            return 0
+        return int(self._server.sockets[0].getsockname()[1])
+
+    @property
+    def clients(self) -> int:
+        """How many clients are connected."""
+        return len(self._connections)
+
+    @property
+    def serving(self) -> bool:
+        """Whether the server listens."""
+        return self._server is not None
+
+    async def start(self) -> int:
+        """Start listening and return the actual port.
+
+        Raises:
+            OSError: when the address cannot be bound (port taken, ...).
+        """
+        if self._server is None:
+            self._server = await asyncio.start_server(
+                self._serve_client, self.host, self.requested_port, reuse_address=True)
+            log.info("dedicated audio socket listening on %s:%d", self.host, self.port)
+        return self.port
+
+    async def aclose(self) -> None:
+        """Stop listening and close every client connection (idempotent)."""
+        server, self._server = self._server, None
+        if server is not None:
+            server.close()
+        connections = list(self._connections)
+        for task in connections:
+            task.cancel()
+        await asyncio.gather(*connections, return_exceptions=True)
+        if server is not None:
+            await server.wait_closed()
+
+    async def __aenter__(self) -> LineServer:
+        await self.start()
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.aclose()
+
+    async def _serve_client(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        task = asyncio.current_task()
+        assert task is not None
+        self._connections.add(task)
+        sock = writer.get_extra_info("socket")
+        if sock is not None:
+            # Replies are single writes; never hold one back waiting for an ACK.
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        conversation = self._conversation()
+        gate = _TokenGate(self.token) if self.token else None
+        try:
+            while data := await reader.read(4096):
+                try:
+                    if gate is not None and not gate.passed:
+                        data = gate.feed(data)
+                    replies = conversation.feed(data) if data else []
+                except RequestError as exc:
+                    writer.write(encode_error(str(exc)))
+                    await writer.drain()
+                    break
+                if await self._send(writer, replies):
+                    break
+        except ConnectionError:
+            # The client went away mid-reply: its connection ends, the server goes on.
+            pass
+        finally:
+            self._connections.discard(task)
+            writer.close()
+            with contextlib.suppress(ConnectionError):
+                await writer.wait_closed()
+
+    async def _send(self, writer: asyncio.StreamWriter, replies: list[bytes | bytearray | None]) -> bool:
+        """Write the replies in order; return True when the client asked to close."""
+        for reply in replies:
+            if reply is CLOSE:
+                return True
+            writer.write(reply)
+            self.replies += 1
+            await writer.drain()
+        return False
