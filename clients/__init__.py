@@ -49,6 +49,7 @@ from .audio_socket import (
     AudioSocketClient,
     AudioSocketError,
 )
+from .frame_socket import AsyncFrameSocketClient, FrameBlock, FrameSocketClient
 
 __all__ = [
     # Connecting
@@ -61,6 +62,8 @@ __all__ = [
     "remote_exception_class",
     # The dedicated audio socket (clients/audio_socket.py)
     "AudioSocketClient", "AsyncAudioSocketClient", "AudioBlock", "AudioSocketError", "DEFAULT_PORT",
+    # The frame-indexed socket of 2015 (bass; clients/frame_socket.py)
+    "FrameSocketClient", "AsyncFrameSocketClient", "FrameBlock",
 ]
 
 # Public names say they live here, not in the private module that defines them (as httpx does).

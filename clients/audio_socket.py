@@ -135,9 +135,13 @@ class _ClientBase:
     """What both clients share: the address, the timeout and the index they hold."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = DEFAULT_PORT, *, frames_per_chunk: int = 2205,
-                 positions: bool = False, index: int = 0, timeout: float = 10.0) -> None:
-        self.host, self.port, self.timeout = host, port, timeout
+                 positions: bool = False, index: int = 0, token: str | None = None, timeout: float = 10.0) -> None:
+        self.host, self.port, self.timeout, self.token = host, port, timeout, token
         self._protocol = _Protocol(frames_per_chunk, positions, index)
+
+    def _greeting(self) -> bytes:
+        """The first line, on a gateway with a token: ``Token <token>``."""
+        return f"Token {self.token}\n".encode() if self.token else b""
 
     @property
     def index(self) -> int:
@@ -160,6 +164,7 @@ class AudioSocketClient(_ClientBase):
         frames_per_chunk: Frames per chunk of the running capture.
         positions: Whether the server appends head positions (``kemarcapture``).
         index: The last chunk index already held (0: none).
+        token: The gateway's ``--token``, sent first, when it has one.
         timeout: Seconds to wait for the server before :class:`AudioSocketError`.
     """
 
@@ -177,6 +182,7 @@ class AudioSocketClient(_ClientBase):
             except OSError as exc:
                 raise AudioSocketError(f"cannot reach the audio socket at {self.host}:{self.port}: {exc}") from exc
             self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            self._sock.sendall(self._greeting())
 
     def close(self) -> None:
         """Close the connection (idempotent)."""
@@ -262,6 +268,8 @@ class AsyncAudioSocketClient(_ClientBase):
                     _, self._receiver = await loop.create_connection(Receiver, self.host, self.port)
             except (OSError, TimeoutError) as exc:
                 raise AudioSocketError(f"cannot reach the audio socket at {self.host}:{self.port}: {exc}") from exc
+            assert self._receiver.transport is not None
+            self._receiver.transport.write(self._greeting())
 
     async def aclose(self) -> None:
         """Close the connection (idempotent)."""

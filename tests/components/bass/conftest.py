@@ -10,6 +10,7 @@ import pytest
 
 from aiogenomix.components.basc import Basc
 from aiogenomix.components.bass import Bass
+from aiogenomix.components.capture import DEFAULT_SCENE, SphericalHeadRenderer
 from aiogenomix.components.core import ComponentHost, ScaledClock
 from aiogenomix.components.kemar import Kemar
 from aiogenomix.gateway import GatewayConfig, serve
@@ -38,6 +39,15 @@ async def url(host: ComponentHost) -> AsyncIterator[str]:
     """A gateway serving the same host on a free loopback port."""
     async with serve(GatewayConfig(port=0), host=host) as base:
         yield base
+
+
+def reference_frames(count: int, azimuths: list[float] | None = None, rate: int = 44100,
+                     frames_per_chunk: int = 2205) -> np.ndarray:
+    """The first *count* frames the default simulated scene renders, chunk by chunk, at the given head azimuths."""
+    renderer = SphericalHeadRenderer(DEFAULT_SCENE, rate)
+    chunks = -(-count // frames_per_chunk)
+    angles = azimuths if azimuths is not None else [0.0] * chunks
+    return np.concatenate([renderer.render(frames_per_chunk, az) for az in angles[:chunks]])[:count]
 
 
 async def wait_for_frame(bass: Bass, frame: int) -> None:
