@@ -46,3 +46,27 @@ async def test_capture_sweep_plots_sound_and_head(tmp_path: pathlib.Path) -> Non
     assert code == 0, err
     assert re.search(r"wrote .*: \d+ chunks, 0 lost", stdout), stdout
     assert out.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
+
+
+async def test_bass_socket_2015_streams_without_loss() -> None:
+    import socket
+
+    with socket.socket() as probe:                    # a free port for the dedicated socket
+        probe.bind(("127.0.0.1", 0))
+        audio_port = probe.getsockname()[1]
+    gateway = await asyncio.create_subprocess_exec(
+        sys.executable, "-m", "aiogenomix.gateway", "--port", "0", "--audio-socket-port", str(audio_port),
+        "--time-scale", "2", stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.DEVNULL)
+    try:
+        assert gateway.stdout is not None
+        line = (await asyncio.wait_for(gateway.stdout.readline(), 60)).decode()
+        address = re.search(r"http://(\S+)", line).group(1)  # type: ignore[union-attr]
+        code, out, err = await run(str(EXAMPLES / "bass_socket_2015.py"), "--address", address,
+                                   "--socket-port", str(audio_port), "--seconds", "1")
+        assert code == 0, err
+        assert re.search(r"read \d+ frames \(1\.\d+ s\), 0 lost; socket done, acquisition error", out), out
+        first = re.search(r"frames\s+(\d+)…", out)
+        assert first is not None and first.group(1) == "0"
+    finally:
+        gateway.terminate()
+        await gateway.wait()

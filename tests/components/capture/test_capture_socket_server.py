@@ -148,3 +148,40 @@ async def test_unreachable_server() -> None:
         await AsyncAudioSocketClient(port=1, frames_per_chunk=FPC).read()
     with pytest.raises(AudioSocketError, match="cannot reach"):
         AudioSocketClient(port=1).read()
+
+
+class _AnsweringServer(DedicatedSocketServer):
+    """Says when it has answered: the reply is handed to the transport before the server next awaits."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        self.answered = asyncio.Event()
+
+    def reply_to(self, index: int) -> bytes:
+        reply = super().reply_to(index)
+        self.answered.set()
+        return reply
+
+
+async def test_a_slow_reader_gets_the_window_as_it_was_when_it_asked() -> None:
+    """Issue 14, defect 1: on Python 3.12+ a transport keeps the buffer it was handed until the client drains it.
+
+    An 8 MiB reply cannot leave at once to a client that does not read; the
+    window turns over twice before the client reads, and every byte must still
+    be the window of the request, not what later chunks wrote in its place.
+    """
+    fpc, capacity = 16384, 64
+    window = ChunkWindow(capacity, fpc)
+    for i in range(1, capacity + 1):
+        window.append(np.full(fpc, i), np.full(fpc, -i))
+    async with _AnsweringServer(lambda: window, port=0) as server:
+        reader, writer = await asyncio.open_connection("127.0.0.1", server.port)
+        writer.write(b"Read Port - Index 0\n")
+        await server.answered.wait()
+        for i in range(capacity + 1, 3 * capacity + 1):     # overwrite every row of the ring
+            window.append(np.full(fpc, 10_000 + i), np.full(fpc, -10_000 - i))
+        reply = np.frombuffer(await reader.readexactly(4 * (2 + 2 * capacity * fpc)), "<i4")
+        writer.close()
+    assert reply[0] == capacity and reply[-1] == capacity
+    np.testing.assert_array_equal(reply[1:1 + capacity * fpc], np.repeat(np.arange(1, capacity + 1), fpc))
+    np.testing.assert_array_equal(reply[1 + capacity * fpc:-1], -np.repeat(np.arange(1, capacity + 1), fpc))
