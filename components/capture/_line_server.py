@@ -23,6 +23,7 @@ import asyncio
 import contextlib
 import hmac
 import logging
+import os
 import socket
 from collections.abc import Callable
 from typing import Protocol
@@ -154,11 +155,17 @@ class LineServer:
         """Start listening and return the actual port.
 
         Raises:
-            OSError: when the address cannot be bound (port taken, ...).
+            OSError: when the address cannot be bound (port taken, ...), saying
+                which port and the gateway flag that changes it.
         """
         if self._server is None:
-            self._server = await asyncio.start_server(
-                self._serve_client, self.host, self.requested_port, reuse_address=True)
+            try:
+                self._server = await asyncio.start_server(
+                    self._serve_client, self.host, self.requested_port, reuse_address=True)
+            except OSError as exc:
+                reason = os.strerror(exc.errno).lower() if (exc.errno or 0) > 0 else str(exc)
+                raise OSError(exc.errno, f"cannot listen on {self.host}:{self.requested_port}: {reason}; "
+                                         f"the gateway's --audio-socket-port chooses another port") from exc
             log.info("dedicated audio socket listening on %s:%d", self.host, self.port)
         return self.port
 
@@ -205,6 +212,11 @@ class LineServer:
                     break
         except ConnectionError:
             # The client went away mid-reply: its connection ends, the server goes on.
+            pass
+        except asyncio.CancelledError:
+            # aclose ends the connection (the gateway stopping, CloseSocket).  Ending
+            # quietly matters on Python 3.11, whose start_server logs a traceback for
+            # a cancelled client task.
             pass
         finally:
             self._connections.discard(task)
