@@ -1,10 +1,13 @@
-"""The ``Port`` data as a live view of the chunk window, materialised only when someone reads it.
+"""The ``Port`` data of one publication, materialised only when someone reads it.
 
 Publishing a full copy of the window for every 50 ms chunk costs a copy of the
 whole port (1.4 MB for 80 chunks) even when nobody reads it.  A :class:`PortView`
-costs nothing until read; it also answers incremental reads (``since``), which
-makes the port :class:`~aiogenomix.components.core.Incremental` for the
-gateway's ``since=`` reads and ``watch`` streams.
+holds the window's frozen state of its publication (references to read-only
+chunks) and builds the port struct only when read, so a read always returns the
+chunks of the publication it names, however late it comes.  It also answers
+incremental reads (``since``), which makes the port
+:class:`~aiogenomix.components.core.Incremental` for the gateway's ``since=``
+reads and ``watch`` streams.
 """
 
 from __future__ import annotations
@@ -14,13 +17,13 @@ from collections.abc import Callable
 from typing import Any
 
 from ._types import PortData, Timestamp
-from ._window import ChunkWindow, WindowRead
+from ._window import ChunkWindow, WindowRead, WindowState
 
 __all__ = ["PortView"]
 
 
 class PortView:
-    """The port data of a window as it was when published (read it before the next chunk arrives).
+    """The port data of a window as it was when published.
 
     Every member of the port struct is an attribute; the whole window is copied
     out once, on the first access to the samples.
@@ -34,12 +37,12 @@ class PortView:
 
     def __init__(self, window: ChunkWindow | None, transfer_rate: int = 0, start: float = 0.0,
                  make: Callable[..., PortData] = PortData) -> None:
-        self._window = window
+        self._state: WindowState | None = window.state if window is not None else None
         self._make = make
         self.transfer_rate = transfer_rate
         self.ts = Timestamp.from_seconds(start)
         #: The newest chunk (published chunks are numbered from 1).
-        self.index = window.last_index if window is not None else 0
+        self.index = self._state.last_index if self._state is not None else 0
 
     def _data(self, read: WindowRead) -> PortData:
         extra: dict[str, Any] = {} if read.positions is None else {"positions": read.positions}
@@ -49,9 +52,9 @@ class PortView:
     @functools.cached_property
     def data(self) -> PortData:
         """The whole window as the port struct (zeros before the first chunks)."""
-        if self._window is None:
+        if self._state is None:
             return self._make()
-        return self._data(self._window.snapshot())
+        return self._data(self._state.snapshot())
 
     def __getattr__(self, name: str) -> Any:
         # Members other than the few kept above come from the materialised struct.
@@ -61,7 +64,7 @@ class PortView:
 
     def since(self, index: int) -> tuple[PortData, int]:
         """The chunks after *index* as a port struct, and how many of those the window no longer held."""
-        if self._window is None:
+        if self._state is None:
             return self._make(), 0
-        read = self._window.since(index)
+        read = self._state.since(index)
         return self._data(read), read.lost

@@ -46,12 +46,12 @@ class DedicatedSocketServer(LineServer):
         self._window = window
         self.with_positions = with_positions
 
-    def reply_to(self, index: int) -> bytes:
-        """The reply to a request for the chunks after *index*, as one immutable buffer.
+    def reply_to(self, index: int) -> bytearray:
+        """The reply to a request for the chunks after *index*, in a buffer of its own.
 
-        The window's rows are copied here, once: the transport may hold the reply
-        while the client drains it, and the window changes with the next chunk.
+        The transport may hold the reply while the client drains it, long after
+        the window has moved on: it must share no memory with anything that changes.
         """
         window = self._window()
-        chunks = window.since(index, copy=False) if window is not None else _NO_CHUNKS
+        chunks = window.since(index) if window is not None else _NO_CHUNKS
         return encode_reply(chunks, with_positions=self.with_positions)

@@ -106,6 +106,25 @@ def reply_parts(chunks: WindowRead, *, with_positions: bool = False) -> list[byt
     return parts
 
 
-def encode_reply(chunks: WindowRead, *, with_positions: bool = False) -> bytes:
-    """The reply carrying *chunks* as one bytes object (see :func:`reply_parts`)."""
-    return b"".join(reply_parts(chunks, with_positions=with_positions))
+def encode_reply(chunks: WindowRead, *, with_positions: bool = False) -> bytearray:
+    """The reply carrying *chunks* (from :meth:`ChunkWindow.since`), in one buffer of its own.
+
+    Nothing else refers to the buffer, so a transport may hold it as long as the
+    client takes to drain it.
+
+    Raises:
+        ValueError: when positions are asked for but the chunks carry none.
+    """
+    count, fpc = chunks.left.shape
+    if with_positions and chunks.positions is None:
+        raise ValueError("the reply needs positions but the window keeps none")
+    reply = bytearray(reply_size(count, fpc, with_positions=with_positions))
+    words = np.frombuffer(reply, dtype="<i4")
+    samples = count * fpc
+    words[0] = count
+    words[1:1 + samples] = chunks.left.reshape(-1)
+    words[1 + samples:1 + 2 * samples] = chunks.right.reshape(-1)
+    words[1 + 2 * samples] = chunks.last_index
+    if with_positions:
+        words[2 + 2 * samples:].view("<f4")[:] = chunks.positions  # type: ignore[index]
+    return reply

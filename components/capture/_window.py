@@ -3,10 +3,12 @@
 This is the linear port design of the seed (section 5.2.1) without its shifting
 copies.  Chunks are numbered from 1 (the port ``index`` is the number of chunks
 published since the start, so it is also the index of the newest chunk).  Each
-chunk is written twice, at slot ``s`` and ``s + capacity`` of a ring twice the
-window long, so that any run of consecutive chunks ending at the newest one is
-one contiguous slice: reading the whole window, or the chunks after index *k*,
-costs one copy and never a gather.
+chunk is copied once into read-only arrays, and the window is a tuple of
+references to the newest ones: a :class:`WindowState` taken at publication
+(``window.state``) keeps the chunks of that publication however many arrive
+afterwards, so a read, a socket reply or a port view always gets the data of
+the publication it names.  Reading the chunks after index *k* joins them in one
+copy.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import dataclasses
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["ChunkWindow", "WindowRead"]
+__all__ = ["ChunkWindow", "WindowRead", "WindowState"]
 
 Int32Array = npt.NDArray[np.int32]
 Float64Array = npt.NDArray[np.float64]
@@ -54,6 +56,64 @@ class WindowRead:
         return np.stack([self.left.reshape(-1), self.right.reshape(-1)], axis=1)
 
 
+def _frozen(array: npt.NDArray[np.generic]) -> npt.NDArray[np.generic]:
+    array.flags.writeable = False
+    return array
+
+
+@dataclasses.dataclass(frozen=True)
+class WindowState:
+    """The window at one publication: its chunks, frozen.
+
+    Attributes:
+        left: The ``capacity`` newest left chunks, oldest first, each a read-only
+            ``(frames_per_chunk,)`` int32 array (zeros stand for chunks before the first).
+        right: The right chunks, likewise.
+        positions: The head position at the end of each chunk, or None.
+        last_index: The index of the newest chunk (0 before the first one).
+    """
+
+    left: tuple[Int32Array, ...]
+    right: tuple[Int32Array, ...]
+    positions: tuple[float, ...] | None
+    last_index: int
+
+    @property
+    def capacity(self) -> int:
+        """How many chunks the window holds."""
+        return len(self.left)
+
+    def _read(self, count: int, lost: int) -> WindowRead:
+        rows = slice(self.capacity - count, self.capacity)
+        fpc = self.left[0].shape[0]
+        left = np.stack(self.left[rows]) if count else np.zeros((0, fpc), np.int32)
+        right = np.stack(self.right[rows]) if count else np.zeros((0, fpc), np.int32)
+        positions = None if self.positions is None else np.array(self.positions[rows], dtype=np.float64)
+        return WindowRead(left=left, right=right, positions=positions, first_index=self.last_index - count + 1,
+                          last_index=self.last_index, lost=lost)
+
+    def since(self, index: int, *, limit: int | None = None) -> WindowRead:
+        """The chunks newer than *index* that the window held, in fresh arrays.
+
+        Args:
+            index: The index of the last chunk the reader holds (0 for none).  An
+                index ahead of the window (a reader of an earlier capture) gets
+                nothing and no loss.
+            limit: Return at most this many chunks (the newest ones; the older
+                ones count as lost).
+
+        Returns:
+            The chunks, oldest first, with the count of chunks lost.
+        """
+        newer = max(0, self.last_index - max(0, index))
+        count = min(newer, self.capacity if limit is None else max(0, min(limit, self.capacity)))
+        return self._read(count, newer - count)
+
+    def snapshot(self) -> WindowRead:
+        """The whole window, zero-filled before the first chunks, as the port publishes it."""
+        return self._read(self.capacity, 0)
+
+
 class ChunkWindow:
     """The newest *capacity* chunks of a capture, with their absolute indices.
 
@@ -73,29 +133,29 @@ class ChunkWindow:
         self.capacity = capacity
         self.frames_per_chunk = frames_per_chunk
         self.with_positions = with_positions
-        self._left = np.zeros((2 * capacity, frames_per_chunk), dtype=np.int32)
-        self._right = np.zeros((2 * capacity, frames_per_chunk), dtype=np.int32)
-        self._positions = np.zeros(2 * capacity, dtype=np.float64) if with_positions else None
-        self._last = 0
+        zero = _frozen(np.zeros(frames_per_chunk, dtype=np.int32))
+        #: The window now: replaced (never changed) by each append.
+        self.state = WindowState((zero,) * capacity, (zero,) * capacity,
+                                 (0.0,) * capacity if with_positions else None, 0)
 
     @property
     def last_index(self) -> int:
         """The index of the newest chunk (0 before the first one)."""
-        return self._last
+        return self.state.last_index
 
     @property
     def first_index(self) -> int:
         """The index of the oldest chunk still held (1 until the window wraps)."""
-        return max(1, self._last - self.capacity + 1)
+        return max(1, self.last_index - self.capacity + 1)
 
     @property
     def nbytes(self) -> int:
-        """Memory used by the window's buffers."""
-        extra = self._positions.nbytes if self._positions is not None else 0
-        return self._left.nbytes + self._right.nbytes + extra
+        """Memory held by the chunks of the window."""
+        arrays = {id(a): a.nbytes for a in (*self.state.left, *self.state.right)}
+        return sum(arrays.values()) + (8 * self.capacity if self.with_positions else 0)
 
     def append(self, left: npt.ArrayLike, right: npt.ArrayLike, position: float | None = None) -> int:
-        """Add the next chunk and return its index.
+        """Add the next chunk (copied once, into read-only arrays) and return its index.
 
         Args:
             left: ``frames_per_chunk`` left samples (converted to int32).
@@ -115,46 +175,16 @@ class ChunkWindow:
         if (position is None) == self.with_positions:
             raise ValueError("this window keeps a position per chunk" if self.with_positions
                              else "this window keeps no positions")
-        slot = self._last % self.capacity
-        for row in (slot, slot + self.capacity):
-            self._left[row] = left_arr
-            self._right[row] = right_arr
-            if self._positions is not None:
-                self._positions[row] = position
-        self._last += 1
-        return self._last
+        old = self.state
+        positions = None if old.positions is None else (*old.positions[1:], float(position))  # type: ignore[arg-type]
+        self.state = WindowState((*old.left[1:], _frozen(left_arr.astype(np.int32, copy=True))),
+                                 (*old.right[1:], _frozen(right_arr.astype(np.int32, copy=True))),
+                                 positions, old.last_index + 1)
+        return self.state.last_index
 
-    def _rows(self, count: int) -> slice:
-        # The newest chunk sits at slot (last-1) % capacity and at that plus capacity;
-        # the `count` chunks ending there are the contiguous rows just before `end`.
-        end = (self._last - 1) % self.capacity + self.capacity + 1
-        return slice(end - count, end)
-
-    def since(self, index: int, *, limit: int | None = None, copy: bool = True) -> WindowRead:
-        """The chunks newer than *index* that the window still holds.
-
-        Args:
-            index: The index of the last chunk the reader holds (0 for none).  An
-                index ahead of the window (a reader of an earlier capture) gets
-                nothing and no loss.
-            limit: Return at most this many chunks (the newest ones; the older
-                ones count as lost).
-            copy: Return copies (the default).  ``copy=False`` returns views into
-                the ring, valid only until the next :meth:`append`.
-
-        Returns:
-            The chunks, oldest first, with the count of chunks lost.
-        """
-        newer = max(0, self._last - max(0, index))
-        count = min(newer, self.capacity if limit is None else max(0, min(limit, self.capacity)))
-        rows = self._rows(count)
-        left, right = self._left[rows], self._right[rows]
-        positions = self._positions[rows] if self._positions is not None else None
-        if copy:
-            left, right = left.copy(), right.copy()
-            positions = positions.copy() if positions is not None else None
-        return WindowRead(left=left, right=right, positions=positions,
-                          first_index=self._last - count + 1, last_index=self._last, lost=newer - count)
+    def since(self, index: int, *, limit: int | None = None) -> WindowRead:
+        """The chunks newer than *index* that the window still holds (see :meth:`WindowState.since`)."""
+        return self.state.since(index, limit=limit)
 
     def snapshot(self) -> WindowRead:
         """The whole window, zero-filled before the first chunks, as the port publishes it.
@@ -162,7 +192,4 @@ class ChunkWindow:
         Like the original port, it always holds ``capacity`` chunks: until the
         window fills, the oldest ones are zeros (with indices below 1).
         """
-        rows = self._rows(self.capacity)
-        positions = self._positions[rows].copy() if self._positions is not None else None
-        return WindowRead(left=self._left[rows].copy(), right=self._right[rows].copy(), positions=positions,
-                          first_index=self._last - self.capacity + 1, last_index=self._last, lost=0)
+        return self.state.snapshot()

@@ -97,3 +97,20 @@ def test_bad_chunks_are_refused() -> None:
         ChunkWindow(3, FPC, with_positions=True).append(*chunk(1))
     with pytest.raises(ValueError):
         ChunkWindow(0, FPC)
+
+
+def test_a_published_port_view_keeps_the_chunks_of_its_publication() -> None:
+    """Issue 14, defect 1: a port value read late must hold the data of the publication it names."""
+    from aiogenomix.components.capture._port_view import PortView
+
+    window = filled(5)
+    published = PortView(window, 16000, 0.0)
+    for i in range(6, 30):                     # the window turns over several times before anyone reads
+        window.append(*chunk(i))
+    assert published.index == 5
+    data = published.data
+    assert data.index == 5
+    np.testing.assert_array_equal(data.left, filled(5).snapshot().left.reshape(-1))
+    newer, lost = published.since(3)
+    assert newer.index == 5 and lost == 0
+    np.testing.assert_array_equal(newer.left, np.concatenate([chunk(4)[0], chunk(5)[0]]))
