@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 from ..capture import CLOSE, LineServer
 from ._history import AudioSnapshot
-from ._socket_wire import HEADER, FrameRequestParser, encode_frame_reply
+from ._socket_wire import HEADER, encode_frame_reply, parse_frame_request
 
 __all__ = ["FrameSocketServer"]
 
@@ -16,21 +16,16 @@ class _FrameConversation:
 
     def __init__(self, snapshot: Callable[[], AudioSnapshot | None]) -> None:
         self._snapshot = snapshot
-        self._parser = FrameRequestParser()
 
-    def feed(self, data: bytes) -> list[bytes | bytearray | None]:
-        replies: list[bytes | bytearray | None] = []
-        for request in self._parser.feed(data):
-            if request is None:
-                replies.append(CLOSE)
-                break
-            snapshot = self._snapshot()
-            if snapshot is None:
-                # No acquisition yet: nothing to send, and the client keeps its place.
-                replies.append(_empty_reply(request.next_frame))
-            else:
-                replies.append(encode_frame_reply(snapshot.frames(request.next_frame, request.frames)))
-        return replies
+    def answer(self, line: bytes) -> bytes | bytearray | None:
+        request = parse_frame_request(line)
+        if request is None:
+            return CLOSE
+        snapshot = self._snapshot()
+        if snapshot is None:
+            # No acquisition yet: nothing to send, and the client keeps its place.
+            return _empty_reply(request.next_frame)
+        return encode_frame_reply(snapshot.frames(request.next_frame, request.frames))
 
 
 def _empty_reply(next_frame: int) -> bytes:

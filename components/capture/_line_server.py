@@ -45,14 +45,13 @@ CLOSE = None
 
 
 class Conversation(Protocol):
-    """One client's side of a dedicated-socket protocol, sans I/O."""
+    """One client's side of a dedicated-socket protocol, sans I/O: a reply to each request line."""
 
-    def feed(self, data: bytes) -> list[bytes | bytearray | None]:
-        """Take received bytes; return the replies to the complete requests, in order.
+    def answer(self, line: bytes) -> bytes | bytearray | None:
+        """The reply to one request line (without its line ending), or ``None`` (:data:`CLOSE`) to hang up.
 
-        Each reply must be a buffer that nothing changes afterwards.
-
-        A ``None`` (:data:`CLOSE`) ends the connection after the replies before it.
+        The reply must be a buffer that nothing changes afterwards: the transport
+        may hold it until the client has drained it.
 
         Raises:
             RequestError: for a request that cannot be served (the stream cannot be
@@ -82,35 +81,6 @@ def split_lines(pending: bytearray, data: bytes) -> list[bytes]:
 def encode_error(message: str) -> bytes:
     """The one-line reply to a request that cannot be served (readable with ``nc``)."""
     return ERROR_PREFIX + message.replace("\n", " ").encode("utf-8", "replace") + b"\n"
-
-
-class _TokenGate:
-    """Checks the ``Token <token>`` line a client must send first; passes what follows it on."""
-
-    def __init__(self, token: str) -> None:
-        self._expected = TOKEN_PREFIX + token.encode("utf-8")
-        self._pending = bytearray()
-        self.passed = False
-
-    def feed(self, data: bytes) -> bytes:
-        """Take received bytes; return those after the token line once it was right.
-
-        Raises:
-            RequestError: when the first line is not the right token.
-        """
-        self._pending += data
-        end = self._pending.find(b"\n")
-        if end < 0:
-            if len(self._pending) > MAX_REQUEST_LINE:
-                raise RequestError("this socket needs 'Token <token>' as its first line")
-            return b""
-        line = bytes(self._pending[:end]).rstrip(b"\r")
-        rest = bytes(self._pending[end + 1:])
-        self._pending.clear()
-        if not hmac.compare_digest(line, self._expected):
-            raise RequestError("this socket needs 'Token <token>' as its first line (the gateway's --token)")
-        self.passed = True
-        return rest
 
 
 class LineServer:
@@ -197,26 +167,28 @@ class LineServer:
             # Replies are single writes; never hold one back waiting for an ACK.
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         conversation = self._conversation()
-        gate = _TokenGate(self.token) if self.token else None
+        pending = bytearray()
+        # With a token, the first line must carry it before anything is answered.
+        admitted = not self.token
         try:
             while data := await reader.read(4096):
                 try:
-                    if gate is not None and not gate.passed:
-                        data = gate.feed(data)
-                    replies = conversation.feed(data) if data else []
+                    for line in split_lines(pending, data):
+                        if not admitted:
+                            admitted = self._admits(line)
+                            continue
+                        reply = conversation.answer(line)
+                        if reply is CLOSE:
+                            return
+                        writer.write(reply)
+                        self.replies += 1
+                        await writer.drain()
                 except RequestError as exc:
                     writer.write(encode_error(str(exc)))
                     await writer.drain()
-                    break
-                if await self._send(writer, replies):
-                    break
+                    return
         except ConnectionError:
             # The client went away mid-reply: its connection ends, the server goes on.
-            pass
-        except asyncio.CancelledError:
-            # aclose ends the connection (the gateway stopping, CloseSocket).  Ending
-            # quietly matters on Python 3.11, whose start_server logs a traceback for
-            # a cancelled client task.
             pass
         finally:
             self._connections.discard(task)
@@ -224,12 +196,13 @@ class LineServer:
             with contextlib.suppress(ConnectionError):
                 await writer.wait_closed()
 
-    async def _send(self, writer: asyncio.StreamWriter, replies: list[bytes | bytearray | None]) -> bool:
-        """Write the replies in order; return True when the client asked to close."""
-        for reply in replies:
-            if reply is CLOSE:
-                return True
-            writer.write(reply)
-            self.replies += 1
-            await writer.drain()
-        return False
+    def _admits(self, line: bytes) -> bool:
+        """Check the first line of a client of a server with a token.
+
+        Raises:
+            RequestError: unless it is ``Token <token>``.
+        """
+        assert self.token is not None
+        if not hmac.compare_digest(line, TOKEN_PREFIX + self.token.encode("utf-8")):
+            raise RequestError("this socket needs 'Token <token>' (the gateway's --token) as its first line")
+        return True

@@ -7,7 +7,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ._line_server import LineServer
-from ._socket_wire import RequestParser, encode_reply
+from ._socket_wire import encode_reply, parse_request
 from ._window import ChunkWindow, WindowRead
 
 __all__ = ["DedicatedSocketServer", "DEFAULT_PORT"]
@@ -22,10 +22,9 @@ class _ChunkConversation:
 
     def __init__(self, server: DedicatedSocketServer) -> None:
         self._server = server
-        self._parser = RequestParser()
 
-    def feed(self, data: bytes) -> list[bytes | bytearray | None]:
-        return [self._server.reply_to(index) for index in self._parser.feed(data)]
+    def answer(self, line: bytes) -> bytearray:
+        return self._server.reply_to(parse_request(line))
 
 
 class DedicatedSocketServer(LineServer):
