@@ -190,6 +190,11 @@ class LineServer:
         except ConnectionError:
             # The client went away mid-reply: its connection ends, the server goes on.
             pass
+        except asyncio.CancelledError:
+            # aclose ends the connection (the gateway stopping, CloseSocket).  Ending
+            # quietly matters on Python 3.11, whose start_server logs a traceback for
+            # a cancelled client task.
+            pass
         finally:
             self._connections.discard(task)
             writer.close()
