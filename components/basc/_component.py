@@ -8,10 +8,11 @@ from typing import Annotated
 
 import numpy as np
 
-from ..bass import AudioPortData, AudioSnapshot
-from ..bass._types import Samples
-from ..core import Component, GenomException, InPort, Long, Out, OutPort, String, Task, ULong, ULongLong, activity
-from ..core import function, idl_struct
+from ..bass import AudioPortData, AudioSnapshot, Samples
+from ..core import (
+    Component, GenomException, InPort, Long, Out, OutPort, String, Task, ULong, ULongLong, activity, function,
+    idl_struct,
+)
 
 __all__ = ["Basc", "BlockReport", "e_noData"]
 
@@ -54,7 +55,8 @@ class Basc(Component, name="basc", version="1.0"):
 
     read = Task(period=0.25, doc="Reads the Audio port, every 250 ms")
     Audio = InPort(AudioPortData, doc="Connect to bass/Audio with connect_port")
-    Blocks = OutPort(BlockReport, doc="The last complete block of GetBlocks, its first frame, and the frames lost so far")
+    Blocks = OutPort(BlockReport, doc="The last complete block of GetBlocks, its first frame, "
+                                      "and the frames lost so far")
 
     async def on_start(self) -> None:
         await super().on_start()

@@ -7,11 +7,11 @@ from ._socket_wire import (
     HEADER, FrameRequest, FrameRequestParser, encode_frame_reply, encode_frame_request, frame_reply_size,
     parse_frame_request,
 )
-from ._types import AudioPortData, e_device, e_hwparams, e_nodevice, e_nomem, e_socket, e_swparams
+from ._types import AudioPortData, Samples, e_device, e_hwparams, e_nodevice, e_nomem, e_socket, e_swparams
 
 __all__ = [
     # The component and its port
-    "Bass", "AudioPortData", "AudioSnapshot", "ChunkHistory", "FrameRead",
+    "Bass", "AudioPortData", "Samples", "AudioSnapshot", "ChunkHistory", "FrameRead",
     # Exceptions
     "e_nomem", "e_nodevice", "e_device", "e_hwparams", "e_swparams", "e_socket",
     # The 2015 dedicated socket

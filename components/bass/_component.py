@@ -116,7 +116,8 @@ class Bass(Component, name="bass", version="1.0"):
 
     async def _open(self, device: str, rate: int, frames: int) -> CaptureBackend:
         try:
-            backend = open_backend(device, rate, frames, self.clock, azimuth=self._azimuth_source(device))
+            backend = open_backend(device, rate, frames, self.clock, azimuth=self._azimuth_source(device),
+                                   roots=self.host.settings.get("audio_files"))
             await backend.open()
         except FormatRefused as exc:
             raise e_hwparams(device=device, what=str(exc)) from exc

@@ -22,7 +22,8 @@ from ._window import ChunkWindow, WindowRead
 
 __all__ = [
     # The component and its types
-    "Capture", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK", "RATE_RANGE", "PortData", "Timestamp", "CaptureConfig", "CaptureStatus", "frames_per_chunk",
+    "Capture", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK", "RATE_RANGE",
+    "PortData", "Timestamp", "CaptureConfig", "CaptureStatus", "frames_per_chunk",
     "INVALID_CHUNK_TIME", "ERROR_SEQUENCE_ENOMEM", "NO_SUCH_DEVICE", "DEVICE_ERROR", "ALREADY_CAPTURING",
     "SOCKET_ERROR",
     # Backends

@@ -82,9 +82,18 @@ class AlsaBackend(CaptureBackend):
         self._handoff: ThreadHandoff | None = None
 
     async def open(self) -> None:
+        # Opening an ALSA device can block for as long as another process holds it:
+        # done in a thread, so the gateway keeps answering meanwhile.
+        self._pcm = await asyncio.to_thread(self._open_pcm)
+        self._handoff = ThreadHandoff(asyncio.get_running_loop(), self._depth)
+        self._thread = threading.Thread(target=self._run, name=f"alsa capture {self.pcm_name}", daemon=True)
+        self._thread.start()
+
+    def _open_pcm(self) -> Any:
+        """Open and check the PCM (blocking)."""
         alsaaudio = self._alsa = import_alsaaudio()
         try:
-            self._pcm = alsaaudio.PCM(
+            pcm = alsaaudio.PCM(
                 type=alsaaudio.PCM_CAPTURE, mode=alsaaudio.PCM_NORMAL, device=self.pcm_name,
                 rate=self.rate, channels=2, format=alsaaudio.PCM_FORMAT_S32_LE,
                 periodsize=self.frames_per_chunk, periods=PERIODS,
@@ -96,13 +105,11 @@ class AlsaBackend(CaptureBackend):
             raise DeviceError(f"ALSA device {self.pcm_name!r} cannot capture S32_LE stereo at "
                               f"{self.rate} Hz: {message}") from exc
         try:
-            self._check_configuration(self._pcm.info())
+            self._check_configuration(pcm.info())
         except DeviceError:
-            self._pcm.close()
+            pcm.close()
             raise
-        self._handoff = ThreadHandoff(asyncio.get_running_loop(), self._depth)
-        self._thread = threading.Thread(target=self._run, name=f"alsa capture {self.pcm_name}", daemon=True)
-        self._thread.start()
+        return pcm
 
     def _check_configuration(self, info: dict[str, Any]) -> None:
         # ALSA sets the nearest rate and period the card supports; like BASS we refuse

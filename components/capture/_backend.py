@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import abc
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import ClassVar, Self
 
 import numpy as np
@@ -197,7 +197,7 @@ def split_device(device: str) -> tuple[str, str]:
 
 
 def open_backend(device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
-                 azimuth: Azimuth | None = None) -> CaptureBackend:
+                 azimuth: Azimuth | None = None, roots: Sequence[str] | None = None) -> CaptureBackend:
     """Create (not yet open) the backend a device string names.
 
     Args:
@@ -206,9 +206,11 @@ def open_backend(device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
         frames_per_chunk: Frames per chunk.
         clock: The runtime clock.
         azimuth: Head azimuth source for the simulated scene (default: 0°).
+        roots: The directories WAV and scene files may come from (the gateway's
+            ``--audio-files``); None allows any path (a host built in code).
 
-    Raises:
-        SceneError: for a scene file that cannot be used.
+    Nothing is opened here: a backend touches its device or file in ``open()``,
+    off the event loop.
     """
     kind, argument = split_device(device)
     backend: CaptureBackend
@@ -216,11 +218,11 @@ def open_backend(device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
         from ._sim_backend import SimulatedSceneBackend
 
         backend = SimulatedSceneBackend(device, rate, frames_per_chunk, clock,
-                                        scene_file=argument or None, azimuth=azimuth)
+                                        scene_file=argument or None, azimuth=azimuth, roots=roots)
     elif kind == "file":
         from ._wav_backend import WavFileBackend
 
-        backend = WavFileBackend(device, rate, frames_per_chunk, clock, path=argument)
+        backend = WavFileBackend(device, rate, frames_per_chunk, clock, path=argument, roots=roots)
     elif kind == "portaudio":
         from ._portaudio import PortAudioBackend
 

@@ -147,7 +147,8 @@ class Capture(Component, name="capture", version="1.1"):
 
     async def _open(self, device: str, rate: int, frames: int) -> CaptureBackend:
         try:
-            backend = open_backend(device, rate, frames, self.clock, azimuth=self._azimuth_source(device))
+            backend = open_backend(device, rate, frames, self.clock, azimuth=self._azimuth_source(device),
+                                   roots=self.host.settings.get("audio_files"))
             await backend.open()
         except DeviceNotFound as exc:
             raise NO_SUCH_DEVICE(device=device, available=exc.available) from exc

@@ -85,16 +85,23 @@ class PortAudioBackend(CaptureBackend):
         return int(info["index"])
 
     async def open(self) -> None:
+        # Listing, opening and starting a PortAudio stream talk to the sound server and
+        # may block: done in a thread, so the gateway keeps answering meanwhile.
+        self._handoff = ThreadHandoff(asyncio.get_running_loop(), self._depth)
+        self._stream = await asyncio.to_thread(self._open_stream)
+
+    def _open_stream(self) -> Any:
+        """Find the device, then open and start its stream (blocking)."""
         sd = import_sounddevice()
         index = self._resolve(sd)
-        self._handoff = ThreadHandoff(asyncio.get_running_loop(), self._depth)
         try:
-            self._stream = sd.InputStream(samplerate=self.rate, blocksize=self.frames_per_chunk, device=index,
-                                          channels=2, dtype="int32", latency="high", callback=self._callback)
-            self._stream.start()
+            stream = sd.InputStream(samplerate=self.rate, blocksize=self.frames_per_chunk, device=index,
+                                    channels=2, dtype="int32", latency="high", callback=self._callback)
+            stream.start()
         except sd.PortAudioError as exc:
             raise DeviceError(f"PortAudio device {self.device!r} cannot capture int32 stereo at "
                               f"{self.rate} Hz: {exc}") from exc
+        return stream
 
     def _callback(self, indata: np.ndarray, frames: int, time: Any, status: Any) -> None:
         handoff = self._handoff
@@ -117,8 +124,8 @@ class PortAudioBackend(CaptureBackend):
     async def _close(self) -> None:
         stream, self._stream = self._stream, None
         if stream is not None:
-            # stop() waits for the pending callbacks, which may take a block.
-            await asyncio.to_thread(stream.stop)
-            stream.close()
+            # stop() waits for the pending callbacks, which may take a block; close() talks
+            # to the sound server too.
+            await asyncio.to_thread(lambda: (stream.stop(), stream.close()))
         if self._handoff is not None:
             self._handoff.end()

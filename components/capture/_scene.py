@@ -138,20 +138,25 @@ DEFAULT_SCENE = Scene(
 )
 
 
-def load_scene(path: str | os.PathLike[str]) -> Scene:
-    """Read a JSON scene file.
+def load_scene(path: str | os.PathLike[str], *, shown: str | None = None) -> Scene:
+    """Read a JSON scene file (a regular file of at most 1 MiB; this blocks on the disk).
+
+    Args:
+        path: The file.
+        shown: How to name it in messages (default: *path*).
 
     Raises:
         SceneError: when the file cannot be read or describes no valid scene.
     """
+    from ._paths import read_regular_file
+
+    name = shown if shown is not None else os.fspath(path)
+    data = read_regular_file(os.fspath(path), name)
     try:
-        with open(path, encoding="utf-8") as stream:
-            data = json.load(stream)
-    except OSError as exc:
-        raise SceneError(f"cannot read scene file {os.fspath(path)!r}: {exc.strerror}") from exc
-    except json.JSONDecodeError as exc:
-        raise SceneError(f"scene file {os.fspath(path)!r} is not JSON: {exc}") from exc
-    return Scene.from_dict(data)
+        description = json.loads(data)
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
+        raise SceneError(f"scene file {name!r} is not JSON: {exc}") from exc
+    return Scene.from_dict(description)
 
 
 class SourceSignal:

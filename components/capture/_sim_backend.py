@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import asyncio
+from collections.abc import Sequence
+
 import numpy as np
 import numpy.typing as npt
 
 from ..core import Clock
 from ._backend import Azimuth, PacedBackend
 from ._head_model import SphericalHeadRenderer
+from ._paths import confined_path
 from ._scene import DEFAULT_SCENE, Scene, load_scene
 
 __all__ = ["SimulatedSceneBackend"]
@@ -31,22 +35,39 @@ class SimulatedSceneBackend(PacedBackend):
         scene_file: A JSON scene file (None: :data:`DEFAULT_SCENE`).
         scene: A scene object (takes precedence over *scene_file*).
         azimuth: The head azimuth in degrees (default: always 0°).
+        roots: The directories a scene file may come from (None: anywhere).
 
-    Raises:
-        SceneError: for a scene file that cannot be used.
+    The scene file is read by :meth:`open`, off the event loop.
     """
 
     kind = "simulated scene"
 
     def __init__(self, device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
                  scene_file: str | None = None, scene: Scene | None = None,
-                 azimuth: Azimuth | None = None) -> None:
+                 azimuth: Azimuth | None = None, roots: Sequence[str] | None = None) -> None:
         super().__init__(device, rate, frames_per_chunk, clock)
-        if scene is None:
-            scene = load_scene(scene_file) if scene_file else DEFAULT_SCENE
-        self.scene = scene
+        self.scene_file = scene_file
+        self.scene = scene if scene is not None else (None if scene_file else DEFAULT_SCENE)
         self.azimuth = azimuth or _facing_front
-        self.renderer = SphericalHeadRenderer(scene, rate)
+        self._roots = roots
+        self.renderer: SphericalHeadRenderer | None = None
+
+    async def open(self) -> None:
+        """Read the scene file (if any) and start the clock.
+
+        Raises:
+            PathRefused: for a scene file outside the allowed directories.
+            SceneError: for a scene file that cannot be used.
+        """
+        if self.scene is None:
+            assert self.scene_file is not None
+            self.scene = await asyncio.to_thread(self._load, self.scene_file)
+        self.renderer = SphericalHeadRenderer(self.scene, self.rate)
+        await super().open()
+
+    def _load(self, path: str) -> Scene:
+        return load_scene(confined_path(path, self._roots), shown=path)
 
     def _produce(self, count: int) -> npt.NDArray[np.int32]:
+        assert self.renderer is not None, "read before open"
         return self.renderer.render(count, float(self.azimuth()))

@@ -7,15 +7,18 @@ last chunk is completed with zeros and the capture ends with the file.
 
 from __future__ import annotations
 
-import os
+import asyncio
 import wave
+from collections.abc import Sequence
+from typing import BinaryIO
 
 import numpy as np
 import numpy.typing as npt
 
 from ..core import Clock
 from ._backend import PacedBackend
-from ._errors import DeviceNotFound, SceneError
+from ._errors import SceneError
+from ._paths import confined_path, open_regular_file
 
 __all__ = ["WavFileBackend", "decode_pcm"]
 
@@ -53,34 +56,42 @@ class WavFileBackend(PacedBackend):
         frames_per_chunk: Frames per chunk.
         clock: The runtime clock that paces the chunks.
         path: The WAV file.
+        roots: The directories it may come from (None: anywhere).
     """
 
     kind = "WAV file"
 
-    def __init__(self, device: str, rate: int, frames_per_chunk: int, clock: Clock, *, path: str) -> None:
+    def __init__(self, device: str, rate: int, frames_per_chunk: int, clock: Clock, *, path: str,
+                 roots: Sequence[str] | None = None) -> None:
         super().__init__(device, rate, frames_per_chunk, clock)
         self.path = path
+        self._roots = roots
         self._wave: wave.Wave_read | None = None
+        self._file: BinaryIO | None = None
 
     async def open(self) -> None:
-        if not os.path.isfile(self.path):
-            folder = os.path.dirname(self.path) or "."
-            try:
-                nearby = sorted(f"file:{os.path.join(folder, n)}" for n in os.listdir(folder)
-                                if n.lower().endswith(".wav"))
-            except OSError:
-                nearby = []
-            raise DeviceNotFound(self.device, nearby[:10], self.kind)
+        """Open the file off the event loop and start the clock.
+
+        Raises:
+            PathRefused: for a file outside the allowed directories.
+            SceneError: for a file that is missing, not a regular file, not PCM WAV or at another rate.
+        """
+        self._wave, self._file = await asyncio.to_thread(self._open_file)
+        await super().open()
+
+    def _open_file(self) -> tuple[wave.Wave_read, BinaryIO]:
+        stream = open_regular_file(confined_path(self.path, self._roots), self.path)
         try:
-            reader = wave.open(self.path, "rb")
+            reader = wave.open(stream, "rb")
         except (wave.Error, EOFError, OSError) as exc:
+            stream.close()
             raise SceneError(f"{self.path!r} is not a PCM WAV file this backend reads: {exc}") from exc
         if reader.getframerate() != self.rate:
             reader.close()
+            stream.close()
             raise SceneError(f"{self.path!r} is sampled at {reader.getframerate()} Hz, "
                              f"the capture asks for {self.rate} Hz (no resampling)")
-        self._wave = reader
-        await super().open()
+        return reader, stream
 
     def _produce(self, count: int) -> npt.NDArray[np.int32] | None:
         reader = self._wave
@@ -95,6 +106,10 @@ class WavFileBackend(PacedBackend):
         return frames
 
     async def _close(self) -> None:
+        # wave does not close a file object it was given: both are closed here.
         if self._wave is not None:
             self._wave.close()
             self._wave = None
+        if self._file is not None:
+            self._file.close()
+            self._file = None
