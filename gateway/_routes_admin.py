@@ -9,6 +9,7 @@ import orjson
 from aiohttp import web
 
 from ..components.core import NoSuchModule
+from ._access import console_policy
 from ._errors import BadQuery, LoadForbidden
 from ._keys import CONFIG, HOST, SESSIONS
 from ._replies import SERVER_HEADER, SERVER_VERSION, json_reply, text_reply
@@ -40,12 +41,15 @@ async def index(request: web.Request) -> web.Response:
 
 
 _CONSOLE = (pathlib.Path(__file__).parent / "console.html").read_bytes()
+#: Only the console's own script and style may run in its page.
+_CONSOLE_POLICY = console_policy(_CONSOLE)
 
 
 @routes.get("/console")
 async def console(request: web.Request) -> web.Response:
     """A browser console: modules, services with forms built from /info, ports, live events."""
-    return web.Response(body=_CONSOLE, headers={"Content-Type": "text/html; charset=utf-8", **SERVER_HEADER})
+    return web.Response(body=_CONSOLE, headers={"Content-Type": "text/html; charset=utf-8",
+                                                "Content-Security-Policy": _CONSOLE_POLICY, **SERVER_HEADER})
 
 
 @routes.get("/version")

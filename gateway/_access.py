@@ -1,0 +1,130 @@
+"""Who may reach the gateway from a web browser: Host and Origin checks, and the headers that go with them.
+
+Every genomix action is a GET, so any web page a user opens could otherwise
+move the robot: an ``<img src="http://127.0.0.1:8080/module/kemar/send/...">``
+is a request like any other (cross-site request forgery), and a name that an
+attacker's DNS points at 127.0.0.1 reaches the gateway as a "same-origin" page
+(DNS rebinding).  Programs (curl, MATLAB, Tcl, Python) send neither ``Origin``
+nor ``Sec-Fetch-Site``, so these checks cost them nothing:
+
+* **Host**: a request must name the gateway by an IP address, ``localhost``,
+  this machine's name, or a name the operator allows (``--allowed-host``).  A
+  rebinding page names the attacker's domain and is refused.
+* **Origin**: a browser request from another origin is refused unless the
+  operator allows that origin (``--allow-origin``), which then also gets the
+  CORS headers to read the replies.  A request a browser marks as cross-site
+  with no ``Origin`` (an image, a link, a form) is refused too, except a
+  navigation to the read-only pages ``/`` and ``/console``.
+
+Every reply says ``X-Content-Type-Options: nosniff``; the console page gets a
+Content-Security-Policy that lets only its own script and style run.
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import ipaddress
+import re
+import socket
+from collections.abc import Awaitable, Callable, Iterable
+
+from aiohttp import web
+
+from ._replies import json_reply
+
+__all__ = ["AccessPolicy", "access_middleware", "security_headers", "console_policy"]
+
+#: Pages a link from another site may open: they show, they do not act.
+_NAVIGABLE = frozenset({"/", "/console"})
+
+Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
+
+
+def _hostname(host: str) -> str:
+    """The name part of a Host header (``[::1]:8080`` → ``::1``, ``Name:80`` → ``name``)."""
+    if host.startswith("["):
+        return host[1:host.find("]")].lower() if "]" in host else host.lower()
+    return host.rsplit(":", 1)[0].lower() if host.count(":") == 1 else host.lower()
+
+
+def _is_ip(name: str) -> bool:
+    try:
+        ipaddress.ip_address(name)
+    except ValueError:
+        return False
+    return True
+
+
+class AccessPolicy:
+    """The names and origins the gateway answers browsers from.
+
+    Args:
+        allowed_hosts: Host names accepted besides IP addresses, ``localhost`` and this
+            machine's names (``*`` accepts any name).
+        allowed_origins: Web origins (``https://lab.example:8443``) whose pages may use
+            the gateway; ``*`` allows every origin (not advised).
+    """
+
+    def __init__(self, allowed_hosts: Iterable[str] = (), allowed_origins: Iterable[str] = ()) -> None:
+        machine = {socket.gethostname().lower(), socket.getfqdn().lower()}
+        self.hosts = {"localhost", *machine, *(h.lower() for h in allowed_hosts)}
+        self.origins = {o.rstrip("/") for o in allowed_origins}
+
+    def host_allowed(self, host: str | None) -> bool:
+        """Whether a request naming *host* may be answered (no Host at all: an HTTP/1.0 program)."""
+        if not host:
+            return True
+        name = _hostname(host)
+        return "*" in self.hosts or _is_ip(name) or name in self.hosts or name.endswith(".localhost")
+
+    def origin_allowed(self, origin: str) -> bool:
+        """Whether pages of *origin* (other than the gateway's own) may use the gateway."""
+        return "*" in self.origins or origin in self.origins
+
+
+def access_middleware(policy: AccessPolicy) -> Callable[..., Awaitable[web.StreamResponse]]:
+    """The middleware that applies *policy* before anything else runs."""
+
+    @web.middleware
+    async def check_access(request: web.Request, handler: Handler) -> web.StreamResponse:
+        if not policy.host_allowed(request.headers.get("Host")):
+            return _forbidden(f"this gateway does not answer to the name {request.headers.get('Host')!r} "
+                              "(its operator can allow it with --allowed-host)")
+        origin = request.headers.get("Origin")
+        site = request.headers.get("Sec-Fetch-Site", "")
+        own = f"{request.scheme}://{request.host}"
+        if origin is not None and origin != own:
+            if not policy.origin_allowed(origin):
+                return _forbidden(f"pages from {origin} may not use this gateway "
+                                  "(its operator can allow them with --allow-origin)")
+            response = await handler(request)
+            response.headers["Access-Control-Allow-Origin"] = origin
+            response.headers["Vary"] = "Origin"
+            return response
+        if origin is None and site in ("cross-site", "same-site") and request.path not in _NAVIGABLE:
+            return _forbidden("a request from another web site may not use this gateway")
+        return await handler(request)
+
+    return check_access
+
+
+def _forbidden(message: str) -> web.Response:
+    return json_reply({"ex": "::genomix::forbidden", "message": message}, status=403)
+
+
+async def security_headers(request: web.Request, response: web.StreamResponse) -> None:
+    """``on_response_prepare``: no content sniffing on any reply (an error page is never run as a script)."""
+    response.headers.setdefault("X-Content-Type-Options", "nosniff")
+
+
+def console_policy(page: bytes) -> str:
+    """The Content-Security-Policy of the console *page*: its inline script and style, nothing else."""
+
+    def hashes(tag: str) -> str:
+        blocks = re.findall(rb"<" + tag.encode() + rb"[^>]*>(.*?)</" + tag.encode() + rb">", page, re.S)
+        return " ".join(f"'sha256-{base64.b64encode(hashlib.sha256(b).digest()).decode()}'" for b in blocks)
+
+    return (f"default-src 'none'; script-src {hashes('script')}; style-src {hashes('style')}; "
+            "connect-src 'self'; img-src 'self' data: blob:; base-uri 'none'; form-action 'none'; "
+            "frame-ancestors 'none'")

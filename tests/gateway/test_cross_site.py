@@ -1,0 +1,80 @@
+"""Issue 14, defect 8: web pages cannot use the gateway behind its user's back (CSRF, DNS rebinding)."""
+
+from __future__ import annotations
+
+import aiohttp
+import pytest
+
+from aiogenomix.gateway import GatewayConfig
+
+from ..conftest import TEST_TIME_SCALE
+
+MOVE = "/module/demo/send/GotoPosition?input=%7B%22posRef%22:0.5%7D"
+
+
+async def position(http: aiohttp.ClientSession) -> float:
+    async with http.get("/module/demo/read/Mobile") as reply:
+        return float((await reply.json())["Mobile"]["position"])
+
+
+@pytest.fixture
+async def demo(http: aiohttp.ClientSession) -> aiohttp.ClientSession:
+    async with http.get("/load/demo") as reply:
+        assert reply.status == 200
+    return http
+
+
+@pytest.mark.parametrize("headers", [
+    {"Host": "attacker.example:8080"},                                          # DNS rebinding
+    {"Origin": "http://attacker.example"},                                      # a script's fetch
+    {"Origin": "null"},                                                         # a sandboxed frame
+    {"Sec-Fetch-Site": "cross-site", "Sec-Fetch-Mode": "no-cors"},              # <img src=...>
+    {"Sec-Fetch-Site": "cross-site", "Sec-Fetch-Mode": "navigate"},             # a link
+    {"Sec-Fetch-Site": "same-site", "Sec-Fetch-Mode": "no-cors"},               # another port of localhost
+])
+async def test_a_foreign_page_cannot_move_the_robot(demo: aiohttp.ClientSession, headers: dict[str, str]) -> None:
+    async with demo.get(MOVE, headers=headers) as reply:
+        assert reply.status == 403
+        body = await reply.json()
+        assert body["ex"] == "::genomix::forbidden" and body["message"]
+        assert reply.headers["X-Content-Type-Options"] == "nosniff"
+    assert await position(demo) == 0.0
+    async with demo.get("/module/demo/status/0") as reply:
+        assert reply.status == 404                                              # no request was made
+
+
+async def test_programs_and_the_gateways_own_pages_are_served(demo: aiohttp.ClientSession, gateway: str) -> None:
+    own = gateway.rstrip("/")
+    port = own.rsplit(":", 1)[1]
+    for headers in ({}, {"Origin": own, "Sec-Fetch-Site": "same-origin"}, {"Host": f"localhost:{port}"},
+                    {"Host": f"[::1]:{port}"}):
+        async with demo.get("/module/demo/read/Mobile", headers=headers) as reply:
+            assert reply.status == 200, headers
+    async with demo.get("/console", headers={"Sec-Fetch-Site": "cross-site", "Sec-Fetch-Mode": "navigate"}) as page:
+        assert page.status == 200                                               # a link to the console shows it
+        policy = page.headers["Content-Security-Policy"]
+        assert "default-src 'none'" in policy and "script-src 'sha256-" in policy and "unsafe" not in policy
+        assert page.headers["X-Content-Type-Options"] == "nosniff"
+    async with demo.get("/no/such/thing") as missing:
+        assert missing.status == 404 and missing.headers["X-Content-Type-Options"] == "nosniff"
+
+
+class TestAllowedByTheOperator:
+    @pytest.fixture
+    def gateway_config(self) -> GatewayConfig:
+        return GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, token="s3cret",
+                             allowed_hosts=["robot.lab"], allowed_origins=["https://notebooks.lab"])
+
+    async def test_named_hosts_and_origins_pass_and_the_rest_learns_nothing(self, http: aiohttp.ClientSession) -> None:
+        auth = {"Authorization": "Bearer s3cret"}
+        async with http.get("/load/demo", headers=auth) as reply:
+            assert reply.status == 200
+        async with http.get("/module/demo/read/Mobile", headers={"Host": "robot.lab:8080", **auth}) as reply:
+            assert reply.status == 200
+        async with http.get("/module/demo/read/Mobile",
+                            headers={"Origin": "https://notebooks.lab", **auth}) as reply:
+            assert reply.status == 200
+            assert reply.headers["Access-Control-Allow-Origin"] == "https://notebooks.lab"
+        # Refused before authentication: a foreign page does not even learn that a token is needed.
+        async with http.get("/module/demo/read/Mobile", headers={"Origin": "https://elsewhere.lab"}) as reply:
+            assert reply.status == 403
