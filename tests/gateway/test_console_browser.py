@@ -1,0 +1,70 @@
+"""The console in a real browser (Debian's chromium, driven by Playwright; no browser is downloaded).
+
+With ``--token`` the console asks for the token once, trades it for an HttpOnly
+cookie and then works like on an open gateway: its requests and its event
+streams carry the cookie.  Its Content-Security-Policy must not stop its own
+script, and the page must log no error.
+"""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import AsyncIterator
+from typing import Any
+
+import pytest
+
+from aiogenomix.gateway import GatewayConfig
+
+from ..conftest import TEST_TIME_SCALE
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="needs Debian's chromium (./run test installs it)")
+TOKEN = "s3cret-console"
+#: Chromium as the machine allows it: no sandbox (root), no GPU, no calls home.
+FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
+         "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage"]
+
+
+@pytest.fixture
+def gateway_config() -> GatewayConfig:
+    return GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, token=TOKEN)
+
+
+@pytest.fixture
+async def page(gateway: str) -> AsyncIterator[Any]:
+    from playwright.async_api import async_playwright
+
+    async with async_playwright() as driver:
+        browser = await driver.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
+        context = await browser.new_context()
+        page = await context.new_page()
+        page.problems = []  # type: ignore[attr-defined]
+        page.on("console", lambda m: m.type == "error" and page.problems.append(m.text))  # type: ignore[attr-defined]
+        page.on("pageerror", lambda e: page.problems.append(str(e)))  # type: ignore[attr-defined]
+        try:
+            yield page
+        finally:
+            await browser.close()
+
+
+async def test_the_console_asks_for_the_token_once_then_works(page: Any, gateway: str) -> None:
+    await page.goto(f"{gateway}/console")
+    await page.locator("#token").fill(TOKEN)
+    await page.locator("#login").click()
+    # Logged in: the gateway's modules are listed; load demo and open it.
+    available = page.locator("#available li", has_text="demo")
+    await available.get_by_role("button", name="load").click()
+    await page.locator("#loaded").get_by_role("button", name="demo").click()
+    service = page.locator("details", has=page.locator("summary", has_text="GotoPosition"))
+    await service.locator("summary").click()
+    await service.locator("input").first.fill("0.25")
+    await service.get_by_role("button", name="send").click()
+    # The request's events arrive on the session's stream, which carries the cookie too.
+    await page.locator("#events .event", has_text='"status":"done"').first.wait_for(timeout=20_000)
+    result = service.locator("pre")
+    await result.filter(has_text="done").wait_for(timeout=20_000)
+    cookies = await page.context.cookies()
+    (cookie,) = [c for c in cookies if c["name"] == "aiogenomix_console"]
+    assert cookie["httpOnly"] and cookie["sameSite"] == "Strict" and cookie["value"] != TOKEN
+    assert page.problems == []          # no CSP refusal, no script error, no failed request
