@@ -3,12 +3,17 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import logging
 import os
 import sys
+from typing import TYPE_CHECKING
 
 from ._config import GatewayConfig
-from ._run import run
+from ._signals import StopSignal, ignore_stop_signals, raise_on_stop_signals
+
+if TYPE_CHECKING:
+    from ._run import ListenError
 
 __all__ = ["main", "parse_args"]
 
@@ -47,9 +52,40 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the gateway until SIGINT/SIGTERM; return the exit status."""
-    run(parse_args(argv))
+    """Run the gateway until SIGINT/SIGTERM; return the exit status.
+
+    A stop signal stops it at any moment from its first line, with status 0.
+    An address it cannot listen on is one line on stderr and status 1.
+    """
+    # Before the slow imports (aiohttp, the components), which take most of the start.
+    raise_on_stop_signals()
+    try:
+        config = parse_args(argv)
+        print("aiogenomix gateway starting", file=sys.stderr, flush=True)
+        from ._run import ListenError, run
+
+        try:
+            run(config)
+        except ListenError as exc:
+            print(f"aiogenomix gateway: {exc}; {_listen_hint(exc)}", file=sys.stderr, flush=True)
+            return 1
+    except StopSignal as stop:
+        print(f"aiogenomix gateway stopping on {stop}", file=sys.stderr, flush=True)
+    finally:
+        ignore_stop_signals()
+    print("aiogenomix gateway stopped", file=sys.stderr, flush=True)
     return 0
+
+
+def _listen_hint(exc: ListenError) -> str:
+    """What to change on the command line when the HTTP address cannot be listened on."""
+    if exc.errno == errno.EADDRINUSE:
+        return f"another program (another gateway?) uses port {exc.port}: choose another with --port"
+    if exc.errno == errno.EACCES:
+        return "ports below 1024 need privileges: choose another with --port"
+    if exc.errno == errno.EADDRNOTAVAIL or (exc.errno or 0) < 0:
+        return f"{exc.host} is not an address of this machine: choose one with --host"
+    return "check --host and --port"
 
 
 if __name__ == "__main__":

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import hmac
 from collections.abc import AsyncIterator, Awaitable, Callable
 
@@ -15,6 +16,7 @@ from ._errors import error_middleware
 from ._keys import CONFIG, HOST, SESSIONS, SHUTDOWN, Shutdown
 from ._replies import json_reply
 from ._sessions import SessionStore
+from ._shutdown import shut_down
 from ._sse import format_event
 
 __all__ = ["create_app"]
@@ -40,8 +42,8 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
 
     Args:
         config: The configuration (defaults for everything not given).
-        host: A component host to serve (default: one built from *config*, closed
-            with the application; a host passed in is left open for its owner).
+        host: A component host to serve (default: one built from *config*, stopped
+            when the application shuts down; a host passed in is left open for its owner).
 
     Returns:
         An aiohttp application; run it with ``web.run_app`` or an ``AppRunner``.
@@ -62,7 +64,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app.add_routes(_routes_modules.routes)
     app.add_routes(_routes_ports.routes)
     app.cleanup_ctx.append(_host_lifetime(owns_host))
-    app.on_shutdown.append(_close_streams)
+    app.on_shutdown.append(shut_down(owns_host))
     return app
 
 
@@ -71,18 +73,17 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
         host, sessions = app[HOST], app[SESSIONS]
         host.add_request_listener(sessions.route_request)
         host.add_unload_listener(lambda name: sessions.broadcast(format_event("unload", orjson.dumps(name))))
-        for item in app[CONFIG].preload:
-            name, _, args = item.partition(":")
-            await host.load(name, args.split())
-        yield
-        if owns_host:
-            await host.close()
+        try:
+            for item in app[CONFIG].preload:
+                name, _, args = item.partition(":")
+                await host.load(name, args.split())
+                # A stop signal while starting is handled between loads, not after the last one.
+                await asyncio.sleep(0)
+        except BaseException:
+            # aiohttp cleans up only the contexts that started: close what was loaded.
+            if owns_host:
+                await host.close()
+            raise
+        yield  # the shutdown step (_shutdown) stops the components, within a bounded time
 
     return lifetime
-
-
-async def _close_streams(app: web.Application) -> None:
-    # Event streams never end on their own: wake the watch streams, and stop the
-    # sessions so every listener gets "quit" and its handler returns.
-    app[SHUTDOWN].set()
-    app[SESSIONS].stop_all()

@@ -15,8 +15,9 @@ from aiohttp import web
 
 from ..components.core import Component, describe
 from ._errors import BadQuery
-from ._keys import HOST, SESSIONS
+from ._keys import HOST, SESSIONS, SHUTDOWN
 from ._replies import json_reply, text_reply
+from ._shutdown import shutting_down_reply
 
 __all__ = ["routes", "parse_input", "MAX_WAIT"]
 
@@ -78,18 +79,28 @@ async def status(request: web.Request) -> web.Response:
 
 @routes.get("/module/{module}/wait/{rqst}")
 async def wait(request: web.Request) -> web.Response:
-    """Block until the request ends (or ``timeout`` seconds pass); reply with its status."""
+    """Block until the request ends (or ``timeout`` seconds pass); reply with its status.
+
+    At shutdown the components stop first, so the reply is the request's final
+    status; a request that still runs then gets a 503 ``::genomix::shutting_down``.
+    """
     found = _component(request).requests.get(request.match_info["rqst"])
     try:
         timeout = min(float(request.query.get("timeout", MAX_WAIT)), MAX_WAIT)
     except ValueError:
         raise BadQuery("timeout must be a number of seconds") from None
+    shutdown = request.app[SHUTDOWN]
+    ended = asyncio.ensure_future(found.ended.wait())
     # asyncio.timeout rather than wait_for, which on 3.11 can lose a cancellation racing the end.
     try:
         async with asyncio.timeout(timeout):
-            await found.ended.wait()
+            await asyncio.wait({ended, shutdown.future}, return_when=asyncio.FIRST_COMPLETED)
     except TimeoutError:
         pass
+    finally:
+        ended.cancel()
+    if found.running and shutdown.is_set():
+        return shutting_down_reply(found)
     return json_reply(found.status_object())
 
 

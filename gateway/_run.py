@@ -5,7 +5,8 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
-import signal
+import os
+import sys
 import threading
 from collections.abc import AsyncIterator, Iterator
 
@@ -14,8 +15,30 @@ from aiohttp import web
 from ..components.core import ComponentHost
 from ._app import create_app
 from ._config import GatewayConfig
+from ._errors import GatewayError
+from ._shutdown import HANDLER_GRACE
+from ._signals import STOP_SIGNALS, signal_name
 
-__all__ = ["serve", "serve_in_thread", "run"]
+__all__ = ["serve", "serve_in_thread", "run", "ListenError"]
+
+
+class ListenError(GatewayError, OSError):
+    """The gateway cannot listen on its address (the port is taken, a privileged port, not a local address).
+
+    Attributes:
+        host: The address asked for.
+        port: The port asked for.
+        reason: The system's reason (``address already in use``...).
+    """
+
+    def __init__(self, host: str, port: int, cause: OSError) -> None:
+        # asyncio's message repeats the address; the bare reason reads better after ours.
+        reason = os.strerror(cause.errno) if (cause.errno or 0) > 0 else (cause.strerror or str(cause))
+        super().__init__(cause.errno, reason)
+        self.host, self.port, self.reason = host, port, reason.lower()
+
+    def __str__(self) -> str:
+        return f"cannot listen on {self.host}:{self.port}: {self.reason}"
 
 
 @contextlib.asynccontextmanager
@@ -26,11 +49,15 @@ async def serve(config: GatewayConfig, host: ComponentHost | None = None) -> Asy
         config: The gateway configuration (``port=0`` picks a free port).
         host: Serve this component host instead of building one from *config*.
     """
-    runner = web.AppRunner(create_app(config, host), handle_signals=False, access_log=None)
+    runner = web.AppRunner(create_app(config, host), handle_signals=False, access_log=None,
+                           shutdown_timeout=HANDLER_GRACE)
     await runner.setup()
     try:
         site = web.TCPSite(runner, config.host, config.port)
-        await site.start()
+        try:
+            await site.start()
+        except OSError as exc:
+            raise ListenError(config.host, config.port, exc) from exc
         bound_host, bound_port = runner.addresses[0][:2]
         shown = f"[{bound_host}]" if ":" in bound_host else bound_host
         yield f"http://{shown}:{bound_port}"
@@ -73,17 +100,40 @@ def serve_in_thread(config: GatewayConfig, host: ComponentHost | None = None) ->
 
 
 async def _serve_until_signalled(config: GatewayConfig) -> None:
-    stop = asyncio.Event()
     loop = asyncio.get_running_loop()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(signum, stop.set)
-    async with serve(config) as url:
-        simulated = config.simulated_parts()
-        note = f" (simulated: {'; '.join(simulated)})" if simulated else " (no simulated parts)"
-        print(f"aiogenomix gateway listening on {url}{note}", flush=True)
-        await stop.wait()
+    main = asyncio.current_task()
+    assert main is not None
+    stop = asyncio.Event()
+    serving = False
+
+    def on_signal(signum: int) -> None:
+        if stop.is_set():
+            return  # already stopping, within a bounded time
+        stop.set()
+        print(f"aiogenomix gateway stopping on {signal_name(signum)}", file=sys.stderr, flush=True)
+        if not serving:
+            main.cancel()  # still starting: abandon the start (what was loaded is stopped)
+
+    # The loop takes the signals over from the handler that raised StopSignal while importing.
+    for signum in STOP_SIGNALS:
+        loop.add_signal_handler(signum, on_signal, signum)
+    try:
+        async with serve(config) as url:
+            serving = True
+            simulated = config.simulated_parts()
+            note = f" (simulated: {'; '.join(simulated)})" if simulated else " (no simulated parts)"
+            print(f"aiogenomix gateway listening on {url}{note}", flush=True)
+            await stop.wait()
+    except asyncio.CancelledError:
+        if not stop.is_set():
+            raise
+        main.uncancel()
 
 
 def run(config: GatewayConfig) -> None:
-    """Serve until SIGINT or SIGTERM, then stop every component cleanly."""
+    """Serve until SIGINT or SIGTERM, then stop every component and end every open reply, within 2 s.
+
+    Raises:
+        ListenError: The HTTP port cannot be listened on.
+    """
     asyncio.run(_serve_until_signalled(config))
