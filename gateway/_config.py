@@ -25,6 +25,11 @@ class GatewayConfig:
         preload: Components loaded at start, as ``name`` or ``name:-i instance``.
         ping_interval: Seconds between keep-alive comments on idle event streams.
         function_grace: How long a ``send`` waits for a function to end before replying ``sent``.
+        header_timeout: Seconds a client has to send a request's line and headers (408 after).
+        max_url_bytes: The longest request line accepted, in bytes (414 beyond; at least 8192).
+        session_idle: Seconds after which a session that nobody listens to is forgotten.
+        max_sessions: How many sessions may exist at once (429 for a new one beyond).
+        max_instances: How many component instances may be loaded at once (429 beyond).
     """
 
     host: str = "127.0.0.1"
@@ -38,6 +43,11 @@ class GatewayConfig:
     preload: list[str] = dataclasses.field(default_factory=list)
     ping_interval: float = 15.0
     function_grace: float = 2.0
+    header_timeout: float = 10.0
+    max_url_bytes: int = 65536
+    session_idle: float = 600.0
+    max_sessions: int = 256
+    max_instances: int = 64
 
     def host_settings(self) -> dict[str, Any]:
         """The settings handed to the components."""
