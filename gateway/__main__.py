@@ -7,6 +7,7 @@ import errno
 import logging
 import os
 import sys
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ._config import GatewayConfig
@@ -42,13 +43,43 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
     parser.add_argument("--components", help="comma-separated allow-list of loadable components")
     parser.add_argument("--token", default=os.environ.get("AIOGENOMIX_TOKEN"),
                         help="require 'Authorization: Bearer TOKEN' (default: $AIOGENOMIX_TOKEN, unset = open)")
+    limits = parser.add_argument_group("limits", "what one client can hold or send")
+    limits.add_argument("--header-timeout", type=_at_least(float, 0.001), default=defaults.header_timeout,
+                        metavar="SECONDS", help="time a client has to send a request's line and headers, "
+                                                "else 408 (default %(default)s)")
+    limits.add_argument("--max-url-bytes", type=_at_least(int, 8192), default=defaults.max_url_bytes, metavar="N",
+                        help="longest request line (URL with input=), else 414 (default %(default)s)")
+    limits.add_argument("--session-idle", type=_at_least(float, 0.001), default=defaults.session_idle,
+                        metavar="SECONDS", help="a session nobody listens to is forgotten after this long unused "
+                                                "(default %(default)s)")
+    limits.add_argument("--max-sessions", type=_at_least(int, 1), default=defaults.max_sessions, metavar="N",
+                        help="most sessions at once, else 429 (default %(default)s)")
+    limits.add_argument("--max-instances", type=_at_least(int, 1), default=defaults.max_instances, metavar="N",
+                        help="most component instances loaded at once, else 429 (default %(default)s)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     return GatewayConfig(
         host=args.host, port=args.port, time_scale=args.time_scale, can=args.can,
         audio_device=args.audio_device, audio_socket_port=args.audio_socket_port, token=args.token or None,
         components=args.components.split(",") if args.components else None, preload=args.load,
+        header_timeout=args.header_timeout, max_url_bytes=args.max_url_bytes, session_idle=args.session_idle,
+        max_sessions=args.max_sessions, max_instances=args.max_instances,
     )
+
+
+def _at_least(kind: type[float] | type[int], low: float) -> Callable[[str], float]:
+    """An argparse type: a number of *kind*, *low* or more."""
+
+    def parse(text: str) -> float:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not value >= low:  # NaN too
+            raise argparse.ArgumentTypeError(f"{text} is less than {low:g}")
+        return value
+
+    return parse
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -16,6 +16,7 @@ from ..components.core import ComponentHost
 from ._app import create_app
 from ._config import GatewayConfig
 from ._errors import GatewayError
+from ._http_layer import GatewayRunner
 from ._shutdown import HANDLER_GRACE
 from ._signals import STOP_SIGNALS, signal_name
 
@@ -49,7 +50,7 @@ async def serve(config: GatewayConfig, host: ComponentHost | None = None) -> Asy
         config: The gateway configuration (``port=0`` picks a free port).
         host: Serve this component host instead of building one from *config*.
     """
-    runner = web.AppRunner(create_app(config, host), handle_signals=False, access_log=None,
+    runner = GatewayRunner(create_app(config, host), handle_signals=False, access_log=None,
                            shutdown_timeout=HANDLER_GRACE)
     await runner.setup()
     try:
