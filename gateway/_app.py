@@ -28,7 +28,8 @@ def _auth_middleware(token: str) -> Callable[..., Awaitable[web.StreamResponse]]
     @web.middleware
     async def check_token(request: web.Request,
                           handler: Callable[[web.Request], Awaitable[web.StreamResponse]]) -> web.StreamResponse:
-        given = request.headers.get("Authorization", "").encode()
+        # Header bytes that are not UTF-8 arrive as surrogate escapes: compare the bytes as sent.
+        given = request.headers.get("Authorization", "").encode("utf-8", "surrogateescape")
         if not hmac.compare_digest(given, expected):
             return json_reply({"ex": "::genomix::unauthorized",
                                "message": "this gateway needs Authorization: Bearer <token>"}, status=401)
@@ -58,7 +59,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app[SHUTDOWN] = Shutdown()
     owns_host = host is None
     app[HOST] = host or ComponentHost(clock=ScaledClock(config.time_scale), settings=config.host_settings(),
-                                      function_grace=config.function_grace)
+                                      function_grace=config.function_grace, max_instances=config.max_instances)
     app.add_routes(_routes_sessions.routes)
     app.add_routes(_routes_admin.routes)
     app.add_routes(_routes_modules.routes)

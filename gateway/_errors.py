@@ -5,7 +5,8 @@
     GatewayError
     ├── NoSuchSession (LookupError)   404
     ├── BadQuery (ValueError)         400  malformed query parameters or input JSON
-    └── LoadForbidden                 403  a load by path (only registered components load)
+    ├── LoadForbidden                 403  a load by path (only registered components load)
+    └── TooManySessions               429  the session cap is reached
 
 Errors of the component runtime map as: unknown module/service/port/request
 404, bad input 400, a ``validate`` refusal 400, too many activities 429, a
@@ -23,12 +24,14 @@ from aiohttp import web
 
 from ..components.core import (
     ComponentError, GenomException, InputError, LoadError, NoSuchModule, NoSuchPort, NoSuchRequest,
-    NoSuchService, RequestRunning, disallowed, too_many_activities,
+    NoSuchService, RequestRunning, TooManyInstances, disallowed, too_many_activities,
 )
 
 from ._replies import json_reply
 
-__all__ = ["GatewayError", "NoSuchSession", "BadQuery", "LoadForbidden", "error_middleware", "error_body"]
+__all__ = [
+    "GatewayError", "NoSuchSession", "BadQuery", "LoadForbidden", "TooManySessions", "error_middleware", "error_body",
+]
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +52,10 @@ class LoadForbidden(GatewayError):
     """Loading by path is refused: only registered components can be loaded."""
 
 
+class TooManySessions(GatewayError):
+    """A new session would pass the cap on sessions."""
+
+
 _LOOKUPS: dict[type[Exception], str] = {
     NoSuchModule: "::genomix::no_such_module",
     NoSuchService: "::genom::no_such_service",
@@ -60,7 +67,8 @@ _LOOKUPS: dict[type[Exception], str] = {
 
 def error_body(exc: Exception) -> tuple[int, dict[str, Any]]:
     """The HTTP status and JSON body that report *exc*."""
-    message = str(exc) or type(exc).__name__
+    # Messages may quote the client's text: never let it make the reply itself unwritable.
+    message = (str(exc) or type(exc).__name__).encode("utf-8", "backslashreplace").decode()
     for klass, ex in _LOOKUPS.items():
         if isinstance(exc, klass):
             return 404, {"ex": ex, "message": message}
@@ -70,6 +78,10 @@ def error_body(exc: Exception) -> tuple[int, dict[str, Any]]:
         return 400, {"ex": "::genom::serialization", "detail": {"what": message}, "message": message}
     if isinstance(exc, LoadError):
         return 400, {"ex": "::genomix::bad_load", "message": message}
+    if isinstance(exc, TooManyInstances):
+        return 429, {"ex": "::genomix::too_many_instances", "message": message}
+    if isinstance(exc, TooManySessions):
+        return 429, {"ex": "::genomix::too_many_sessions", "message": message}
     if isinstance(exc, LoadForbidden):
         return 403, {"ex": "::genomix::forbidden", "message": message}
     if isinstance(exc, RequestRunning):

@@ -7,14 +7,13 @@ is not loaded), then hands the request to the component runtime.
 from __future__ import annotations
 
 import asyncio
-import json
-from typing import Any
+import math
 
-import orjson
 from aiohttp import web
 
 from ..components.core import Component, describe
 from ._errors import BadQuery
+from ._input import parse_input
 from ._keys import HOST, SESSIONS, SHUTDOWN
 from ._replies import json_reply, text_reply
 from ._shutdown import shutting_down_reply
@@ -29,27 +28,6 @@ routes = web.RouteTableDef()
 
 def _component(request: web.Request) -> Component:
     return request.app[HOST].get(request.match_info["module"])
-
-
-def parse_input(text: str | None) -> Any:
-    """Decode the ``input`` query parameter.
-
-    Strict JSON first; then Python's parser, which also takes what genom3 emits
-    and accepts (raw control characters in strings, NaN).
-
-    Raises:
-        BadQuery: naming where the JSON is malformed.
-    """
-    if text is None or not text.strip():
-        return None
-    try:
-        return orjson.loads(text)
-    except orjson.JSONDecodeError:
-        pass
-    try:
-        return json.loads(text, strict=False)
-    except json.JSONDecodeError as exc:
-        raise BadQuery(f"input is not valid JSON: {exc.msg} at character {exc.pos}") from None
 
 
 @routes.get("/module/{module}/info")
@@ -86,9 +64,13 @@ async def wait(request: web.Request) -> web.Response:
     """
     found = _component(request).requests.get(request.match_info["rqst"])
     try:
-        timeout = min(float(request.query.get("timeout", MAX_WAIT)), MAX_WAIT)
+        timeout = float(request.query.get("timeout", MAX_WAIT))
     except ValueError:
-        raise BadQuery("timeout must be a number of seconds") from None
+        timeout = math.nan
+    # NaN (which no comparison holds for) and negative times would end the wait at once, like an answer.
+    if not timeout >= 0:
+        raise BadQuery(f"timeout must be a number of seconds, 0 or more (waits end after {MAX_WAIT:g} s)")
+    timeout = min(timeout, MAX_WAIT)
     shutdown = request.app[SHUTDOWN]
     ended = asyncio.ensure_future(found.ended.wait())
     # asyncio.timeout rather than wait_for, which on 3.11 can lose a cancellation racing the end.

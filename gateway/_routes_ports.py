@@ -56,6 +56,14 @@ def _port(request: web.Request) -> tuple[str, Any]:
     return name, component.port(name)
 
 
+def _element(request: web.Request, port: Any) -> str | None:
+    """The ``name=`` of a multiple port's element; refused on other ports rather than ignored."""
+    element = request.query.get("name")
+    if element is not None and not (isinstance(port, OutPortRuntime) and port.spec.multiple):
+        raise BadQuery(f"port {port.name} has no elements: name= applies to multiple ports only")
+    return element
+
+
 def _require_incremental(port: Any, value: Any) -> Incremental:
     if not isinstance(value, Incremental):
         raise BadQuery(f"port {port.name} holds no numbered chunks: since= does not apply")
@@ -66,7 +74,7 @@ def _require_incremental(port: Any, value: Any) -> Incremental:
 async def read(request: web.Request) -> web.StreamResponse:
     """The latest data of a port: ``{"PORT": data}``, or its binary or incremental forms."""
     name, port = _port(request)
-    element = request.query.get("name")
+    element = _element(request, port)
     since = _since(request)
     value = port.read(element) if isinstance(port, OutPortRuntime) else port.read()
     extra: dict[str, Any] = {}
@@ -123,7 +131,7 @@ async def watch(request: web.Request) -> web.StreamResponse:
     name, port = _port(request)
     if not isinstance(port, OutPortRuntime):
         raise BadQuery(f"{name} is an in port: watch its remote out port instead")
-    element = request.query.get("name")
+    element = _element(request, port)
     since = _since(request)
     if since is not None and port.version:
         _require_incremental(port, port.read(element))

@@ -18,7 +18,7 @@ from ._component import Component
 from ._exceptions import ComponentError, NoSuchModule
 from ._requests import Request
 
-__all__ = ["ComponentHost", "LoadError"]
+__all__ = ["ComponentHost", "LoadError", "TooManyInstances"]
 
 log = logging.getLogger(__name__)
 
@@ -29,6 +29,10 @@ class LoadError(ComponentError, ValueError):
     """Bad load arguments (unknown option, instance name taken, ...)."""
 
 
+class TooManyInstances(ComponentError):
+    """The host already runs as many instances as it may."""
+
+
 class ComponentHost:
     """Loads, runs and unloads component instances.
 
@@ -37,14 +41,16 @@ class ComponentHost:
         settings: Host-wide settings read by components (``can``, ``audio_device``, ...).
         factories: Loadable components by name; default: the installed entry points.
         function_grace: How long a send waits for a function to end before replying ``sent``.
+        max_instances: How many instances may be loaded at once (each runs tasks and may hold hardware).
     """
 
     def __init__(self, clock: Clock | None = None, settings: dict[str, Any] | None = None,
                  factories: dict[str, Callable[..., Component]] | None = None,
-                 function_grace: float = 2.0) -> None:
+                 function_grace: float = 2.0, max_instances: int = 64) -> None:
         self.clock = clock or RealClock()
         self.settings: dict[str, Any] = dict(settings or {})
         self.function_grace = function_grace
+        self.max_instances = max_instances
         self._factories = factories if factories is not None else self._entry_points()
         self._instances: dict[str, Component] = {}
         self._shared: dict[str, Any] = {}
@@ -112,7 +118,8 @@ class ComponentHost:
 
         Raises:
             NoSuchModule: for an unknown component.
-            LoadError: for bad arguments.
+            LoadError: for bad arguments (an option the component does not list in its usage).
+            TooManyInstances: when ``max_instances`` instances are loaded already.
         """
         args = list(argv or [])
         instance = name
@@ -122,12 +129,16 @@ class ComponentHost:
                 raise LoadError("-i needs an instance name made of letters, digits and _")
             instance = args[at + 1]
             del args[at:at + 2]
+        _check_options(self.component_class(name), args)
         async with self._lock:
             existing = self._instances.get(instance)
             if existing is not None:
                 if existing.genom_name != self.component_class(name).genom_name:
                     raise LoadError(f"instance name {instance!r} is taken by a {existing.genom_name} component")
                 return existing
+            if len(self._instances) >= self.max_instances:
+                raise TooManyInstances(f"{len(self._instances)} instances are loaded, the most this gateway allows: "
+                                       f"unload one first")
             cls = self.component_class(name)
             component = cls(self, instance, args)
             await component.start()
@@ -202,6 +213,33 @@ class ComponentHost:
 
     async def __aexit__(self, *exc: object) -> None:
         await self.close()
+
+
+def _check_options(cls: type[Component], args: list[str]) -> None:
+    """Refuse load arguments that the component's ``usage_options`` do not list.
+
+    An option listed as ``"-x VALUE"`` takes the next argument as its value; one
+    listed as ``"-x"`` stands alone.
+
+    Raises:
+        LoadError: naming the first argument that fits no listed option.
+    """
+    takes_value = {}
+    for option, _ in cls.usage_options:
+        flag, *value = option.split()
+        takes_value[flag] = bool(value)
+    listed = ", ".join(option for option, _ in cls.usage_options)
+    at = 0
+    while at < len(args):
+        arg = args[at]
+        if arg == "-i":  # the host took the first one
+            raise LoadError("-i is given twice")
+        if arg not in takes_value:
+            shown = repr(arg) if len(arg) <= 60 else repr(arg[:57]) + "..."
+            raise LoadError(f"{cls.genom_name} has no load option {shown} (options: {listed})")
+        if takes_value[arg] and at + 1 >= len(args):
+            raise LoadError(f"load option {arg} of {cls.genom_name} needs a value")
+        at += 2 if takes_value[arg] else 1
 
 
 class _LazyFactory:

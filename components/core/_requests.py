@@ -22,6 +22,9 @@ __all__ = ["Request", "RequestTracker", "Status"]
 
 Status = Literal["sent", "done", "error"]
 
+#: The most digits the ``n`` of a request id can have (no component runs 10**18 requests).
+_MAX_ID_DIGITS = 18
+
 
 @dataclasses.dataclass(eq=False)
 class Request:
@@ -117,10 +120,12 @@ class RequestTracker:
         """
         text = request_id.strip()
         prefix, sep, number = text.rpartition("::")
+        shown = repr(request_id) if len(request_id) <= 60 else repr(request_id[:57]) + "..."
         if sep and prefix.lstrip(":") != self.instance:
-            raise NoSuchRequest(f"request {request_id!r} does not belong to {self.instance}")
-        if not number.isdigit():
-            raise NoSuchRequest(f"malformed request id {request_id!r} (expected {self.instance}::<n> or <n>)")
+            raise NoSuchRequest(f"request {shown} does not belong to {self.instance}")
+        # isdigit() alone takes "²" (int() does not); no id has more digits than a request count can.
+        if not (number.isascii() and number.isdigit()) or len(number) > _MAX_ID_DIGITS:
+            raise NoSuchRequest(f"malformed request id {shown} (expected {self.instance}::<n> or <n>)")
         return int(number)
 
     def get(self, request_id: str | int) -> Request:

@@ -61,11 +61,19 @@ class IdlType:
         return f"<IDL {self.name}>"
 
 
+#: Index objects of unbounded sequences name indices below this (a bounded one: below its bound),
+#: so that ``{"99999999": 0}`` cannot make the gateway build a list of a hundred million items.
+MAX_SPARSE_INDEX = 65536
+
+
 def _kind_of(value: Any) -> str:
     if value is None:
         return "null"
     if isinstance(value, bool):
         return "a boolean"
+    if isinstance(value, int) and value.bit_length() > 64:
+        # Never print it: a thousand digits help nobody (and str() refuses past 4300).
+        return f"an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
     if isinstance(value, (int, float)):
         return f"the number {value!r}"
     if isinstance(value, str):
@@ -75,6 +83,16 @@ def _kind_of(value: Any) -> str:
     if isinstance(value, dict):
         return "an object"
     return type(value).__name__
+
+
+def _short(key: Any) -> str:
+    """A key or name from the input, quoted and cut short, printable whatever it holds."""
+    text = repr(key)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _is_surrogate(char: str) -> bool:
+    return "\ud800" <= char <= "\udfff"
 
 
 class Scalar(IdlType):
@@ -110,7 +128,10 @@ class Scalar(IdlType):
                 return math.nan
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise InputError(path, f"expected a number ({self.name}), got {_kind_of(value)}")
-            return float(value)
+            try:
+                return float(value)
+            except OverflowError:
+                raise InputError(path, f"{_kind_of(value)} is too large for a {self.name}") from None
         if self.name == "boolean":
             if isinstance(value, bool):
                 return value
@@ -118,7 +139,7 @@ class Scalar(IdlType):
                 return bool(value)
             raise InputError(path, f"expected a boolean (0, 1, true or false), got {_kind_of(value)}")
         if self.name == "char":
-            if isinstance(value, str) and len(value) == 1:
+            if isinstance(value, str) and len(value) == 1 and not _is_surrogate(value):
                 return value
             raise InputError(path, f"expected a one-character string, got {_kind_of(value)}")
         # Integers: genom3 scans them with strtoll, so a fraction is an error.  We
@@ -131,7 +152,7 @@ class Scalar(IdlType):
             value = int(value)
         low, high = self.range  # type: ignore[misc]
         if not low <= value <= high:
-            raise InputError(path, f"{value} is out of range for {self.name} [{low}, {high}]")
+            raise InputError(path, f"{_kind_of(value)} is out of range for {self.name} [{low}, {high}]")
         return value
 
     def encode(self, value: Any) -> Any:
@@ -167,7 +188,14 @@ class StringType(IdlType):
     def decode(self, value: Any, path: str) -> Any:
         if not isinstance(value, str):
             raise InputError(path, f"expected a string, got {_kind_of(value)}")
-        if self.bound is not None and len(value.encode()) > self.bound:
+        try:
+            size = len(value.encode())
+        except UnicodeEncodeError:
+            # A lone UTF-16 surrogate (JSON "\\ud800") is no character: it could be neither
+            # sent to a component as UTF-8 nor written back in a reply.
+            raise InputError(path, "the string holds a lone surrogate (\\ud800-\\udfff), which is not a character"
+                             ) from None
+        if self.bound is not None and size > self.bound:
             raise InputError(path, f"string longer than its bound of {self.bound} bytes")
         return value
 
@@ -244,9 +272,11 @@ class StructType(IdlType):
         types_by_name = self.member_types
         unknown = [key for key in value if key not in types_by_name]
         if unknown:
-            where = f"{path}.{unknown[0]}" if path else str(unknown[0])
+            key = unknown[0]
+            shown = key if isinstance(key, str) and key.isprintable() and len(key) <= 60 else _short(key)
             raise InputError(
-                where, f"unknown member {unknown[0]!r} of {self.name} (members: {', '.join(types_by_name)})"
+                f"{path}.{shown}" if path else shown,
+                f"unknown member {_short(key)} of {self.name} (members: {', '.join(types_by_name)})",
             )
         # Missing members keep their initial value, as genom3 does.
         result = self.zero()
@@ -289,9 +319,14 @@ class SequenceType(IdlType):
         if isinstance(value, Mapping):
             # genom3 accepts sparse index objects such as {"0": 1, "3": 2}.
             items: list[Any] = []
+            limit = MAX_SPARSE_INDEX if self.bound is None else self.bound
             for key, item in value.items():
-                if not (isinstance(key, str) and key.isdigit()):
-                    raise InputError(path, f"expected an array or an index object, got key {key!r}")
+                # isdigit() alone takes "²" and "٣"; the length test keeps int() from 4300-digit keys.
+                if not (isinstance(key, str) and key.isascii() and key.isdigit()):
+                    raise InputError(path, f"expected an array or an index object, got key {_short(key)}")
+                if len(key) > len(str(limit)) or int(key) >= limit:
+                    raise InputError(path, f"index {_short(key)} is beyond the {'bound' if self.bound else 'limit'} "
+                                           f"of {limit} elements")
                 index = int(key)
                 if index >= len(items):
                     items.extend([None] * (index + 1 - len(items)))

@@ -109,6 +109,38 @@ def test_sequences_arrays_optionals() -> None:
     assert opt.decode(None, "o") is None and opt.encode(None) is None
 
 
+def test_decoding_at_the_limits_refuses_with_a_readable_message() -> None:
+    huge = int("1" * 4000)
+    with pytest.raises(InputError, match=r"p: an integer of about 4000 digits is too large for a double"):
+        idl_type(Double).decode(huge, "p")
+    with pytest.raises(InputError, match=r"an integer of about 4000 digits is out of range for short") as short:
+        idl_type(Short).decode(huge, "v")
+    assert "1111111111" not in str(short.value)
+    for text in ("\ud800", "a\udfffb"):
+        with pytest.raises(InputError, match="lone surrogate"):
+            idl_type(String).decode(text, "s")
+        with pytest.raises(InputError, match="lone surrogate"):
+            idl_type(string(128)).decode(text, "s")
+    with pytest.raises(InputError, match="one-character"):
+        idl_type(Char).decode("\ud800", "c")
+    with pytest.raises(InputError, match=r"unknown member '\\udc80' of ::test::point"):
+        idl_type(Point).decode({"\udc80": 1}, "p")
+
+
+def test_index_objects_take_ascii_indices_within_bounds() -> None:
+    unbounded, bounded = idl_type(sequence(Long)), idl_type(sequence(Long, 3))
+    assert bounded.decode({"2": 5}, "s") == [0, 0, 5]
+    for key in ("²", "١", "-1", "1.0"):
+        with pytest.raises(InputError, match="expected an array or an index object"):
+            unbounded.decode({key: 1}, "s")
+    with pytest.raises(InputError, match="beyond the bound of 3"):
+        bounded.decode({"3": 1}, "s")
+    for key in ("65536", "9" * 5000):  # neither a list of 10**5000 items nor a 500 from int()
+        with pytest.raises(InputError, match="beyond the limit of 65536"):
+            unbounded.decode({key: 1}, "s")
+    assert len(unbounded.decode({"65535": 1}, "s")) == 65536
+
+
 def test_numpy_sequences_are_not_walked_in_python() -> None:
     samples = idl_type(sequence(Long, numpy=True))
     data = samples.decode([1, -2, 3], "s")
