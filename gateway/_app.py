@@ -55,7 +55,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
         middlewares.insert(0, _auth_middleware(config.token))
     app = web.Application(middlewares=middlewares)
     app[CONFIG] = config
-    app[SESSIONS] = SessionStore()
+    app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)
     app[SHUTDOWN] = Shutdown()
     owns_host = host is None
     app[HOST] = host or ComponentHost(clock=ScaledClock(config.time_scale), settings=config.host_settings(),

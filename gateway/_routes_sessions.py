@@ -41,7 +41,8 @@ async def stop(request: web.Request) -> web.Response:
 @routes.get("/session/listen")
 async def listen(request: web.Request) -> web.StreamResponse:
     """Stream the session's events (``request``, ``unload``, ``quit``) until it stops or the client leaves."""
-    session = request.app[SESSIONS].get_or_create(_session_name(request))
+    sessions = request.app[SESSIONS]
+    session = sessions.get_or_create(_session_name(request))
     transport = request.transport
     listener = session.attach(alive=lambda: transport is not None and not transport.is_closing())
     ping_interval = request.app[CONFIG].ping_interval
@@ -63,7 +64,7 @@ async def listen(request: web.Request) -> web.StreamResponse:
     except ConnectionError:
         pass  # the client went away: nothing to report to anyone
     finally:
-        session.detach(listener)
+        sessions.detach(session, listener)
     with contextlib.suppress(ConnectionError):
         await stream.write_eof()
     return stream

@@ -5,24 +5,52 @@ delays the others: when its buffer overflows, its stream is closed (the client
 reconnects and re-reads the status of its pending requests).  Events for a
 session that has no listener yet are kept in a bounded backlog and delivered
 when one attaches, so a client that listens just after sending loses nothing.
+
+Any client may name a session, so what sessions hold is bounded: a session
+nobody listens to is forgotten after an idle time (its requests run on and keep
+their status; only its undelivered events go), and there is a cap on their
+number.  Names are checked: printable text of at most 128 bytes.
 """
 
 from __future__ import annotations
 
 import asyncio
 import itertools
+import time
 from collections import deque
 from collections.abc import Callable
 
 import orjson
 
 from ..components.core import Request
-from ._errors import NoSuchSession
+from ._errors import BadQuery, NoSuchSession, TooManySessions
 from ._sse import format_event
 
-__all__ = ["Listener", "Session", "SessionStore"]
+__all__ = ["Listener", "Session", "SessionStore", "check_session_name", "MAX_NAME_BYTES"]
 
 _JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
+
+#: The longest session name, in UTF-8 bytes.
+MAX_NAME_BYTES = 128
+
+
+def check_session_name(name: str) -> str:
+    """Return *name* if it can name a session.
+
+    Raises:
+        BadQuery: for control characters, other unprintable ones, or more than 128 bytes.
+    """
+    # A name travels back in events and logs: CR/LF or NUL in it would forge lines there.
+    if not name.isprintable():
+        raise BadQuery(f"session name {_shown(name)} holds control or unprintable characters")
+    if len(name.encode()) > MAX_NAME_BYTES:
+        raise BadQuery(f"session name {_shown(name)} is longer than {MAX_NAME_BYTES} bytes")
+    return name
+
+
+def _shown(name: str) -> str:
+    text = ascii(name)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 class Listener:
@@ -79,12 +107,12 @@ class Session:
         self.listeners: set[Listener] = set()
         self.backlog: deque[bytes] = deque(maxlen=backlog)
         self.listener_limit = listener_limit
+        #: When a client last used the session (its store's clock), for the expiry of unlistened sessions.
+        self.used = 0.0
 
     def deliver(self, frame: bytes) -> None:
         """Send a framed event to every live listener (or keep it until one attaches)."""
-        for listener in [listener for listener in self.listeners if not listener.alive()]:
-            listener.close()
-            self.listeners.discard(listener)
+        self.prune()
         if not self.listeners:
             self.backlog.append(frame)
         for listener in self.listeners:
@@ -102,6 +130,14 @@ class Session:
         """Forget a listener whose stream ended."""
         self.listeners.discard(listener)
 
+    def prune(self) -> bool:
+        """Close and forget the listeners whose connection has gone; return whether there were any."""
+        gone = [listener for listener in self.listeners if not listener.alive()]
+        for listener in gone:
+            listener.close()
+            self.listeners.discard(listener)
+        return bool(gone)
+
     def stop(self) -> None:
         """Send ``quit`` to every listener and end their streams."""
         quit_frame = format_event("quit")
@@ -113,20 +149,40 @@ class Session:
 
 
 class SessionStore:
-    """Every session of the gateway, and the routing of request events to them."""
+    """Every session of the gateway, and the routing of request events to them.
 
-    def __init__(self, backlog: int = 1000, listener_limit: int = 10000) -> None:
+    Args:
+        backlog: How many events a session keeps while nobody listens.
+        listener_limit: The buffer size of each listener.
+        idle_timeout: Seconds after which a session with no listener, unused by
+            any client, is forgotten.
+        max_sessions: How many sessions may exist at once.
+        clock: Seconds, monotonic (a parameter so that tests need not wait).
+    """
+
+    def __init__(self, backlog: int = 1000, listener_limit: int = 10000, idle_timeout: float = 600.0,
+                 max_sessions: int = 256, clock: Callable[[], float] = time.monotonic) -> None:
         self._sessions: dict[str, Session] = {}
         self._numbers = itertools.count(1)
         self._backlog = backlog
         self._listener_limit = listener_limit
+        self.idle_timeout = idle_timeout
+        self.max_sessions = max_sessions
+        self.clock = clock
 
     def __len__(self) -> int:
+        self.expire()
         return len(self._sessions)
 
     def start(self, name: str = "") -> Session:
-        """Start a session (an empty name picks a unique one); an existing name is reused."""
+        """Start a session (an empty name picks a unique one); an existing name is reused.
+
+        Raises:
+            BadQuery: for a name that cannot name a session.
+            TooManySessions: when a new session would pass the cap.
+        """
         if not name:
+            self.expire()
             name = next(f"s{n}" for n in self._numbers if f"s{n}" not in self._sessions)
         return self.get_or_create(name)
 
@@ -134,19 +190,55 @@ class SessionStore:
         """The session *name*.
 
         Raises:
-            NoSuchSession: when there is none.
+            BadQuery: for a name that cannot name a session.
+            NoSuchSession: when there is none (or it expired).
         """
-        try:
-            return self._sessions[name]
-        except KeyError:
-            raise NoSuchSession(f"no session {name!r}") from None
+        session = self._live(check_session_name(name))
+        if session is None:
+            raise NoSuchSession(f"no session {_shown(name)}")
+        return session
 
     def get_or_create(self, name: str) -> Session:
-        """The session *name*, created if needed (genomix clients may listen before starting)."""
-        session = self._sessions.get(name)
+        """The session *name*, created if needed (genomix clients may listen before starting).
+
+        Raises:
+            BadQuery: for a name that cannot name a session.
+            TooManySessions: when a new session would pass the cap.
+        """
+        session = self._live(name)
         if session is None:
+            check_session_name(name)
+            self.expire()
+            if len(self._sessions) >= self.max_sessions:
+                raise TooManySessions(
+                    f"{len(self._sessions)} sessions exist, the most this gateway keeps: stop one "
+                    f"(/session/stop), or wait: a session nobody listens to ends after {self.idle_timeout:g} s unused"
+                )
             session = self._sessions[name] = Session(name, self._backlog, self._listener_limit)
+        session.used = self.clock()
         return session
+
+    def expire(self) -> None:
+        """Forget the sessions that nobody listens to and no client used for ``idle_timeout`` seconds."""
+        for name in [name for name, session in self._sessions.items() if self._expired(session)]:
+            del self._sessions[name]
+
+    def _expired(self, session: Session) -> bool:
+        if session.prune():
+            session.used = self.clock()  # it was listened to until now
+        return not session.listeners and self.clock() - session.used >= self.idle_timeout
+
+    def _live(self, name: str) -> Session | None:
+        session = self._sessions.get(name)
+        if session is not None and self._expired(session):
+            del self._sessions[name]
+            return None
+        return session
+
+    def detach(self, session: Session, listener: Listener) -> None:
+        """Forget a listener whose stream ended; the session's idle time starts when its last one goes."""
+        session.detach(listener)
+        session.used = self.clock()
 
     def stop(self, name: str) -> None:
         """Stop and forget the session *name*.
@@ -158,15 +250,16 @@ class SessionStore:
         del self._sessions[name]
 
     def route_request(self, request: Request) -> None:
-        """Deliver a ``request`` event to the request's session, if it has one."""
+        """Deliver a ``request`` event to the request's session, if it has one (and it has not expired)."""
         if request.session is None:
             return
-        session = self._sessions.get(request.session)
+        session = self._live(request.session)
         if session is not None:
             session.deliver(format_event("request", orjson.dumps(request.status_object(), option=_JSON_OPTIONS)))
 
     def broadcast(self, frame: bytes) -> None:
         """Deliver a framed event to every session."""
+        self.expire()
         for session in self._sessions.values():
             session.deliver(frame)
 
