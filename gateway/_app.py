@@ -13,11 +13,12 @@ from ..components.core import ComponentHost, ScaledClock
 from . import _routes_admin, _routes_modules, _routes_ports, _routes_sessions
 from ._config import GatewayConfig
 from ._errors import error_middleware
-from ._keys import CONFIG, HOST, SESSIONS, SHUTDOWN, Shutdown
+from ._keys import CONFIG, HOST, SESSIONS, SHUTDOWN, UNLOADS, Shutdown
 from ._replies import json_reply
 from ._sessions import SessionStore
 from ._shutdown import shut_down
 from ._sse import format_event
+from ._unloads import Unloads
 
 __all__ = ["create_app"]
 
@@ -60,6 +61,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     owns_host = host is None
     app[HOST] = host or ComponentHost(clock=ScaledClock(config.time_scale), settings=config.host_settings(),
                                       function_grace=config.function_grace, max_instances=config.max_instances)
+    app[UNLOADS] = Unloads(app[HOST])
     app.add_routes(_routes_sessions.routes)
     app.add_routes(_routes_admin.routes)
     app.add_routes(_routes_modules.routes)
@@ -74,6 +76,7 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
         host, sessions = app[HOST], app[SESSIONS]
         host.add_request_listener(sessions.route_request)
         host.add_unload_listener(lambda name: sessions.broadcast(format_event("unload", orjson.dumps(name))))
+        host.add_unload_listener(app[UNLOADS].notice)
         try:
             for item in app[CONFIG].preload:
                 name, _, args = item.partition(":")

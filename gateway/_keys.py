@@ -9,12 +9,14 @@ from aiohttp import web
 from ..components.core import ComponentHost
 from ._config import GatewayConfig
 from ._sessions import SessionStore
+from ._unloads import Unloads
 
-__all__ = ["CONFIG", "HOST", "SESSIONS", "SHUTDOWN", "Shutdown"]
+__all__ = ["CONFIG", "HOST", "SESSIONS", "SHUTDOWN", "UNLOADS", "Shutdown"]
 
 CONFIG = web.AppKey("config", GatewayConfig)
 HOST = web.AppKey("host", ComponentHost)
 SESSIONS = web.AppKey("sessions", SessionStore)
+UNLOADS = web.AppKey("unloads", Unloads)
 
 
 class Shutdown:

@@ -6,7 +6,8 @@
 answers only the chunks after K, with the count of those lost.
 ``/module/M/watch/PORT`` streams each publication as a server-sent event; a
 reader that lags is not queued without bound: it gets what the window still
-holds and an explicit ``lost`` count.
+holds and an explicit ``lost`` count; the stream ends with an ``unload`` event
+when the instance is unloaded or killed.
 """
 
 from __future__ import annotations
@@ -16,12 +17,13 @@ import contextlib
 import weakref
 from typing import Any
 
+import orjson
 from aiohttp import web
 
 from ..components.core import Incremental, OutPortRuntime
 from ._binary import CONTENT_TYPE, encode_binary
 from ._errors import BadQuery
-from ._keys import CONFIG, HOST, SHUTDOWN
+from ._keys import CONFIG, HOST, SHUTDOWN, UNLOADS
 from ._replies import SERVER_HEADER, dumps, json_reply
 from ._sse import PING, EventStream, format_event
 
@@ -126,7 +128,8 @@ async def watch(request: web.Request) -> web.StreamResponse:
     For incremental data (the audio window) ``data`` holds only the chunks the
     reader has not had yet (``since=K`` starts after chunk K; default: with the
     newest chunk); for other data it is the latest value and ``lost`` counts the
-    publications skipped while the reader was busy.
+    publications skipped while the reader was busy.  When the instance is
+    unloaded (or killed) the stream sends ``unload`` and ends.
     """
     name, port = _port(request)
     if not isinstance(port, OutPortRuntime):
@@ -136,22 +139,25 @@ async def watch(request: web.Request) -> web.StreamResponse:
     if since is not None and port.version:
         _require_incremental(port, port.read(element))
     shutdown = request.app[SHUTDOWN]
+    unloaded = request.app[UNLOADS].of(port.owner)
     ping_interval = request.app[CONFIG].ping_interval
     stream = EventStream()
     try:
         await stream.prepare(request)
         delivered = 0  # the port version the reader has
         last_index = since
-        while not shutdown.is_set():
+        while not shutdown.is_set() and not unloaded.done():
             if port.version > delivered:
                 frame, delivered, last_index = _watch_frame(name, port, element, delivered, last_index)
                 await stream.write(frame)
                 continue
             # Shared futures: a hundred watchers wait without a task each.
-            done, _ = await asyncio.wait({port.next_publication(), shutdown.future}, timeout=ping_interval,
-                                         return_when=asyncio.FIRST_COMPLETED)
+            done, _ = await asyncio.wait({port.next_publication(), shutdown.future, unloaded},
+                                         timeout=ping_interval, return_when=asyncio.FIRST_COMPLETED)
             if not done:
                 await stream.write(PING)
+        if unloaded.done():
+            await stream.write(format_event("unload", orjson.dumps(port.owner.instance)))
     except ConnectionError:
         pass  # the reader went away
     with contextlib.suppress(ConnectionError):
