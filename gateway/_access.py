@@ -89,14 +89,14 @@ def access_middleware(policy: AccessPolicy) -> Callable[..., Awaitable[web.Strea
     @web.middleware
     async def check_access(request: web.Request, handler: Handler) -> web.StreamResponse:
         if not policy.host_allowed(request.headers.get("Host")):
-            return _forbidden(f"this gateway does not answer to the name {request.headers.get('Host')!r} "
+            return _forbidden(f"this gateway does not answer to the name {_shown(request.headers['Host'])} "
                               "(its operator can allow it with --allowed-host)")
         origin = request.headers.get("Origin")
         site = request.headers.get("Sec-Fetch-Site", "")
         own = f"{request.scheme}://{request.host}"
         if origin is not None and origin != own:
             if not policy.origin_allowed(origin):
-                return _forbidden(f"pages from {origin} may not use this gateway "
+                return _forbidden(f"pages from {_shown(origin)} may not use this gateway "
                                   "(its operator can allow them with --allow-origin)")
             response = await handler(request)
             response.headers["Access-Control-Allow-Origin"] = origin
@@ -107,6 +107,11 @@ def access_middleware(policy: AccessPolicy) -> Callable[..., Awaitable[web.Strea
         return await handler(request)
 
     return check_access
+
+
+def _shown(header: str) -> str:
+    """A header value fit for a JSON message: quoted, bytes that are not UTF-8 escaped."""
+    return ascii(header.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace"))
 
 
 def _forbidden(message: str) -> web.Response:

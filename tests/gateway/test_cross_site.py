@@ -78,3 +78,10 @@ class TestAllowedByTheOperator:
         # Refused before authentication: a foreign page does not even learn that a token is needed.
         async with http.get("/module/demo/read/Mobile", headers={"Origin": "https://elsewhere.lab"}) as reply:
             assert reply.status == 403
+
+
+async def test_odd_header_bytes_are_refused_readably(demo: aiohttp.ClientSession) -> None:
+    # Found by the fuzzer: a header that is not UTF-8 once made the refusal itself fail (HTTP 500).
+    for headers in ({"Origin": "\x80"}, {"Host": "h\xe9llo"}):
+        async with demo.get("/", headers=headers) as reply:
+            assert reply.status == 403 and (await reply.json())["message"]
