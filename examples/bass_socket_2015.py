@@ -47,7 +47,17 @@ def main() -> int:
             acquire = bass.Acquire(device="sim", sampleRate=rate, nFramesPerChunk=2205, nChunksOnPort=20,
                                    ack=True)
             got, lost = 0, 0
-            with FrameSocketClient("127.0.0.1", args.socket_port, max_frames=block, token=args.token) as audio:
+            audio = FrameSocketClient("127.0.0.1", args.socket_port, max_frames=block, token=args.token)
+            connect_until = time.monotonic() + 10
+            while True:                                   # the socket opens as DedicatedSocket starts
+                try:
+                    audio.connect()
+                    break
+                except AudioSocketError:
+                    if time.monotonic() > connect_until:
+                        raise
+                    time.sleep(0.05)
+            with audio:
                 while got < args.seconds * rate:
                     frames = audio.read()
                     if frames.count == 0:
@@ -61,8 +71,9 @@ def main() -> int:
             bass.Stop()
             socket.wait(10)
             acquire.wait(10)
+            ended = acquire.exception.ex if acquire.exception is not None else acquire.status  # type: ignore[attr-defined]
             print(f"read {got} frames ({got / rate:.2f} s), {lost} lost; socket {socket.status}, "
-                  f"acquisition {acquire.status}")
+                  f"acquisition ended ({ended})")
     except (GenomixError, AudioSocketError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

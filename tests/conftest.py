@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import asyncio
+import gc
+import logging
 import os
-from collections.abc import AsyncIterator
+import threading
+from collections.abc import AsyncIterator, Iterator
 
 import aiohttp
 import pytest
@@ -79,3 +82,41 @@ class RawEventStream:
 
     def close(self) -> None:
         self.writer.close()
+
+
+class _AsyncioErrors(logging.Handler):
+    """Collects what asyncio reports about tasks: destroyed while pending, exceptions never retrieved."""
+
+    def __init__(self) -> None:
+        super().__init__(level=logging.ERROR)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.messages.append(record.getMessage())
+
+
+@pytest.fixture(autouse=True)
+def no_leaks() -> Iterator[None]:
+    """Fail a test that leaves a thread running, an asyncio task pending, or a socket open behind it.
+
+    Runs around every test (set up first, so torn down after its event loop is
+    closed): leftovers are collected, and whatever they report is this test's.
+    """
+    before = set(threading.enumerate())
+    errors = _AsyncioErrors()
+    logging.getLogger("asyncio").addHandler(errors)
+    try:
+        yield
+        # Leaked tasks and sockets announce themselves when collected (sockets as ResourceWarnings,
+        # which the warning filters make errors).
+        gc.collect()
+    finally:
+        logging.getLogger("asyncio").removeHandler(errors)
+    leaked = [t for t in threading.enumerate() if t not in before and t.is_alive()]
+    for thread in leaked:
+        # A thread that is ending (an executor's worker after shutdown) gets a moment to do so.
+        thread.join(timeout=5)
+    leaked = [t.name for t in leaked if t.is_alive()]
+    assert not leaked, f"the test left threads running: {leaked}"
+    tasks = [m for m in errors.messages if "Task was destroyed" in m or "never retrieved" in m]
+    assert not tasks, f"the test left asyncio tasks behind: {tasks}"
