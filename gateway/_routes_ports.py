@@ -109,9 +109,11 @@ def _watch_frame(name: str, port: OutPortRuntime, element: str | None, delivered
         return cached[1], newest, cached[2]
     value = port.read(element)
     if isinstance(value, Incremental):
-        start = value.index - 1 if last_index is None else last_index
-        value, lost = value.since(max(start, 0))
+        # A new watcher starts with the items of the newest publication (a chunk of frames for bass).
+        start = value.index - getattr(value, "items_per_publication", 1) if last_index is None else last_index
+        # The reader now holds up to the newest item (whatever the struct calls it: index, lastFrameIndex).
         new_index: int | None = value.index
+        value, lost = value.since(max(start, 0))
     else:
         lost = max(0, newest - delivered - 1) if delivered else 0
         new_index = last_index

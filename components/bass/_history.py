@@ -119,6 +119,11 @@ class AudioSnapshot:
         """The newest frame: the incremental index of this port."""
         return self.last_frame_index
 
+    @property
+    def items_per_publication(self) -> int:
+        """Frames a publication adds: a new ``watch`` starts with the newest chunk."""
+        return self.frames_per_chunk
+
     def _span(self, first: int, count: int) -> tuple[Int32Array, Int32Array]:
         """Copies of frames ``first … first + count - 1``, which the snapshot holds."""
         if count == 0:

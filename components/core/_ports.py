@@ -33,6 +33,9 @@ class Incremental(Protocol):
     def index(self) -> int:
         """The number of the newest item (items are numbered from 1; 0 when empty)."""
 
+    # Optional: ``items_per_publication`` (default 1), how many items a publication adds; a
+    # ``watch`` that names no ``since=`` starts with the items of the newest publication.
+
     def since(self, index: int) -> tuple[Any, int]:
         """The same data holding only the items after *index*, and how many of those were lost.
 
