@@ -36,6 +36,9 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
                         help="default capture device: sim, sim:SCENE.json, hw:1,0, file:PATH.wav (default %(default)s)")
     parser.add_argument("--audio-socket-port", type=int, default=defaults.audio_socket_port,
                         help="port of the dedicated audio socket, 0 for a free one (default %(default)s)")
+    parser.add_argument("--audio-files", action="append", default=[], metavar="DIR",
+                        help="a directory clients may name WAV (file:PATH) and scene (sim:PATH) files from "
+                             "(repeatable; default: none, files are refused)")
     parser.add_argument("--time-scale", type=float, default=defaults.time_scale,
                         help="runtime seconds per real second, for faster simulations (default %(default)s)")
     parser.add_argument("--load", action="append", default=[], metavar="NAME[:ARGS]",
@@ -43,6 +46,11 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
     parser.add_argument("--components", help="comma-separated allow-list of loadable components")
     parser.add_argument("--token", default=os.environ.get("AIOGENOMIX_TOKEN"),
                         help="require 'Authorization: Bearer TOKEN' (default: $AIOGENOMIX_TOKEN, unset = open)")
+    parser.add_argument("--allowed-host", action="append", default=[], metavar="NAME",
+                        help="a host name browsers may reach the gateway by, besides IP addresses, localhost and "
+                             "this machine's names (repeatable; '*' for any)")
+    parser.add_argument("--allow-origin", action="append", default=[], metavar="ORIGIN",
+                        help="a web origin (scheme://host:port) whose pages may use the gateway (repeatable)")
     limits = parser.add_argument_group("limits", "what one client can hold or send")
     limits.add_argument("--header-timeout", type=_at_least(float, 0.001), default=defaults.header_timeout,
                         metavar="SECONDS", help="time a client has to send a request's line and headers, "
@@ -60,7 +68,8 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
     logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     return GatewayConfig(
         host=args.host, port=args.port, time_scale=args.time_scale, can=args.can,
-        audio_device=args.audio_device, audio_socket_port=args.audio_socket_port, token=args.token or None,
+        audio_device=args.audio_device, audio_socket_port=args.audio_socket_port, audio_files=args.audio_files,
+        token=args.token or None, allowed_hosts=args.allowed_host, allowed_origins=args.allow_origin,
         components=args.components.split(",") if args.components else None, preload=args.load,
         header_timeout=args.header_timeout, max_url_bytes=args.max_url_bytes, session_idle=args.session_idle,
         max_sessions=args.max_sessions, max_instances=args.max_instances,

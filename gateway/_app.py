@@ -3,40 +3,24 @@
 from __future__ import annotations
 
 import asyncio
-import hmac
-from collections.abc import AsyncIterator, Awaitable, Callable
+from collections.abc import AsyncIterator, Callable
 
 import orjson
 from aiohttp import web
 
 from ..components.core import ComponentHost, ScaledClock
 from . import _routes_admin, _routes_modules, _routes_ports, _routes_sessions
+from ._access import AccessPolicy, access_middleware, security_headers
+from ._auth import AUTH_PATH, LOGIN_PATH, TokenCheck, auth_without_token, login_without_token
 from ._config import GatewayConfig
 from ._errors import error_middleware
 from ._keys import CONFIG, HOST, SESSIONS, SHUTDOWN, UNLOADS, Shutdown
-from ._replies import json_reply
 from ._sessions import SessionStore
 from ._shutdown import shut_down
 from ._sse import format_event
 from ._unloads import Unloads
 
 __all__ = ["create_app"]
-
-
-def _auth_middleware(token: str) -> Callable[..., Awaitable[web.StreamResponse]]:
-    expected = f"Bearer {token}".encode()
-
-    @web.middleware
-    async def check_token(request: web.Request,
-                          handler: Callable[[web.Request], Awaitable[web.StreamResponse]]) -> web.StreamResponse:
-        # Header bytes that are not UTF-8 arrive as surrogate escapes: compare the bytes as sent.
-        given = request.headers.get("Authorization", "").encode("utf-8", "surrogateescape")
-        if not hmac.compare_digest(given, expected):
-            return json_reply({"ex": "::genomix::unauthorized",
-                               "message": "this gateway needs Authorization: Bearer <token>"}, status=401)
-        return await handler(request)
-
-    return check_token
 
 
 def create_app(config: GatewayConfig | None = None, host: ComponentHost | None = None) -> web.Application:
@@ -53,8 +37,11 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     config = config or GatewayConfig()
     middlewares = [error_middleware]
     if config.token:
-        middlewares.insert(0, _auth_middleware(config.token))
+        middlewares.insert(0, TokenCheck(config.token).middleware)
+    # Browsers are checked first: a refused page learns nothing, not even whether a token is needed.
+    middlewares.insert(0, access_middleware(AccessPolicy(config.allowed_hosts, config.allowed_origins)))
     app = web.Application(middlewares=middlewares)
+    app.on_response_prepare.append(security_headers)
     app[CONFIG] = config
     app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)
     app[SHUTDOWN] = Shutdown()
@@ -66,6 +53,9 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app.add_routes(_routes_admin.routes)
     app.add_routes(_routes_modules.routes)
     app.add_routes(_routes_ports.routes)
+    # With a token, TokenCheck answers these two itself.
+    app.router.add_get(LOGIN_PATH, login_without_token)
+    app.router.add_get(AUTH_PATH, auth_without_token)
     app.cleanup_ctx.append(_host_lifetime(owns_host))
     app.on_shutdown.append(shut_down(owns_host))
     return app

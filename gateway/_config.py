@@ -20,7 +20,13 @@ class GatewayConfig:
             ``<interface>:<channel>`` such as ``socketcan:can0``.
         audio_device: Default capture device shown by ``StartCapture`` (``sim``, ``hw:1,0``...).
         audio_socket_port: TCP port of the dedicated audio socket (0 picks a free one).
+        audio_files: Directories from which clients may name WAV files (``file:PATH``) and scene
+            files (``sim:PATH``); none by default, so a client cannot make the gateway read its disk.
+            The file of ``audio_device`` itself is always allowed: the operator chose it.
         token: When set, every request must carry ``Authorization: Bearer <token>``.
+        allowed_hosts: Host names browsers may use for the gateway besides IP addresses,
+            ``localhost`` and this machine's names (DNS-rebinding protection; ``*``: any).
+        allowed_origins: Web origins whose pages may use the gateway (cross-site protection).
         components: When set, only these components can be loaded.
         preload: Components loaded at start, as ``name`` or ``name:-i instance``.
         ping_interval: Seconds between keep-alive comments on idle event streams.
@@ -38,7 +44,10 @@ class GatewayConfig:
     can: str = "virtual"
     audio_device: str = "sim"
     audio_socket_port: int = 8081
+    audio_files: list[str] = dataclasses.field(default_factory=list)
     token: str | None = None
+    allowed_hosts: list[str] = dataclasses.field(default_factory=list)
+    allowed_origins: list[str] = dataclasses.field(default_factory=list)
     components: list[str] | None = None
     preload: list[str] = dataclasses.field(default_factory=list)
     ping_interval: float = 15.0
@@ -51,8 +60,11 @@ class GatewayConfig:
 
     def host_settings(self) -> dict[str, Any]:
         """The settings handed to the components."""
+        kind, _, path = self.audio_device.partition(":")
+        operator_file = [path] if kind in ("file", "sim") and path else []
         return {"can": self.can, "audio_device": self.audio_device, "audio_socket_port": self.audio_socket_port,
-                "audio_socket_host": self.host, "audio_socket_token": self.token}
+                "audio_socket_host": self.host, "audio_socket_token": self.token,
+                "audio_files": [*self.audio_files, *operator_file]}
 
     def simulated_parts(self) -> list[str]:
         """Plain words for the parts of the rig that are simulated."""

@@ -121,6 +121,9 @@ class ComponentHost:
             LoadError: for bad arguments (an option the component does not list in its usage).
             TooManyInstances: when ``max_instances`` instances are loaded already.
         """
+        # The first load imports the component's package (scipy, sound and CAN libraries):
+        # up to seconds of work that must not stall the gateway's event loop.
+        await asyncio.to_thread(self.component_class, name)
         args = list(argv or [])
         instance = name
         if "-i" in args:

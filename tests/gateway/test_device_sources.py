@@ -117,3 +117,14 @@ async def test_the_loop_keeps_answering_while_a_device_takes_2_s_to_open(http: a
     # A blocked loop would stall 2 s at once; a shared CI machine may add the odd scheduling hiccup.
     assert max(gaps) < 0.5
     assert sorted(latencies)[len(latencies) // 2] < 0.05 and sorted(gaps)[len(gaps) // 2] < 0.05
+
+
+def test_the_flags_reach_the_components() -> None:
+    from aiogenomix.gateway.__main__ import parse_args
+
+    config = parse_args(["--audio-files", "/srv/sounds", "--audio-files", "/srv/scenes", "--audio-device",
+                         "file:/srv/rig/take1.wav", "--allowed-host", "robot.lab", "--allow-origin", "https://nb.lab"])
+    settings = config.host_settings()
+    assert settings["audio_files"] == ["/srv/sounds", "/srv/scenes", "/srv/rig/take1.wav"]   # and the default file
+    assert config.allowed_hosts == ["robot.lab"] and config.allowed_origins == ["https://nb.lab"]
+    assert parse_args([]).host_settings()["audio_files"] == []
