@@ -12,7 +12,7 @@ from ._head_model import SphericalHeadRenderer, woodworth_itd
 from ._scene import DEFAULT_SCENE, Scene, Source, load_scene
 from ._socket_server import DedicatedSocketServer
 from ._socket_wire import (
-    RequestParser, encode_error, encode_reply, encode_request, parse_request, reply_parts, reply_size,
+    RequestParser, encode_error, encode_reply, encode_request, parse_request, reply_size,
 )
 from ._types import (
     ALREADY_CAPTURING, DEVICE_ERROR, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, NO_SUCH_DEVICE, SOCKET_ERROR,
@@ -33,7 +33,7 @@ __all__ = [
     # The chunk window and the dedicated socket
     "ChunkWindow", "WindowRead", "DedicatedSocketServer", "LineServer", "Conversation", "split_lines", "CLOSE",
     "TOKEN_PREFIX", "RequestParser", "parse_request", "encode_request",
-    "encode_reply", "reply_parts", "encode_error", "reply_size",
+    "encode_reply", "encode_error", "reply_size",
     # Errors
     "CaptureError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "FormatRefused", "SceneError",
     "RequestError",

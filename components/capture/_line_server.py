@@ -7,10 +7,10 @@ that turns the bytes a client sends into replies.
 
 Each connection is an asyncio task that answers its requests in order; a slow
 client only waits for its own socket (``drain``), never delays another or the
-capture.  Every reply is an immutable ``bytes`` object: since Python 3.12 a
-transport may keep the buffer it was handed until the client drains it, so
-handing it a view of the live audio window would send whatever the next chunk
-wrote there.
+capture.  Every reply is a buffer of its own that nothing writes afterwards:
+since Python 3.12 a transport may keep the buffer it was handed until the
+client drains it, so handing it a view of the live audio window would send
+whatever the next chunk wrote there.
 
 With a token (the gateway's ``--token``), a client's first line must be
 ``Token <token>``; anything else gets one ``ERROR ...`` line and the connection

@@ -27,7 +27,7 @@ from ._window import WindowRead
 
 __all__ = [
     "REQUEST_PREFIX", "MAX_REQUEST_LINE", "ERROR_PREFIX", "RequestParser", "parse_request", "encode_request",
-    "encode_reply", "reply_parts", "encode_error", "reply_size",
+    "encode_reply", "encode_error", "reply_size",
 ]
 
 REQUEST_PREFIX = "Read Port - Index "
@@ -80,30 +80,6 @@ class RequestParser:
 def reply_size(count: int, frames_per_chunk: int, *, with_positions: bool = False) -> int:
     """The size in bytes of a reply carrying *count* chunks."""
     return 4 * (2 + 2 * count * frames_per_chunk + (count if with_positions else 0))
-
-
-def reply_parts(chunks: WindowRead, *, with_positions: bool = False) -> list[bytes | memoryview]:
-    """The reply carrying *chunks* (from :meth:`ChunkWindow.since`), as buffers to write in order.
-
-    The samples are not copied: the parts are views of the chunks' arrays, so
-    write them all before the window can change.
-
-    Raises:
-        ValueError: when positions are asked for but the chunks carry none.
-    """
-    count, fpc = chunks.left.shape
-    trailer = np.array([chunks.last_index], dtype="<i4").tobytes()
-    if with_positions:
-        if chunks.positions is None:
-            raise ValueError("the reply needs positions but the window keeps none")
-        trailer += chunks.positions.astype("<f4").tobytes()
-    parts: list[bytes | memoryview] = [np.array([count], dtype="<i4").tobytes()]
-    for channel in (chunks.left, chunks.right):
-        samples = np.ascontiguousarray(channel, dtype="<i4")
-        if samples.size:
-            parts.append(memoryview(samples).cast("B"))
-    parts.append(trailer)
-    return parts
 
 
 def encode_reply(chunks: WindowRead, *, with_positions: bool = False) -> bytearray:
