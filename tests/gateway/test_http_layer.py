@@ -13,6 +13,7 @@ from collections.abc import AsyncIterator
 import pytest
 
 from aiogenomix.gateway import GatewayConfig, serve
+from aiogenomix.gateway.__main__ import parse_args
 from tests.conftest import TEST_TIME_SCALE
 
 
@@ -144,3 +145,17 @@ async def test_a_keep_alive_connection_serves_several_requests(gateway: str) -> 
             assert await reader.readexactly(5) == b"1.7.3"
     finally:
         writer.close()
+
+
+def test_the_limits_are_flags(capsys: pytest.CaptureFixture[str]) -> None:
+    config = parse_args(["--header-timeout", "2.5", "--max-url-bytes", "100000", "--session-idle", "30",
+                         "--max-sessions", "10", "--max-instances", "3"])
+    assert (config.header_timeout, config.max_url_bytes, config.session_idle) == (2.5, 100_000, 30.0)
+    assert (config.max_sessions, config.max_instances) == (10, 3)
+    defaults = parse_args([])
+    assert (defaults.header_timeout, defaults.max_url_bytes, defaults.session_idle) == (10.0, 65536, 600.0)
+    assert (defaults.max_sessions, defaults.max_instances) == (256, 64)
+    for bad in (["--max-url-bytes", "8190"], ["--header-timeout", "nan"], ["--max-sessions", "0"]):
+        with pytest.raises(SystemExit):
+            parse_args(bad)
+    assert "--max-url-bytes" in capsys.readouterr().err
