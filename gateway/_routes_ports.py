@@ -20,11 +20,12 @@ from typing import Any
 import orjson
 from aiohttp import web
 
-from ..components.core import Incremental, OutPortRuntime
+from ..components.core import Chunked, Incremental, OutPortRuntime
 from ._binary import CONTENT_TYPE, encode_binary
 from ._errors import BadQuery
 from ._keys import CONFIG, HOST, SHUTDOWN, UNLOADS
-from ._replies import SERVER_HEADER, dumps, json_reply
+from ._pieces import PiecesPayload, json_pieces
+from ._replies import SERVER_HEADER, dumps
 from ._sse import PING, EventStream, format_event
 
 __all__ = ["routes"]
@@ -79,19 +80,25 @@ async def read(request: web.Request) -> web.StreamResponse:
     element = _element(request, port)
     since = _since(request)
     value = port.read(element) if isinstance(port, OutPortRuntime) else port.read()
+    binary = _wants_binary(request)
     extra: dict[str, Any] = {}
     if since is not None:
-        value, extra["lost"] = _require_incremental(port, value).since(since)
+        _require_incremental(port, value)
+    if isinstance(value, Chunked):
+        # The publication's chunks as they are: no copy of the window, and JSON texts made
+        # once per chunk.  The data is immutable, so the reply is of this publication alone
+        # however long it takes to write.
+        value, lost = value.chunked(since)
+        if since is not None:
+            extra["lost"] = lost
+    elif since is not None:
+        value, extra["lost"] = value.since(since)
     data = None if value is None else port.type.encode(value)
-    if _wants_binary(request):
-        parts = encode_binary(name, data, **extra)
-        response = web.StreamResponse(headers={"Content-Type": CONTENT_TYPE, **SERVER_HEADER})
-        response.content_length = sum(len(part) for part in parts)
-        await response.prepare(request)
-        for part in parts:
-            await response.write(part)
-        return response
-    return json_reply({name: data, **extra})
+    if binary:
+        return web.Response(body=PiecesPayload(encode_binary(name, data, **extra), CONTENT_TYPE),
+                            headers=SERVER_HEADER)
+    return web.Response(body=PiecesPayload(json_pieces({name: data, **extra}), "application/json"),
+                        headers=SERVER_HEADER)
 
 
 # The last event frame of each port: readers in step with each other share one encoding.
@@ -138,6 +145,12 @@ async def watch(request: web.Request) -> web.StreamResponse:
         raise BadQuery(f"{name} is an in port: watch its remote out port instead")
     element = _element(request, port)
     since = _since(request)
+    if port.spec.multiple:
+        # Refused now, as an HTTP error, not after the stream has started: a multiple port
+        # is watched one element at a time, and the element must exist.
+        if element is None:
+            raise BadQuery(f"port {name} is multiple: watch one element with name=")
+        port.read(element)
     if since is not None and port.version:
         _require_incremental(port, port.read(element))
     shutdown = request.app[SHUTDOWN]

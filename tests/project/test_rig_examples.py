@@ -64,7 +64,8 @@ async def test_bass_socket_2015_streams_without_loss() -> None:
         code, out, err = await run(str(EXAMPLES / "bass_socket_2015.py"), "--address", address,
                                    "--socket-port", str(audio_port), "--seconds", "1")
         assert code == 0, err
-        assert re.search(r"read \d+ frames \(1\.\d+ s\), 0 lost; socket done, acquisition ended \(::genom::interrupted\)", out), out
+        ended = r"read \d+ frames \(1\.\d+ s\), 0 lost; socket done, acquisition ended \(::genom::interrupted\)"
+        assert re.search(ended, out), out
         first = re.search(r"frames\s+(\d+)…", out)
         assert first is not None and first.group(1) == "0"
     finally:
