@@ -42,7 +42,8 @@ EXAMPLES = int(os.environ.get("AIOGENOMIX_FUZZ_EXAMPLES", "1800"))
 SEED = int(os.environ.get("AIOGENOMIX_FUZZ_SEED", str(sys.version_info.minor)))
 
 # Reprs of 5000-digit inputs are long; hypothesis warns about them, which pytest would make errors.
-pytestmark = pytest.mark.filterwarnings("ignore::hypothesis.errors.HypothesisWarning")
+# A family takes 10-20 s alone; a busy shared machine may take several times that.
+pytestmark = [pytest.mark.filterwarnings("ignore::hypothesis.errors.HypothesisWarning"), pytest.mark.timeout(600)]
 
 settings.register_profile("ci", deadline=None, database=None,
                           suppress_health_check=list(HealthCheck), max_examples=EXAMPLES)
