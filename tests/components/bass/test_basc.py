@@ -96,3 +96,16 @@ async def test_stop_interrupts_an_endless_get_blocks(host: ComponentHost, bass: 
     await endless.ended.wait()
     assert stop.status == "done" and endless.exception == {"ex": "::genom::interrupted", "detail": {"by": "Stop"}}
     await bass.send("Stop")
+
+
+async def test_a_new_get_blocks_interrupts_the_running_one(host: ComponentHost, bass: Bass) -> None:
+    basc = await loaded_basc(host)
+    await bass.send("Acquire", {"device": "sim"})
+    await wait_for_frame(bass, 2205)
+    first = await basc.send("GetBlocks", {"nBlocks": 0})
+    second = await basc.send("GetBlocks", {"nBlocks": 1, "nFramesPerBlock": 2205, "startOffs": -2205})
+    await first.ended.wait()
+    assert first.exception == {"ex": "::genom::interrupted", "detail": {"by": "GetBlocks"}}
+    await second.ended.wait()
+    assert second.status == "done" and second.output == {"nBlocks": 0}
+    await bass.send("Stop")
