@@ -8,6 +8,7 @@ from typing import Annotated, Any, ClassVar
 
 from ..core import Component, ComponentHost, OutPort, String, Task, ULong, activity, attribute, function
 from ._backend import Azimuth, CaptureBackend, Chunk, open_backend, split_device
+from ._devices import list_capture_devices
 from ._errors import CaptureError, DeviceNotFound
 from ._head_link import simulated_head_azimuth
 from ._socket_server import DEFAULT_PORT, DedicatedSocketServer
@@ -28,6 +29,15 @@ MAX_PORT_BYTES = 256 * 2**20
 RATE_RANGE = (1000, 384_000)
 #: The largest chunk, in frames (about 2.7 s at 384 kHz).
 MAX_FRAMES_PER_CHUNK = 2**20
+
+
+def _every_source(backend_devices: list[str]) -> list[str]:
+    """Every device string a capture accepts here: the listed devices, then the sources named by path.
+
+    Lists the sound libraries' devices, which may block: call it off the event loop.
+    """
+    listed = [*backend_devices, *(d for d in list_capture_devices() if d not in backend_devices)]
+    return [*listed, "file:<path.wav>", "sim:<scene.json>"]
 
 
 def frames_per_chunk(transfer_rate: int, chunk_time: int) -> int:
@@ -151,7 +161,9 @@ class Capture(Component, name="capture", version="1.1"):
                                    roots=self.host.settings.get("audio_files"))
             await backend.open()
         except DeviceNotFound as exc:
-            raise NO_SUCH_DEVICE(device=device, available=exc.available) from exc
+            # The backend knows only its own devices: the user needs every source this gateway opens.
+            available = await asyncio.to_thread(_every_source, exc.available)
+            raise NO_SUCH_DEVICE(device=device, available=available) from exc
         except CaptureError as exc:  # library missing, device refusing the format, bad scene/WAV file
             raise DEVICE_ERROR(device=device, what=str(exc)) from exc
         return backend
