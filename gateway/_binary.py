@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 import orjson
 
+from ..components.core import ChunkedArray
+
 __all__ = ["MAGIC", "CONTENT_TYPE", "encode_binary"]
 
 MAGIC = b"AGXB"
@@ -30,8 +32,8 @@ CONTENT_TYPE = "application/x-aiogenomix-binary"
 _ALIGN = 8
 
 
-def _extract(value: Any, arrays: list[np.ndarray]) -> Any:
-    if isinstance(value, np.ndarray):
+def _extract(value: Any, arrays: list[np.ndarray | ChunkedArray]) -> Any:
+    if isinstance(value, (np.ndarray, ChunkedArray)):
         arrays.append(value)
         return {"$array": len(arrays) - 1}
     if isinstance(value, dict):
@@ -44,23 +46,34 @@ def _extract(value: Any, arrays: list[np.ndarray]) -> Any:
 def encode_binary(port: str, data: Any, **extra: Any) -> list[bytes | memoryview]:
     """Encode JSON-ready port *data* (numpy arrays left as arrays) into binary parts.
 
+    A :class:`~aiogenomix.components.core.ChunkedArray` is one array of the layout,
+    its chunks written one after the other (not joined).
+
     Returns:
         The parts of the body, to be written in order (the arrays are not copied: write
         them all before the next await if the arrays may change).
     """
-    arrays: list[np.ndarray] = []
+    arrays: list[np.ndarray | ChunkedArray] = []
     skeleton = _extract(data, arrays)
     described = []
     payload: list[bytes | memoryview] = []
     offset = 0
     for array in arrays:
-        wanted = array.dtype.newbyteorder("<")
-        # Native int32 on this (little-endian) machine is already right: no copy then.
-        little = np.ascontiguousarray(array if array.dtype == wanted else array.astype(wanted))
+        if isinstance(array, ChunkedArray) and array.dtype != array.dtype.newbyteorder("<"):
+            array = array.numpy()  # a big-endian chunk: converted below, as any array
         padding = -offset % _ALIGN
         if padding:
             payload.append(b"\0" * padding)
             offset += padding
+        if isinstance(array, ChunkedArray):
+            # Its chunks, one after the other: the layout of the joined array, without joining it.
+            described.append({"dtype": array.dtype.str, "shape": [array.size], "offset": offset})
+            payload += array.buffers()
+            offset += array.nbytes
+            continue
+        wanted = array.dtype.newbyteorder("<")
+        # Native int32 on this (little-endian) machine is already right: no copy then.
+        little = np.ascontiguousarray(array if array.dtype == wanted else array.astype(wanted))
         described.append({"dtype": little.dtype.str, "shape": list(little.shape), "offset": offset})
         payload.append(memoryview(little).cast("B"))
         offset += little.nbytes

@@ -73,6 +73,19 @@ def _require_incremental(port: Any, value: Any) -> Incremental:
     return value
 
 
+# The last whole-port reply of each chunked port: readers of the same publication share
+# one body (a 20 Hz audio port read by several clients, or polled faster than it turns over).
+_LAST_READ: weakref.WeakKeyDictionary[Any, tuple[Any, tuple[bool, str | None], PiecesPayload]] = \
+    weakref.WeakKeyDictionary()
+
+
+def _body(name: str, port: Any, value: Any, binary: bool, extra: dict[str, Any]) -> PiecesPayload:
+    data = None if value is None else port.type.encode(value)
+    if binary:
+        return PiecesPayload.of(encode_binary(name, data, **extra), CONTENT_TYPE)
+    return PiecesPayload.of(json_pieces({name: data, **extra}), "application/json")
+
+
 @routes.get("/module/{module}/read/{port}")
 async def read(request: web.Request) -> web.StreamResponse:
     """The latest data of a port: ``{"PORT": data}``, or its binary or incremental forms."""
@@ -81,24 +94,27 @@ async def read(request: web.Request) -> web.StreamResponse:
     since = _since(request)
     value = port.read(element) if isinstance(port, OutPortRuntime) else port.read()
     binary = _wants_binary(request)
-    extra: dict[str, Any] = {}
     if since is not None:
         _require_incremental(port, value)
     if isinstance(value, Chunked):
         # The publication's chunks as they are: no copy of the window, and JSON texts made
-        # once per chunk.  The data is immutable, so the reply is of this publication alone
+        # once per chunk.  The data is immutable, so the reply holds this publication alone
         # however long it takes to write.
-        value, lost = value.chunked(since)
+        key = (binary, element)
+        cached = _LAST_READ.get(port) if since is None else None
+        if cached is not None and cached[0] is value and cached[1] == key:
+            body = cached[2]
+        else:
+            chunked, lost = value.chunked(since)
+            body = _body(name, port, chunked, binary, {} if since is None else {"lost": lost})
+            if since is None:
+                _LAST_READ[port] = (value, key, body)
+    else:
+        extra: dict[str, Any] = {}
         if since is not None:
-            extra["lost"] = lost
-    elif since is not None:
-        value, extra["lost"] = value.since(since)
-    data = None if value is None else port.type.encode(value)
-    if binary:
-        return web.Response(body=PiecesPayload(encode_binary(name, data, **extra), CONTENT_TYPE),
-                            headers=SERVER_HEADER)
-    return web.Response(body=PiecesPayload(json_pieces({name: data, **extra}), "application/json"),
-                        headers=SERVER_HEADER)
+            value, extra["lost"] = value.since(since)
+        body = _body(name, port, value, binary, extra)
+    return web.Response(body=body, headers=SERVER_HEADER)
 
 
 # The last event frame of each port: readers in step with each other share one encoding.

@@ -15,6 +15,10 @@ Frame numbering follows ``Ports.c``: the port starts zero-filled with
 frame 1, frame *f* (f >= 1) is sample ``f - 1`` of the capture, and the
 oldest frame a port holds is ``max(0, lastFrameIndex - frames on port + 1)``
 (frame 0 being one of the zeros of the fresh port).
+
+Each chunk's channels are also kept as :class:`~aiogenomix.components.core.Chunk`
+(the same memory, with the JSON text made once), so the gateway reads a
+snapshot without copying it (:meth:`AudioSnapshot.chunked`).
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ import functools
 import numpy as np
 import numpy.typing as npt
 
+from ..core import Chunk, ChunkedArray
 from ._types import AudioPortData
 
 __all__ = ["ChunkHistory", "AudioSnapshot", "FrameRead"]
@@ -35,6 +40,11 @@ Int32Array = npt.NDArray[np.int32]
 def _frozen(array: Int32Array) -> Int32Array:
     array.flags.writeable = False
     return array
+
+
+def _channels(chunk: Int32Array) -> tuple[Chunk, Chunk]:
+    """The rows of a read-only ``(2, frames)`` chunk (views of it, not copies)."""
+    return Chunk(chunk[0]), Chunk(chunk[1])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -82,12 +92,20 @@ class AudioSnapshot:
             ``(2, frames_per_chunk)`` int32 array; zeros stand for the chunks
             before the first one.
         last_chunk: How many chunks were captured (the newest is ``chunks[-1]``).
+        channels: The left and right rows of each chunk as
+            :class:`~aiogenomix.components.core.Chunk` (made from ``chunks`` when
+            not given).
     """
 
     sample_rate: int
     frames_per_chunk: int
     chunks: tuple[Int32Array, ...]
     last_chunk: int
+    channels: tuple[tuple[Chunk, Chunk], ...] = ()
+
+    def __post_init__(self) -> None:
+        if len(self.channels) != len(self.chunks):
+            object.__setattr__(self, "channels", tuple(_channels(chunk) for chunk in self.chunks))
 
     @classmethod
     def empty(cls) -> AudioSnapshot:
@@ -183,6 +201,35 @@ class AudioSnapshot:
             raise AttributeError(name)
         return getattr(self.data, name)
 
+    def chunked(self, since: int | None = None) -> tuple[AudioPortData, int]:
+        """The port struct with ``left`` and ``right`` as chunked arrays of the snapshot's chunks.
+
+        Args:
+            since: None for the whole port; else the frames after this frame.
+
+        Returns:
+            The struct (its arrays are :class:`~aiogenomix.components.core.ChunkedArray`,
+            not copies) and the frames lost.
+        """
+        if not self.chunks and since is None:
+            return AudioPortData(), 0  # as ``data``
+        if since is None:
+            rows, lost = self.channels, 0
+        else:
+            oldest, newest = self.oldest_frame_index, self.last_frame_index
+            lost = max(0, oldest - (since + 1)) if self.chunks else 0
+            first = max(since + 1, oldest)
+            if first > newest or not self.chunks:
+                rows = ()
+            else:
+                head, offset = divmod(first - (newest - self.frames_on_port + 1), self.frames_per_chunk)
+                rows = self.channels[head:]
+                if offset:  # a read that starts inside a chunk: its tail, encoded for this read
+                    rows = ((Chunk(rows[0][0].array[offset:]), Chunk(rows[0][1].array[offset:])), *rows[1:])
+        left = ChunkedArray([row[0] for row in rows], np.int32)
+        right = ChunkedArray([row[1] for row in rows], np.int32)
+        return self._struct(left, right), lost  # type: ignore[arg-type]
+
     def since(self, index: int) -> tuple[AudioPortData, int]:
         """The frames after frame *index* as the port struct, and how many of those the port no longer held."""
         read = self.frames(index + 1)
@@ -207,7 +254,8 @@ class ChunkHistory:
                              f"not {capacity} and {frames_per_chunk}")
         # One shared zero chunk stands for every chunk before the first.
         zero = _frozen(np.zeros((2, frames_per_chunk), dtype=np.int32))
-        self.snapshot = AudioSnapshot(sample_rate, frames_per_chunk, (zero,) * capacity, 0)
+        self.snapshot = AudioSnapshot(sample_rate, frames_per_chunk, (zero,) * capacity, 0,
+                                      (_channels(zero),) * capacity)
 
     def append(self, left: npt.ArrayLike, right: npt.ArrayLike) -> AudioSnapshot:
         """Add the next chunk (its samples are copied once, into a read-only array) and return the snapshot.
@@ -222,6 +270,7 @@ class ChunkHistory:
                              f"{np.shape(left)} and {np.shape(right)}")
         chunk = np.empty((2, old.frames_per_chunk), dtype=np.int32)
         chunk[0], chunk[1] = left, right
-        self.snapshot = dataclasses.replace(old, chunks=(*old.chunks[1:], _frozen(chunk)),
-                                            last_chunk=old.last_chunk + 1)
+        frozen = _frozen(chunk)
+        self.snapshot = dataclasses.replace(old, chunks=(*old.chunks[1:], frozen), last_chunk=old.last_chunk + 1,
+                                            channels=(*old.channels[1:], _channels(frozen)))
         return self.snapshot

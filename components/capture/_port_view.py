@@ -7,7 +7,9 @@ chunks) and builds the port struct only when read, so a read always returns the
 chunks of the publication it names, however late it comes.  It also answers
 incremental reads (``since``), which makes the port
 :class:`~aiogenomix.components.core.Incremental` for the gateway's ``since=``
-reads and ``watch`` streams.
+reads and ``watch`` streams, and :class:`~aiogenomix.components.core.Chunked`:
+the gateway reads its chunks as they are (no copy of the window) and writes
+their bytes or their JSON texts, made once per chunk.
 """
 
 from __future__ import annotations
@@ -16,6 +18,9 @@ import functools
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
+from ..core import ChunkedArray
 from ._types import PortData, Timestamp
 from ._window import ChunkWindow, WindowRead, WindowState
 
@@ -61,6 +66,26 @@ class PortView:
         if name.startswith("_"):
             raise AttributeError(name)
         return getattr(self.data, name)
+
+    def chunked(self, since: int | None = None) -> tuple[PortData, int]:
+        """The port struct with ``left`` and ``right`` as chunked arrays of the publication's chunks.
+
+        Args:
+            since: None for the whole window; else the chunks after this index.
+
+        Returns:
+            The struct (its arrays are :class:`~aiogenomix.components.core.ChunkedArray`,
+            not copies) and the chunks lost.
+        """
+        if self._state is None:
+            return self._make(), 0
+        state = self._state
+        left, right, lost = state.chunks_since(since)
+        positions = state.positions_since(since)
+        extra: dict[str, Any] = {} if positions is None else {"positions": positions}
+        frames = sum(len(chunk) for chunk in left)
+        return self._make(transfer_rate=self.transfer_rate, nbframes=frames, index=state.last_index, ts=self.ts,
+                          left=ChunkedArray(left, np.int32), right=ChunkedArray(right, np.int32), **extra), lost
 
     def since(self, index: int) -> tuple[PortData, int]:
         """The chunks after *index* as a port struct, and how many of those the window no longer held."""

@@ -8,7 +8,9 @@ references to the newest ones: a :class:`WindowState` taken at publication
 (``window.state``) keeps the chunks of that publication however many arrive
 afterwards, so a read, a socket reply or a port view always gets the data of
 the publication it names.  Reading the chunks after index *k* joins them in one
-copy.
+copy; :meth:`WindowState.chunks_since` hands them out without joining them (each
+:class:`~aiogenomix.components.core.Chunk` keeps its JSON text once made, so the
+gateway writes what is already encoded).
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ import dataclasses
 
 import numpy as np
 import numpy.typing as npt
+
+from ..core import Chunk
 
 __all__ = ["ChunkWindow", "WindowRead", "WindowState"]
 
@@ -67,14 +71,15 @@ class WindowState:
 
     Attributes:
         left: The ``capacity`` newest left chunks, oldest first, each a read-only
-            ``(frames_per_chunk,)`` int32 array (zeros stand for chunks before the first).
+            ``(frames_per_chunk,)`` int32 array in a :class:`Chunk` (zeros stand for
+            chunks before the first).
         right: The right chunks, likewise.
         positions: The head position at the end of each chunk, or None.
         last_index: The index of the newest chunk (0 before the first one).
     """
 
-    left: tuple[Int32Array, ...]
-    right: tuple[Int32Array, ...]
+    left: tuple[Chunk, ...]
+    right: tuple[Chunk, ...]
     positions: tuple[float, ...] | None
     last_index: int
 
@@ -85,12 +90,31 @@ class WindowState:
 
     def _read(self, count: int, lost: int) -> WindowRead:
         rows = slice(self.capacity - count, self.capacity)
-        fpc = self.left[0].shape[0]
-        left = np.stack(self.left[rows]) if count else np.zeros((0, fpc), np.int32)
-        right = np.stack(self.right[rows]) if count else np.zeros((0, fpc), np.int32)
+        fpc = len(self.left[0])
+        left = np.stack([c.array for c in self.left[rows]]) if count else np.zeros((0, fpc), np.int32)
+        right = np.stack([c.array for c in self.right[rows]]) if count else np.zeros((0, fpc), np.int32)
         positions = None if self.positions is None else np.array(self.positions[rows], dtype=np.float64)
         return WindowRead(left=left, right=right, positions=positions, first_index=self.last_index - count + 1,
                           last_index=self.last_index, lost=lost)
+
+    def count_since(self, index: int, limit: int | None = None) -> tuple[int, int]:
+        """How many chunks newer than *index* the window holds (at most *limit*), and how many it lost."""
+        newer = max(0, self.last_index - max(0, index))
+        count = min(newer, self.capacity if limit is None else max(0, min(limit, self.capacity)))
+        return count, newer - count
+
+    def chunks_since(self, index: int | None) -> tuple[tuple[Chunk, ...], tuple[Chunk, ...], int]:
+        """The chunks newer than *index* (None: the whole window), left and right, not copied; and the lost count."""
+        count, lost = (self.capacity, 0) if index is None else self.count_since(index)
+        rows = slice(self.capacity - count, self.capacity)
+        return self.left[rows], self.right[rows], lost
+
+    def positions_since(self, index: int | None) -> Float64Array | None:
+        """The positions of the chunks :meth:`chunks_since` returns (None for a window without)."""
+        if self.positions is None:
+            return None
+        count = self.capacity if index is None else self.count_since(index)[0]
+        return np.array(self.positions[self.capacity - count:], dtype=np.float64)
 
     def since(self, index: int, *, limit: int | None = None) -> WindowRead:
         """The chunks newer than *index* that the window held, in fresh arrays.
@@ -105,9 +129,7 @@ class WindowState:
         Returns:
             The chunks, oldest first, with the count of chunks lost.
         """
-        newer = max(0, self.last_index - max(0, index))
-        count = min(newer, self.capacity if limit is None else max(0, min(limit, self.capacity)))
-        return self._read(count, newer - count)
+        return self._read(*self.count_since(index, limit))
 
     def snapshot(self) -> WindowRead:
         """The whole window, zero-filled before the first chunks, as the port publishes it."""
@@ -133,7 +155,7 @@ class ChunkWindow:
         self.capacity = capacity
         self.frames_per_chunk = frames_per_chunk
         self.with_positions = with_positions
-        zero = _frozen(np.zeros(frames_per_chunk, dtype=np.int32))
+        zero = Chunk(_frozen(np.zeros(frames_per_chunk, dtype=np.int32)))
         #: The window now: replaced (never changed) by each append.
         self.state = WindowState((zero,) * capacity, (zero,) * capacity,
                                  (0.0,) * capacity if with_positions else None, 0)
@@ -151,7 +173,7 @@ class ChunkWindow:
     @property
     def nbytes(self) -> int:
         """Memory held by the chunks of the window."""
-        arrays = {id(a): a.nbytes for a in (*self.state.left, *self.state.right)}
+        arrays = {id(c): c.array.nbytes for c in (*self.state.left, *self.state.right)}
         return sum(arrays.values()) + (8 * self.capacity if self.with_positions else 0)
 
     def append(self, left: npt.ArrayLike, right: npt.ArrayLike, position: float | None = None) -> int:
@@ -177,8 +199,8 @@ class ChunkWindow:
                              else "this window keeps no positions")
         old = self.state
         positions = None if old.positions is None else (*old.positions[1:], float(position))  # type: ignore[arg-type]
-        self.state = WindowState((*old.left[1:], _frozen(left_arr.astype(np.int32, copy=True))),
-                                 (*old.right[1:], _frozen(right_arr.astype(np.int32, copy=True))),
+        self.state = WindowState((*old.left[1:], Chunk(_frozen(left_arr.astype(np.int32, copy=True)))),
+                                 (*old.right[1:], Chunk(_frozen(right_arr.astype(np.int32, copy=True)))),
                                  positions, old.last_index + 1)
         return self.state.last_index
 

@@ -4,6 +4,7 @@ See ``components/demo`` for a complete component, and docs/protocol.md for
 how a component is seen on the wire.
 """
 
+from ._chunked import Chunk, Chunked, ChunkedArray
 from ._clock import Clock, ManualClock, RealClock, ScaledClock
 from ._component import Component
 from ._describe import describe
@@ -31,7 +32,7 @@ __all__ = [
     "function", "activity", "attribute", "Out", "Task", "OutPort", "InPort",
     # Runtime objects
     "Request", "RequestTracker", "ServiceSpec", "ParamSpec", "NO_DEFAULT", "TaskRuntime",
-    "OutPortRuntime", "InPortRuntime", "Incremental",
+    "OutPortRuntime", "InPortRuntime", "Incremental", "Chunked", "Chunk", "ChunkedArray",
     # Clocks and time
     "Timestamp", "Clock", "RealClock", "ScaledClock", "ManualClock",
     # Types

@@ -19,6 +19,7 @@ from typing import Annotated, Any, ClassVar
 
 import numpy as np
 
+from ._chunked import ChunkedArray
 from ._exceptions import InputError
 
 __all__ = [
@@ -349,6 +350,8 @@ class SequenceType(IdlType):
         return decoded
 
     def encode(self, value: Any) -> Any:
+        if isinstance(value, ChunkedArray):
+            return value  # written chunk by chunk by the gateway, never copied here
         if isinstance(value, np.ndarray):
             # orjson serialises contiguous native arrays directly, with no Python loop.
             array_value = np.ascontiguousarray(value)

@@ -114,3 +114,21 @@ def test_a_published_port_view_keeps_the_chunks_of_its_publication() -> None:
     newer, lost = published.since(3)
     assert newer.index == 5 and lost == 0
     np.testing.assert_array_equal(newer.left, np.concatenate([chunk(4)[0], chunk(5)[0]]))
+
+
+def test_a_port_view_hands_out_its_chunks_without_copying_them() -> None:
+    from aiogenomix.components.capture._port_view import PortView
+
+    window = ChunkWindow(4, 3)
+    for i in range(6):
+        window.append(np.full(3, i), np.full(3, -i))
+    view = PortView(window, 44100, 0.0)
+    window.append(np.full(3, 9), np.full(3, 9))  # later chunks change nothing the view holds
+    for since in (None, 0, 2, 3, 5, 6, 8):
+        data, lost = view.chunked(since)
+        expected, expected_lost = (view.data, 0) if since is None else view.since(since)
+        np.testing.assert_array_equal(data.left.numpy(), expected.left)
+        np.testing.assert_array_equal(data.right.numpy(), expected.right)
+        assert (data.index, data.nbframes, lost) == (expected.index, expected.nbframes, expected_lost)
+    whole, _ = view.chunked()
+    assert all(not chunk.array.flags.writeable for chunk in whole.left.chunks)
