@@ -25,28 +25,18 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
-import socket
 import time
 from collections.abc import AsyncIterator, Iterator
-from typing import Self
 
 import numpy as np
 import numpy.typing as npt
 
-from ._receiver import Receiver
-
-from ._errors import TransportError
+from ._socket_link import DEFAULT_PORT, ERROR_MARK, AsyncLink, AudioSocketError, BlockingLink
 
 __all__ = ["AudioBlock", "AudioSocketError", "AudioSocketClient", "AsyncAudioSocketClient", "DEFAULT_PORT"]
 
-DEFAULT_PORT = 8081
-_ERROR_MARK = b"ERRO"
 #: A reply announcing more chunks than this is not a reply of this protocol.
 _MAX_CHUNKS = 1 << 20
-
-
-class AudioSocketError(TransportError):
-    """The audio socket refused a request, closed the connection, or sent something unreadable."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -127,21 +117,13 @@ class _Protocol:
         return AudioBlock(frames, count, last - count + 1, last, lost, positions)
 
 
-def _error_text(line: bytes) -> str:
-    return line.decode("utf-8", "replace").strip()
-
-
 class _ClientBase:
-    """What both clients share: the address, the timeout and the index they hold."""
+    """What both clients share: the protocol state, the index they hold."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = DEFAULT_PORT, *, frames_per_chunk: int = 2205,
                  positions: bool = False, index: int = 0, token: str | None = None, timeout: float = 10.0) -> None:
-        self.host, self.port, self.timeout, self.token = host, port, timeout, token
+        super().__init__(host, port, token, timeout)  # type: ignore[call-arg]
         self._protocol = _Protocol(frames_per_chunk, positions, index)
-
-    def _greeting(self) -> bytes:
-        """The first line, on a gateway with a token: ``Token <token>``."""
-        return f"Token {self.token}\n".encode() if self.token else b""
 
     @property
     def index(self) -> int:
@@ -155,7 +137,7 @@ class _ClientBase:
         self._protocol.index = index
 
 
-class AudioSocketClient(_ClientBase):
+class AudioSocketClient(_ClientBase, BlockingLink):
     """A blocking dedicated-socket client.
 
     Args:
@@ -168,44 +150,6 @@ class AudioSocketClient(_ClientBase):
         timeout: Seconds to wait for the server before :class:`AudioSocketError`.
     """
 
-    _sock: socket.socket | None = None
-
-    def connect(self) -> None:
-        """Open the connection (done by the first read if needed).
-
-        Raises:
-            AudioSocketError: when the server cannot be reached.
-        """
-        if self._sock is None:
-            try:
-                self._sock = socket.create_connection((self.host, self.port), timeout=self.timeout)
-            except OSError as exc:
-                raise AudioSocketError(f"cannot reach the audio socket at {self.host}:{self.port}: {exc}") from exc
-            self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            self._sock.sendall(self._greeting())
-
-    def close(self) -> None:
-        """Close the connection (idempotent)."""
-        sock, self._sock = self._sock, None
-        if sock is not None:
-            sock.close()
-
-    def __enter__(self) -> Self:
-        self.connect()
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def _receive_into(self, view: memoryview) -> None:
-        assert self._sock is not None
-        got = 0
-        while got < len(view):
-            n = self._sock.recv_into(view[got:])
-            if n == 0:
-                raise AudioSocketError("the audio socket closed the connection")
-            got += n
-
     def read(self) -> AudioBlock:
         """Ask for the chunks newer than :attr:`index` and return them.
 
@@ -213,27 +157,25 @@ class AudioSocketClient(_ClientBase):
             AudioSocketError: on a refused request or a broken connection.
         """
         self.connect()
-        assert self._sock is not None
         protocol = self._protocol
         restarted = False
         while True:
             previous = protocol.index
             try:
-                self._sock.sendall(protocol.request())
+                self._send(protocol.request())
                 header = bytearray(4)
                 self._receive_into(memoryview(header))
-                if header == _ERROR_MARK:
-                    rest = self._sock.makefile("rb").readline()
-                    raise AudioSocketError(f"the audio socket refused the request: {_error_text(header + rest)}")
+                if header == ERROR_MARK:
+                    raise self._refused(bytes(header))
                 count = protocol.count_of(bytes(header))
                 body = protocol.body_buffer(count)
                 self._receive_into(memoryview(body).cast("B"))
                 block = protocol.decode(count, body)
             except AudioSocketError:
-                self.close()
+                self._drop()
                 raise
             except OSError as exc:
-                self.close()
+                self._drop()
                 raise AudioSocketError(f"audio socket connection failed: {exc}") from exc
             if block.last_index >= previous:
                 return dataclasses.replace(block, restarted=True) if restarted else block
@@ -250,52 +192,19 @@ class AudioSocketClient(_ClientBase):
                 time.sleep(interval)
 
 
-class AsyncAudioSocketClient(_ClientBase):
+class AsyncAudioSocketClient(_ClientBase, AsyncLink):
     """An asyncio dedicated-socket client (same arguments as :class:`AudioSocketClient`)."""
 
-    _receiver: Receiver | None = None
-
-    async def connect(self) -> None:
-        """Open the connection (done by the first read if needed).
-
-        Raises:
-            AudioSocketError: when the server cannot be reached.
-        """
-        if self._receiver is None:
-            loop = asyncio.get_running_loop()
-            try:
-                async with asyncio.timeout(self.timeout):
-                    _, self._receiver = await loop.create_connection(Receiver, self.host, self.port)
-            except (OSError, TimeoutError) as exc:
-                raise AudioSocketError(f"cannot reach the audio socket at {self.host}:{self.port}: {exc}") from exc
-            assert self._receiver.transport is not None
-            self._receiver.transport.write(self._greeting())
-
-    async def aclose(self) -> None:
-        """Close the connection (idempotent)."""
-        receiver, self._receiver = self._receiver, None
-        if receiver is not None and receiver.transport is not None:
-            receiver.transport.close()
-
-    async def __aenter__(self) -> Self:
-        await self.connect()
-        return self
-
-    async def __aexit__(self, *exc: object) -> None:
-        await self.aclose()
-
     async def _exchange(self) -> AudioBlock:
-        assert self._receiver is not None and self._receiver.transport is not None
-        protocol, receiver = self._protocol, self._receiver
-        receiver.transport.write(protocol.request())
+        protocol = self._protocol
+        self._send(protocol.request())
         header = bytearray(4)
-        await receiver.receive_into(memoryview(header))
-        if header == _ERROR_MARK:
-            rest = await receiver.receive_line()
-            raise AudioSocketError(f"the audio socket refused the request: {_error_text(bytes(header) + rest)}")
+        await self._receive_into(memoryview(header))
+        if header == ERROR_MARK:
+            raise await self._refused(bytes(header))
         count = protocol.count_of(bytes(header))
         body = protocol.body_buffer(count)
-        await receiver.receive_into(memoryview(body).cast("B"))
+        await self._receive_into(memoryview(body).cast("B"))
         return protocol.decode(count, body)
 
     async def read(self) -> AudioBlock:

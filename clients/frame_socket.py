@@ -27,21 +27,17 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
-import socket
 import struct
 from collections.abc import AsyncIterator, Iterator
-from typing import Self
 
 import numpy as np
 import numpy.typing as npt
 
-from ._receiver import Receiver
-from .audio_socket import DEFAULT_PORT, AudioSocketError
+from ._socket_link import DEFAULT_PORT, ERROR_MARK, AsyncLink, AudioSocketError, BlockingLink
 
 __all__ = ["FrameBlock", "FrameSocketClient", "AsyncFrameSocketClient"]
 
 _HEADER = struct.Struct("<iiq")
-_ERROR_MARK = b"ERRO"
 #: Ask for everything the port holds (the header's count is an int32).
 ALL_FRAMES = 2**31 - 1
 
@@ -99,21 +95,21 @@ def _decode(count: int, lost: int, next_frame: int, body: npt.NDArray[np.int32])
 
 
 class _FrameClientBase:
-    """What both clients share: the address, the token and the next frame to read."""
+    """What both clients share: the next frame to read and the request for it."""
+
+    #: The 2015 protocol's last word (``dedicatedSocketClose.m``).
+    goodbye = b"Close\n"
 
     def __init__(self, host: str = "127.0.0.1", port: int = DEFAULT_PORT, *, next_frame: int = 0,
                  max_frames: int = ALL_FRAMES, token: str | None = None, timeout: float = 10.0) -> None:
         if next_frame < 0 or not 0 <= max_frames <= ALL_FRAMES:
             raise ValueError(f"next_frame >= 0 and 0 <= max_frames <= {ALL_FRAMES}, not {next_frame} and "
                              f"{max_frames}")
-        self.host, self.port, self.timeout, self.token = host, port, timeout, token
+        super().__init__(host, port, token, timeout)  # type: ignore[call-arg]
         #: The index of the next frame the client asks for.
         self.next_frame = next_frame
         #: The most frames a read asks for unless told otherwise.
         self.max_frames = max_frames
-
-    def _greeting(self) -> bytes:
-        return f"Token {self.token}\n".encode() if self.token else b""
 
     def _ask(self, max_frames: int | None) -> bytes:
         frames = self.max_frames if max_frames is None else max_frames
@@ -126,7 +122,7 @@ class _FrameClientBase:
         return block
 
 
-class FrameSocketClient(_FrameClientBase):
+class FrameSocketClient(_FrameClientBase, BlockingLink):
     """A blocking client of the 2015 dedicated socket.
 
     Args:
@@ -138,49 +134,6 @@ class FrameSocketClient(_FrameClientBase):
         timeout: Seconds to wait for the server before :class:`AudioSocketError`.
     """
 
-    _sock: socket.socket | None = None
-
-    def connect(self) -> None:
-        """Open the connection (done by the first read if needed).
-
-        Raises:
-            AudioSocketError: when the server cannot be reached.
-        """
-        if self._sock is None:
-            try:
-                self._sock = socket.create_connection((self.host, self.port), timeout=self.timeout)
-                self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-                self._sock.sendall(self._greeting())
-            except OSError as exc:
-                self._sock = None
-                raise AudioSocketError(f"cannot reach the audio socket at {self.host}:{self.port}: {exc}") from exc
-
-    def close(self) -> None:
-        """Say ``Close`` and close the connection (idempotent)."""
-        sock, self._sock = self._sock, None
-        if sock is not None:
-            try:
-                sock.sendall(b"Close\n")
-            except OSError:
-                pass  # already gone: closing is all that is left
-            sock.close()
-
-    def __enter__(self) -> Self:
-        self.connect()
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def _receive_into(self, view: memoryview) -> None:
-        assert self._sock is not None
-        got = 0
-        while got < len(view):
-            n = self._sock.recv_into(view[got:])
-            if n == 0:
-                raise AudioSocketError("the audio socket closed the connection")
-            got += n
-
     def read(self, max_frames: int | None = None) -> FrameBlock:
         """Ask for the frames from :attr:`next_frame` on (at most *max_frames*) and return them.
 
@@ -188,15 +141,12 @@ class FrameSocketClient(_FrameClientBase):
             AudioSocketError: on a refused request or a broken connection.
         """
         self.connect()
-        assert self._sock is not None
         try:
-            self._sock.sendall(self._ask(max_frames))
+            self._send(self._ask(max_frames))
             header = bytearray(_HEADER.size)
             self._receive_into(memoryview(header)[:4])
-            if header[:4] == _ERROR_MARK:
-                rest = self._sock.makefile("rb").readline()
-                raise AudioSocketError(f"the audio socket refused the request: "
-                                       f"{(bytes(header[:4]) + rest).decode('utf-8', 'replace').strip()}")
+            if header[:4] == ERROR_MARK:
+                raise self._refused(bytes(header[:4]))
             self._receive_into(memoryview(header)[4:])
             count, lost, next_frame = _parse_header(bytes(header))
             body = np.empty(2 * count, dtype="<i4")
@@ -209,67 +159,25 @@ class FrameSocketClient(_FrameClientBase):
             raise AudioSocketError(f"audio socket connection failed: {exc}") from exc
         return self._advance(_decode(count, lost, next_frame, body))
 
-    def _drop(self) -> None:
-        sock, self._sock = self._sock, None
-        if sock is not None:
-            sock.close()
-
     def stream(self, max_frames: int | None = None) -> Iterator[FrameBlock]:
         """Yield the blocks of every read, forever (empty ones included: the caller paces the reads)."""
         while True:
             yield self.read(max_frames)
 
 
-class AsyncFrameSocketClient(_FrameClientBase):
+class AsyncFrameSocketClient(_FrameClientBase, AsyncLink):
     """An asyncio client of the 2015 dedicated socket (same arguments as :class:`FrameSocketClient`)."""
 
-    _receiver: Receiver | None = None
-
-    async def connect(self) -> None:
-        """Open the connection (done by the first read if needed).
-
-        Raises:
-            AudioSocketError: when the server cannot be reached.
-        """
-        if self._receiver is None:
-            loop = asyncio.get_running_loop()
-            try:
-                async with asyncio.timeout(self.timeout):
-                    _, self._receiver = await loop.create_connection(Receiver, self.host, self.port)
-            except (OSError, TimeoutError) as exc:
-                raise AudioSocketError(f"cannot reach the audio socket at {self.host}:{self.port}: {exc}") from exc
-            assert self._receiver.transport is not None
-            self._receiver.transport.write(self._greeting())
-
-    async def aclose(self) -> None:
-        """Say ``Close`` and close the connection (idempotent)."""
-        receiver, self._receiver = self._receiver, None
-        if receiver is not None and receiver.transport is not None:
-            if not receiver.transport.is_closing():
-                receiver.transport.write(b"Close\n")
-            receiver.transport.close()
-
-    async def __aenter__(self) -> Self:
-        await self.connect()
-        return self
-
-    async def __aexit__(self, *exc: object) -> None:
-        await self.aclose()
-
     async def _exchange(self, max_frames: int | None) -> FrameBlock:
-        assert self._receiver is not None and self._receiver.transport is not None
-        receiver = self._receiver
-        receiver.transport.write(self._ask(max_frames))
+        self._send(self._ask(max_frames))
         header = bytearray(_HEADER.size)
-        await receiver.receive_into(memoryview(header)[:4])
-        if header[:4] == _ERROR_MARK:
-            rest = await receiver.receive_line()
-            raise AudioSocketError(f"the audio socket refused the request: "
-                                   f"{(bytes(header[:4]) + rest).decode('utf-8', 'replace').strip()}")
-        await receiver.receive_into(memoryview(header)[4:])
+        await self._receive_into(memoryview(header)[:4])
+        if header[:4] == ERROR_MARK:
+            raise await self._refused(bytes(header[:4]))
+        await self._receive_into(memoryview(header)[4:])
         count, lost, next_frame = _parse_header(bytes(header))
         body = np.empty(2 * count, dtype="<i4")
-        await receiver.receive_into(memoryview(body).cast("B"))
+        await self._receive_into(memoryview(body).cast("B"))
         return _decode(count, lost, next_frame, body)
 
     async def read(self, max_frames: int | None = None) -> FrameBlock:

@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 from ..capture import (
     MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, Azimuth, CaptureBackend, CaptureError, FormatRefused,
-    list_capture_devices, open_backend, simulated_head_azimuth, split_device,
+    list_capture_devices, open_backend, scene_azimuth,
 )
 from ..core import Component, ComponentHost, Out, OutPort, String, Task, ULong, activity, function
 from ._history import AudioSnapshot, ChunkHistory
@@ -109,14 +109,10 @@ class Bass(Component, name="bass", version="1.0"):
             raise e_hwparams(device=device, what=f"nFramesPerChunk {nFramesPerChunk} is more than the "
                                                  f"{MAX_FRAMES_PER_CHUNK} frames of the largest period")
 
-    def _azimuth_source(self, device: str) -> Azimuth | None:
-        if self.head_azimuth is not None or split_device(device)[0] != "sim":
-            return self.head_azimuth
-        return simulated_head_azimuth(self.host)
-
     async def _open(self, device: str, rate: int, frames: int) -> CaptureBackend:
         try:
-            backend = open_backend(device, rate, frames, self.clock, azimuth=self._azimuth_source(device),
+            backend = open_backend(device, rate, frames, self.clock,
+                                   azimuth=scene_azimuth(self.host, device, self.head_azimuth),
                                    roots=self.host.settings.get("audio_files"))
             await backend.open()
         except FormatRefused as exc:

@@ -7,10 +7,10 @@ import logging
 from typing import Annotated, Any, ClassVar
 
 from ..core import Component, ComponentHost, OutPort, String, Task, ULong, activity, attribute, function
-from ._backend import Azimuth, CaptureBackend, Chunk, open_backend, split_device
+from ._backend import Azimuth, CaptureBackend, Chunk, open_backend
 from ._devices import list_capture_devices
 from ._errors import CaptureError, DeviceNotFound
-from ._head_link import simulated_head_azimuth
+from ._head_link import scene_azimuth
 from ._socket_server import DEFAULT_PORT, DedicatedSocketServer
 from ._types import (
     ALREADY_CAPTURING, DEVICE_ERROR, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, NO_SUCH_DEVICE, SOCKET_ERROR,
@@ -146,18 +146,14 @@ class Capture(Component, name="capture", version="1.1"):
         if running:
             raise ALREADY_CAPTURING(device=running[0].inputs["device"])
 
-    def _azimuth_source(self, device: str) -> Azimuth | None:
-        if self.head_azimuth is not None or split_device(device)[0] != "sim":
-            return self.head_azimuth
-        return simulated_head_azimuth(self.host)
-
     async def _chunk_position(self) -> float:
         """The head position (degrees) published with each chunk, read as the chunk arrives."""
         raise NotImplementedError(f"{type(self).__name__} publishes no head positions")
 
     async def _open(self, device: str, rate: int, frames: int) -> CaptureBackend:
         try:
-            backend = open_backend(device, rate, frames, self.clock, azimuth=self._azimuth_source(device),
+            backend = open_backend(device, rate, frames, self.clock,
+                                   azimuth=scene_azimuth(self.host, device, self.head_azimuth),
                                    roots=self.host.settings.get("audio_files"))
             await backend.open()
         except DeviceNotFound as exc:

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from ..core import ComponentHost
-from ._backend import Azimuth
+from ._backend import Azimuth, split_device
 
-__all__ = ["simulated_head_azimuth"]
+__all__ = ["simulated_head_azimuth", "scene_azimuth"]
 
 
 def simulated_head_azimuth(host: ComponentHost) -> Azimuth | None:
@@ -23,3 +23,14 @@ def simulated_head_azimuth(host: ComponentHost) -> Azimuth | None:
     if rig is None:
         return None
     return lambda: rig.head_azimuth
+
+
+def scene_azimuth(host: ComponentHost, device: str, chosen: Azimuth | None) -> Azimuth | None:
+    """The head azimuth a capture of *device* should follow.
+
+    *chosen* (set from a script or a test) wins; otherwise a simulated scene
+    follows the host's simulated KEMAR head, and any other device none.
+    """
+    if chosen is not None or split_device(device)[0] != "sim":
+        return chosen
+    return simulated_head_azimuth(host)

@@ -1,8 +1,8 @@
 """Issue 5, acceptance 1: a minute of simulated capture streamed to six readers with no gap.
 
-The capture runs at 44.1 kHz, 50 ms chunks, 20 chunks on the port, for 60 s of
+The capture runs at 44.1 kHz, 50 ms chunks, 60 chunks on the port, for 60 s of
 runtime clock (6 s of real time: slow enough that a reader on a loaded machine
-keeps within the port's 20 chunks).  Four dedicated-socket clients read after
+keeps within the port's 60 chunks).  Four dedicated-socket clients read after
 every publication of the port (awaited, never slept for); two HTTP readers go
 through a real gateway: the generated Python client asking ``Port(since=k)``
 (binary form) after every publication, and a ``watch`` event stream.  A
@@ -28,7 +28,8 @@ from aiogenomix.components.capture import DEFAULT_SCENE, Capture, SphericalHeadR
 from aiogenomix.components.core import ComponentHost, ScaledClock
 from aiogenomix.gateway import GatewayConfig, serve
 
-RATE, FPC, PORT_CHUNKS = 44100, 2205, 20
+# 60 chunks (3 s) on the port: 300 ms of real time for a reader delayed by a busy machine.
+RATE, FPC, PORT_CHUNKS = 44100, 2205, 60
 CHUNKS = 1200  # 60 s of 50 ms chunks
 
 
