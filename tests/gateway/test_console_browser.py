@@ -61,7 +61,7 @@ async def test_the_console_asks_for_the_token_once_then_works(page: Any, gateway
     await service.locator("input").first.fill("0.25")
     await service.get_by_role("button", name="send").click()
     # The request's events arrive on the session's stream, which carries the cookie too.
-    await page.locator("#events .event", has_text='"status":"done"').first.wait_for(timeout=20_000)
+    await page.locator("#events .event", has_text="GotoPosition done").first.wait_for(timeout=20_000)
     result = service.locator("pre")
     await result.filter(has_text="done").wait_for(timeout=20_000)
     cookies = await page.context.cookies()

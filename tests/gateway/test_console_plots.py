@@ -1,0 +1,169 @@
+"""The console as a person uses it, in Debian's chromium (issue 13): forms, events, plots, pictures, audio.
+
+One browser and one gateway serve every step of a test: each step waits on what
+the page shows (Playwright's locators), never on time.  The screenshot of the
+README is taken here, so it always shows the console as it is.
+"""
+
+from __future__ import annotations
+
+import pathlib
+from collections.abc import AsyncIterator
+from typing import Any
+
+import aiohttp
+import pytest
+
+from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.gateway import GatewayConfig, serve
+
+from ..conftest import TEST_TIME_SCALE
+from ._console_camera import Camera
+from .test_console_browser import CHROMIUM, FLAGS
+
+pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="needs Debian's chromium (./run test installs it)")
+SCREENSHOT = pathlib.Path(__file__).parents[2] / "docs" / "images" / "console.png"
+WAIT = 20_000
+
+
+@pytest.fixture
+async def gateway_with_camera() -> AsyncIterator[str]:
+    config = GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0)
+    async with ComponentHost(clock=ScaledClock(TEST_TIME_SCALE), settings=config.host_settings()) as host:
+        host.register("camera", Camera)
+        async with serve(config, host) as url:
+            yield url
+
+
+@pytest.fixture
+async def page(gateway_with_camera: str) -> AsyncIterator[Any]:
+    from playwright.async_api import async_playwright
+
+    async with async_playwright() as driver:
+        browser = await driver.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
+        page = await browser.new_page(viewport={"width": 1400, "height": 900})
+        page.problems = []  # type: ignore[attr-defined]
+        page.on("console", lambda m: m.type == "error" and page.problems.append(m.text))  # type: ignore[attr-defined]
+        page.on("pageerror", lambda e: page.problems.append(str(e)))  # type: ignore[attr-defined]
+        try:
+            yield page
+        finally:
+            await browser.close()
+
+
+async def load(page: Any, name: str) -> None:
+    await page.locator(f'#available li[data-component="{name}"]').get_by_role("button", name="load").click()
+    await page.locator("h1", has_text=name).wait_for(timeout=WAIT)
+
+
+def service(page: Any, name: str) -> Any:
+    return page.locator(f'details[data-service="{name}"]')
+
+
+def port(page: Any, name: str) -> Any:
+    return page.locator(f'details[data-port="{name}"]')
+
+
+async def counter_above(locator: Any, attribute: str, value: int) -> None:
+    """Wait until the element's data-ATTRIBUTE counter is above *value* (the page drew that often)."""
+    await locator.page.wait_for_function(
+        f"([e, v]) => Number(e.dataset.{attribute} || 0) > v", arg=[await locator.element_handle(), value],
+        timeout=WAIT)
+
+
+async def test_forms_events_plots_pictures_and_audio(page: Any, gateway_with_camera: str) -> None:
+    await page.goto(f"{gateway_with_camera}/console")
+    await load(page, "demo")
+    # A malformed number is refused in the form, with a message, and nothing is sent.
+    goto = service(page, "GotoPosition")
+    await goto.locator("summary").click()
+    await goto.locator('input[name="posRef"]').fill("1e")
+    await goto.get_by_role("button", name="send").click()
+    await goto.locator("pre.result", has_text='posRef: "1e" is not a number').wait_for(timeout=WAIT)
+    assert await page.locator("#requests tr").count() == 0
+    # Plot the robot's position, then move it: the plot follows, the events name the service.
+    mobile = port(page, "Mobile")
+    await mobile.locator("summary").click()
+    await mobile.locator('input[data-member="position"]').check()
+    await goto.locator('input[name="posRef"]').fill("0.5")
+    await goto.get_by_role("button", name="send").click()
+    await page.locator("#events .event", has_text="GotoPosition done").wait_for(timeout=WAIT)
+    await goto.locator("pre.result", has_text="done").wait_for(timeout=WAIT)
+    await mobile.locator("pre.data", has_text='"position": 0.5').wait_for(timeout=WAIT)
+    await counter_above(mobile.locator("canvas.series"), "points", 2)
+    # An exception of the component reads as a sentence with its detail.
+    await goto.locator('input[name="posRef"]').fill("3")
+    await goto.get_by_role("button", name="send").click()
+    await goto.locator("pre.result", has_text="::demo::TOO_FAR_AWAY").wait_for(timeout=WAIT)
+    await goto.locator("pre.result", has_text="overshoot: 2").wait_for(timeout=WAIT)
+    await page.locator("#requests tr", has_text="GotoPosition").first.get_by_role("button", name="clean").click()
+
+    # Audio: start a capture from its form; the waveform scrolls as chunks arrive.
+    await load(page, "capture")
+    start = service(page, "StartCapture")
+    await start.locator("summary").click()
+    await start.get_by_role("button", name="send").click()
+    await page.locator("#requests tr", has_text="StartCapture").locator("td", has_text="sent").wait_for(timeout=WAIT)
+    audio = port(page, "Port")
+    await audio.locator("summary").click()
+    await audio.get_by_role("button", name="watch").click()
+    await counter_above(audio.locator("canvas.waveform"), "chunks", 3)
+
+    # A picture port is drawn as a picture, and redrawn when it changes.
+    await load(page, "camera")
+    frame = port(page, "Frame")
+    await frame.locator("summary").click()
+    await frame.get_by_role("button", name="watch").click()
+    picture = frame.locator("canvas.picture")
+    await counter_above(picture, "frames", 0)
+    assert await picture.evaluate("c => [c.width, c.height]") == [32, 32]
+    red = "c => c.getContext('2d').getImageData(4, 0, 1, 1).data[0]"
+    assert await picture.evaluate(red) == 200
+    shade = service(page, "Shade")
+    await shade.locator("summary").click()
+    await shade.locator('input[name="red"]').fill("70000")
+    await shade.get_by_role("button", name="send").click()
+    await shade.locator("pre.result", has_text="outside 0…65535").wait_for(timeout=WAIT)
+    await shade.locator('input[name="red"]').fill("20")
+    await shade.get_by_role("button", name="send").click()
+    await page.wait_for_function(f"() => ({red})(document.querySelector('canvas.picture')) === 20", timeout=WAIT)
+
+    # Back to capture: its watch is still on, and says so.
+    await page.locator("#loaded").get_by_role("button", name="capture").click()
+    await port(page, "Port").get_by_role("button", name="stop watching").wait_for(timeout=WAIT)
+    await counter_above(port(page, "Port").locator("canvas.waveform"), "chunks", 6)
+    await port(page, "Port").locator("canvas.waveform").scroll_into_view_if_needed()
+    SCREENSHOT.parent.mkdir(exist_ok=True)
+    await page.screenshot(path=str(SCREENSHOT))
+    assert page.problems == []
+
+
+async def test_many_long_activities_leave_the_console_responsive(page: Any, gateway_with_camera: str) -> None:
+    await page.goto(f"{gateway_with_camera}/console")
+    await load(page, "demo")
+    # Eight requests that run until the robot crosses a point, and a watched port.
+    monitor = service(page, "Monitor")
+    await monitor.locator("summary").click()
+    await monitor.locator('input[name="monitor"]').fill("0.9")
+    for _ in range(8):
+        await monitor.get_by_role("button", name="send").click()
+        await monitor.get_by_role("button", name="send").wait_for(timeout=WAIT)
+    await page.locator("#requests tr", has_text="Monitor").nth(7).wait_for(timeout=WAIT)
+    await port(page, "Mobile").locator("summary").click()
+    await port(page, "Mobile").get_by_role("button", name="watch").click()
+    # A function still answers at once, and so do reads.
+    speed = service(page, "GetSpeed")
+    await speed.locator("summary").click()
+    await speed.get_by_role("button", name="send").click()
+    await speed.locator("pre.result", has_text="speedRef: ::demo::SLOW").wait_for(timeout=WAIT)
+    # One running request is aborted from its row.
+    row = page.locator("#requests tr", has_text="Monitor").first
+    await row.get_by_role("button", name="abort").click()
+    await page.locator("#events .event", has_text="Monitor error ::genom::interrupted").wait_for(timeout=WAIT)
+    # Reloading the page keeps its session: no session is left behind per load.
+    for _ in range(3):
+        await page.reload()
+        await page.locator("#loaded").get_by_role("button", name="demo").wait_for(timeout=WAIT)
+    async with aiohttp.ClientSession(base_url=gateway_with_camera) as http, http.get("/") as index:
+        assert (await index.json())["sessions"] == 1
+    assert page.problems == []
