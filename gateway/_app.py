@@ -9,7 +9,7 @@ import orjson
 from aiohttp import web
 
 from ..components.core import ComponentHost, ScaledClock
-from . import _routes_admin, _routes_modules, _routes_ports, _routes_sessions
+from . import _routes_admin, _routes_modules, _routes_openapi, _routes_ports, _routes_sessions
 from ._access import AccessPolicy, access_middleware, security_headers
 from ._auth import AUTH_PATH, LOGIN_PATH, TokenCheck, auth_without_token, login_without_token
 from ._config import GatewayConfig
@@ -53,6 +53,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app.add_routes(_routes_admin.routes)
     app.add_routes(_routes_modules.routes)
     app.add_routes(_routes_ports.routes)
+    app.add_routes(_routes_openapi.routes)
     # With a token, TokenCheck answers these two itself.
     app.router.add_get(LOGIN_PATH, login_without_token)
     app.router.add_get(AUTH_PATH, auth_without_token)
