@@ -8,6 +8,8 @@ registered explicitly) — never an arbitrary path.
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import contextvars
 import importlib.metadata
 import logging
 from collections.abc import Callable
@@ -23,6 +25,11 @@ __all__ = ["ComponentHost", "LoadError", "TooManyInstances"]
 log = logging.getLogger(__name__)
 
 ENTRY_POINT_GROUP = "aiogenomix.components"
+
+#: The (host, task) loading a component right now: a component whose ``on_start`` loads another
+#: (``pr2`` loads ``world``) runs inside its own load, under the host's lock already.
+_LOADING: contextvars.ContextVar[tuple[object, object] | None] = contextvars.ContextVar("aiogenomix_loading",
+                                                                                         default=None)
 
 
 class LoadError(ComponentError, ValueError):
@@ -133,7 +140,8 @@ class ComponentHost:
             instance = args[at + 1]
             del args[at:at + 2]
         _check_options(self.component_class(name), args)
-        async with self._lock:
+        nested = _LOADING.get() == (self, asyncio.current_task())
+        async with contextlib.nullcontext() if nested else self._lock:
             existing = self._instances.get(instance)
             if existing is not None:
                 if existing.genom_name != self.component_class(name).genom_name:
@@ -144,7 +152,11 @@ class ComponentHost:
                                        f"unload one first")
             cls = self.component_class(name)
             component = cls(self, instance, args)
-            await component.start()
+            token = _LOADING.set((self, asyncio.current_task()))
+            try:
+                await component.start()
+            finally:
+                _LOADING.reset(token)
             self._instances[instance] = component
             log.info("loaded %s as %s", name, instance)
             return component

@@ -1,0 +1,197 @@
+"""The ``world`` component: the simulated room with a PR2 and a KEMAR, on MuJoCo, with cameras and a laser.
+
+It plays MORSE's part in the seed (chapter 7): it owns the scene, steps its physics on the runtime
+clock, publishes the robots' sensors on out ports named after MORSE's ROS topics, and takes commands
+on in ports, which ``pr2`` and ``morse_kemar`` connect to their own ports when they are loaded.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from typing import Any
+
+
+from ..core import Component, InPort, InPortRuntime, LoadError, OutPort, Task
+from ._mjcf import KEMAR_CAMERAS, KEMAR_ORIGIN, PR2_CAMERAS
+from ._render import LASER, SensorRenderer
+from ._sim import PR2_JOINTS, Simulation
+from ._types import (
+    ARM_JOINTS, Header, HeadCommand, Image, JointState, LaserScan, LeftArmCommand, Odometry, Point, Pose,
+    PoseStamped, PositionCommand, Quaternion, RightArmCommand, Timestamp, TorsoCommand, Twist,
+)
+
+__all__ = ["World", "parse_size"]
+
+log = logging.getLogger(__name__)
+
+#: The camera out ports and the model cameras they show.
+CAMERA_PORTS = {"pr2_video": PR2_CAMERAS[0], "kemar_camera_left": KEMAR_CAMERAS[0],
+                "kemar_camera_right": KEMAR_CAMERAS[1]}
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """``"256x256"`` as (width, height).
+
+    Raises:
+        LoadError: for anything but two integers from 8 to 2048 joined by ``x``.
+    """
+    width, sep, height = text.lower().partition("x")
+    if not sep or not width.isdigit() or not height.isdigit() or not (8 <= int(width) <= 2048 and
+                                                                       8 <= int(height) <= 2048):
+        raise LoadError(f"bad camera size {text!r}: use WIDTHxHEIGHT, each 8 to 2048, such as 256x256")
+    return int(width), int(height)
+
+
+def _option(argv: list[str], flag: str, default: str) -> str:
+    return argv[argv.index(flag) + 1] if flag in argv else default
+
+
+class World(Component, name="world", version="1.0"):
+    """The virtual room of the seed's chapter 7 on MuJoCo: a PR2, a KEMAR, coloured objects, sound-source markers.
+
+    Physics steps on the runtime clock; cameras render off the event loop at ``-rate`` frames per second
+    (``rgba8`` images of ``-size`` pixels).  Loading ``pr2`` or ``morse_kemar`` wires their ports here.
+    """
+
+    usage_options = [*Component.usage_options,
+                     ("-size WIDTHxHEIGHT", "camera image size in pixels (default 256x256, the seed's)"),
+                     ("-rate HZ", "camera and laser rate in frames per runtime second (default 10, at most 50)")]
+
+    physics = Task(period=0.02, doc="Steps the physics to the runtime clock, applies commands, publishes poses")
+    sensors = Task(period=0.02, doc="Renders the cameras and sweeps the laser off the event loop, at -rate")
+
+    pr2_odom = OutPort(Odometry, doc="PR2 base: x, y (m), heading w (rad) in the room, and their speeds")
+    pr2_joints = OutPort(JointState, doc="PR2 torso (m), head and arm joints (rad): positions and speeds")
+    pr2_video = OutPort(Image, doc="PR2 head camera (wide_stereo_l), rgba8")
+    pr2_scan = OutPort(LaserScan, doc="PR2 base laser: 270° in 1° steps, 0.023 to 30 m")
+    kemar_pose = OutPort(PoseStamped, doc="KEMAR head pose in the room (yaw about z, positive = left)")
+    kemar_camera_left = OutPort(Image, doc="KEMAR left eye camera, rgba8")
+    kemar_camera_right = OutPort(Image, doc="KEMAR right eye camera, rgba8")
+
+    pr2_cmd_vel = InPort(Twist, doc="PR2 base velocity in its frame (m/s, rad/s); replaces a goal (MORSE 'cmd_vel')")
+    pr2_goal = InPort(PositionCommand, doc="PR2 base goal pose; connected to pr2/Port_gotoposition")
+    pr2_head = InPort(HeadCommand, doc="PR2 head goal; connected to pr2/Port_head")
+    pr2_torso = InPort(TorsoCommand, doc="PR2 torso goal; connected to pr2/Port_torso")
+    pr2_l_arm = InPort(LeftArmCommand, doc="PR2 left arm goal; connected to pr2/Port_l_arm")
+    pr2_r_arm = InPort(RightArmCommand, doc="PR2 right arm goal; connected to pr2/Port_r_arm")
+    kemar_motion = InPort(Twist, doc="KEMAR neck speed (angular.z, rad/s); connected to morse_kemar/RobotMotion")
+
+    async def on_start(self) -> None:
+        self.camera_size = parse_size(_option(self.argv, "-size", "256x256"))
+        rate_text = _option(self.argv, "-rate", "10")
+        try:
+            rate = float(rate_text)
+        except ValueError:
+            rate = math.nan
+        if not 0.1 <= rate <= 50:  # NaN fails this too
+            raise LoadError(f"bad camera rate {rate_text!r}: 0.1 to 50 frames per second")
+        self.frame_period = 1.0 / rate
+        width, height = self.camera_size
+        self.sim = Simulation(width, height)
+        self.renderer = SensorRenderer(self.sim.mujoco, self.sim.model, width, height)
+        self._origin = self.clock.now()
+        self._next_frame = 0.0
+        self._seq = 0
+        self._seen: dict[str, tuple[int, int]] = {}
+        self._publish_state()
+        # The tasks run from here on (the first await): everything they use is set above.
+        try:
+            await self.renderer.open()
+        except Exception as exc:
+            await self.renderer.aclose()
+            raise LoadError(f"the world cannot render its cameras ({type(exc).__name__}: {exc}); "
+                            "MuJoCo renders offscreen with MUJOCO_GL=osmesa and Debian's libosmesa6") from exc
+
+    async def on_stop(self) -> None:
+        await self.renderer.aclose()
+
+    # -- commands --------------------------------------------------------------------------
+
+    def _new_command(self, port: InPortRuntime) -> Any:
+        """The data of *port*'s out port if it was published since last asked (None otherwise)."""
+        remote = port.remote
+        if remote is None or remote.version == 0:
+            return None
+        key = (id(remote), remote.version)
+        if self._seen.get(port.name) == key:
+            return None
+        self._seen[port.name] = key
+        return port.read()
+
+    def _apply_commands(self) -> None:
+        sim = self.sim
+        if (twist := self._new_command(self.pr2_cmd_vel)) is not None:
+            sim.drive(twist.linear.x, twist.linear.y, twist.angular.z)
+        if (goal := self._new_command(self.pr2_goal)) is not None:
+            sim.drive_to(goal.x, goal.y, goal.w)
+        if (head := self._new_command(self.pr2_head)) is not None:
+            sim.move_joints({"head_pan_joint": head.pan, "head_tilt_joint": head.tilt}, head.time_to_finish)
+        if (torso := self._new_command(self.pr2_torso)) is not None:
+            sim.move_joints({"torso_lift_joint": torso.torso}, torso.time_to_finish)
+        for port, side in ((self.pr2_l_arm, "l"), (self.pr2_r_arm, "r")):
+            if (arm := self._new_command(port)) is not None:
+                goals = {f"{side}_{j}": getattr(arm, f"{side}_{j}") for j in ARM_JOINTS}
+                sim.move_joints(goals, arm.time_to_finish)
+        if (motion := self._new_command(self.kemar_motion)) is not None:
+            sim.kemar_speed = motion.angular.z
+
+    # -- the physics task --------------------------------------------------------------------
+
+    @physics.periodic
+    def _step(self) -> None:
+        # Catch up with the clock first: a command then starts at the time it arrived, not at the
+        # time of a simulation that lagged (a motion would end early on the clock).
+        self.sim.advance(self.clock.now() - self._origin)
+        self._apply_commands()
+        self._publish_state()
+
+    def _header(self, frame: str) -> Header:
+        self._seq += 1
+        return Header(seq=self._seq, stamp=Timestamp.from_seconds(self.clock.wall()), frame_id=frame)
+
+    def _publish_state(self) -> None:
+        sim = self.sim
+        x, y, w = sim.base_pose()
+        vx, vy, vw = sim.base_speed()
+        self.pr2_odom.publish(Odometry(x, y, w, vx, vy, vw, Timestamp.from_seconds(self.clock.wall())))
+        self.pr2_joints.publish(JointState(self._header("base_footprint"), list(PR2_JOINTS),
+                                           sim.joint_positions(PR2_JOINTS), sim.joint_speeds(PR2_JOINTS)))
+        yaw = sim.kemar_yaw()
+        pose = Pose(Point(KEMAR_ORIGIN[0], KEMAR_ORIGIN[1], 1.47),
+                    Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)))
+        self.kemar_pose.publish(PoseStamped(self._header("map"), pose))
+
+    # -- the sensors task --------------------------------------------------------------------
+
+    @sensors.periodic
+    async def _sense(self) -> None:
+        now = self.clock.now() - self._origin
+        if now < self._next_frame:
+            return
+        # Best effort, as MORSE: a frame that took longer than a period delays the next one.
+        self._next_frame = max(self._next_frame + self.frame_period, now)
+        frames, ranges = await self.renderer.render(self.sim.snapshot(), tuple(CAMERA_PORTS.values()), "base_laser")
+        width, height = self.camera_size
+        for port, camera in CAMERA_PORTS.items():
+            data = frames[camera].reshape(-1)
+            self.port(port).publish(Image(width, height, "rgba8", width * 4, data))  # type: ignore[union-attr]
+        assert ranges is not None
+        self.pr2_scan.publish(LaserScan(self._header("base_laser_link"), LASER["angle_min"], LASER["angle_max"],
+                                        LASER["angle_increment"], LASER["range_min"], LASER["range_max"], ranges))
+
+    # -- wiring for the robot components -------------------------------------------------------
+
+    def wire(self, robot: Component, pairs: dict[str, str]) -> None:
+        """Connect ports between *robot* and this world: ``{robot_port: world_port}``.
+
+        An in port of either side is connected to the out port of the other.
+        """
+        for robot_port, world_port in pairs.items():
+            mine, theirs = self.port(world_port), robot.port(robot_port)
+            if isinstance(mine, InPortRuntime):
+                mine.connect(theirs, f"{robot.instance}/{robot_port}")  # type: ignore[arg-type]
+            else:
+                theirs.connect(mine, f"{self.instance}/{world_port}")  # type: ignore[union-attr]
+
+
