@@ -15,7 +15,7 @@ import platform
 import sys
 from typing import Any
 
-from . import fanout, load, port_read, service, soak
+from . import fanout, load, port_read, service, soak, world
 from ._common import ROOT
 from ._report import render
 
@@ -25,6 +25,7 @@ BENCHMARKS = {
     "fanout": (fanout.run, {"seconds": 10.0}, {"seconds": 3.0}),
     "load": (load.run, {"seconds": 30.0}, {"seconds": 6.0}),
     "soak": (soak.run, {"seconds": 120.0}, {"seconds": 15.0}),
+    "world": (world.run, {"seconds": 5.0, "calls": 2000}, {"seconds": 2.0, "calls": 300}),
 }
 
 

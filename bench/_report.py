@@ -63,6 +63,10 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
         out.append(_load(results["load"]))
     if "soak" in results:
         out.append(_soak(results["soak"]))
+    if "world" in results:
+        from .world import render as world_section
+
+        out.append(world_section(results["world"]))
     out.append(ANALYSIS)
     return "\n".join(out)
 
