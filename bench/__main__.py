@@ -15,16 +15,17 @@ import platform
 import sys
 from typing import Any
 
-from . import fanout, load, port_read, service, soak, world
+from . import fanout, load, memory, port_read, service, soak, world
 from ._common import ROOT
 from ._report import render
 
 BENCHMARKS = {
-    "port_read": (port_read.run, {"reads": 50}, {"reads": 15}),
+    "port_read": (port_read.run, {"reads": 50, "block": 10}, {"reads": 9, "block": 3}),
     "service": (service.run, {"calls": 2000}, {"calls": 300}),
     "fanout": (fanout.run, {"seconds": 10.0}, {"seconds": 3.0}),
     "load": (load.run, {"seconds": 30.0}, {"seconds": 6.0}),
-    "soak": (soak.run, {"seconds": 120.0}, {"seconds": 15.0}),
+    "soak": (soak.run, {"seconds": 120.0}, {"seconds": 8.0}),
+    "memory": (memory.run, {"sessions": 250, "requests": 5000}, {"sessions": 100, "requests": 1000}),
     "world": (world.run, {"seconds": 5.0, "calls": 2000}, {"seconds": 2.0, "calls": 300}),
 }
 

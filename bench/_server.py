@@ -83,7 +83,7 @@ async def _socket_floor(args: argparse.Namespace) -> None:
         while line := await reader.readline():
             size = int(line)
             if size not in blobs:
-                blobs[size] = np.random.default_rng(0).integers(-2**23, 2**23, size // 4, dtype=np.int32).tobytes()
+                blobs[size] = np.random.default_rng(0).integers(0, 256, size, dtype=np.uint8).tobytes()
             blob = blobs[size]
             writer.write(len(blob).to_bytes(4, "little"))
             writer.write(blob)
@@ -98,8 +98,24 @@ async def _socket_floor(args: argparse.Namespace) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("kind", choices=["gateway", "aiohttp", "socket"])
+    parser.add_argument("--profile", metavar="FILE", help="profile with cProfile; write the stats on SIGTERM")
     args = parser.parse_args()
     runner = {"gateway": _gateway, "aiohttp": _bare_aiohttp, "socket": _socket_floor}[args.kind]
+    if not args.profile:
+        asyncio.run(runner(args))
+        return
+    import cProfile
+    import signal
+
+    profiler = cProfile.Profile()
+
+    def stop(*_: object) -> None:
+        profiler.disable()
+        profiler.dump_stats(args.profile)
+        raise SystemExit(0)
+
+    signal.signal(signal.SIGTERM, stop)
+    profiler.enable()
     asyncio.run(runner(args))
 
 

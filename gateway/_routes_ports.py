@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import weakref
 from typing import Any
 
@@ -79,6 +80,12 @@ _LAST_READ: weakref.WeakKeyDictionary[Any, tuple[Any, tuple[bool, str | None], P
     weakref.WeakKeyDictionary()
 
 
+@functools.lru_cache(maxsize=256)
+def _is_chunked(kind: type) -> bool:
+    # Once per type: isinstance() with a runtime protocol walks the protocol's members every time.
+    return issubclass(kind, Chunked)
+
+
 def _body(name: str, port: Any, value: Any, binary: bool, extra: dict[str, Any]) -> PiecesPayload:
     data = None if value is None else port.type.encode(value)
     if binary:
@@ -96,7 +103,7 @@ async def read(request: web.Request) -> web.StreamResponse:
     binary = _wants_binary(request)
     if since is not None:
         _require_incremental(port, value)
-    if isinstance(value, Chunked):
+    if _is_chunked(type(value)):
         # The publication's chunks as they are: no copy of the window, and JSON texts made
         # once per chunk.  The data is immutable, so the reply holds this publication alone
         # however long it takes to write.
