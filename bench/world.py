@@ -112,7 +112,10 @@ def render(r: Result) -> str:
         f"({stall['frames_per_second']:.1f} frames/s each): a 1 ms timer fires {_ms(stall['median'])} ms late "
         f"at the median, {_ms(stall['p99'])} ms at p99, {_ms(stall['worst'])} ms at worst (target "
         f"< {r['stall_target_ms']:.0f} ms: **{r['stall_verdict']}**); without the world, on the same machine at "
-        f"the same time, p99 {_ms(stall['idle_p99'])} ms and worst {_ms(stall['idle_worst'])} ms.", "",
+        f"the same time, p99 {_ms(stall['idle_p99'])} ms and worst {_ms(stall['idle_worst'])} ms. OpenGL and "
+        "MuJoCo run without the GIL, but the render thread's Python between their calls holds it, and the loop "
+        "then waits up to the interpreter's switch interval (5 ms) for its turn: the stall is that wait plus "
+        "the machine's own noise. Rendering in a process of its own would remove the first part.", "",
         "Another component's function (`probe.Stamp`, through the gateway and the generated client):", "",
         "| | median ms | p99 ms |", "|---|---|---|",
         f"| without the world | {_ms(without['median'])} | {_ms(without['p99'])} |",
