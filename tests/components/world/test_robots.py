@@ -1,0 +1,90 @@
+"""The world and its robots in-process: laser, load options, limits, speed control, re-wiring."""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+from collections.abc import AsyncIterator
+
+import numpy as np
+import pytest
+
+from aiogenomix.components.core import ComponentHost, LoadError, ScaledClock
+from aiogenomix.components.morse_kemar import yaw_of
+
+pytestmark = pytest.mark.skipif(importlib.util.find_spec("mujoco") is None, reason="mujoco is not installed")
+
+WORLD_OPTIONS = ["-size", "32x32", "-rate", "2"]
+
+
+@pytest.fixture
+async def host() -> AsyncIterator[ComponentHost]:
+    async with ComponentHost(clock=ScaledClock(4)) as host:
+        await host.load("world", WORLD_OPTIONS)
+        yield host
+
+
+async def _run(component, service: str, **inputs):  # type: ignore[no-untyped-def]
+    request = await component.send(service, inputs)
+    if request.task is not None:
+        await request.task
+    return request
+
+
+async def test_the_base_laser_sees_the_stand_ahead_and_not_the_robot(host: ComponentHost) -> None:
+    world = host.get("world")
+    await world.pr2_scan.wait_published()
+    scan = world.pr2_scan.read()
+    assert len(scan.ranges) == 271 and scan.angle_min == pytest.approx(-math.radians(135))
+    ahead = scan.ranges[135]
+    assert ahead == pytest.approx(3.0 - 0.275 - 0.03, abs=0.01)  # the red box's stand, 3 m ahead of the base
+    assert np.all(scan.ranges > 0.3)  # its own base and arms are not in the way
+
+
+@pytest.mark.parametrize("options", [["-size", "4x4"], ["-size", "big"], ["-rate", "0"], ["-rate", "nan"]])
+async def test_bad_load_options_are_refused(options: list[str]) -> None:
+    async with ComponentHost(clock=ScaledClock(4)) as host:
+        with pytest.raises(LoadError):
+            await host.load("world", ["-i", "other", *options])
+        assert "other" not in host.instances
+
+
+async def test_arm_goals_beyond_the_limits_stop_at_them(host: ComponentHost) -> None:
+    pr2 = await host.load("pr2")
+    request = await _run(pr2, "move_r_arm", r_shoulder_pan_joint=-3.0, r_elbow_flex_joint=1.0, time_to_finish=0.5)
+    assert request.status == "done"
+    state = host.get("world").pr2_joints.read()
+    names = list(state.name)
+    assert state.position[names.index("r_shoulder_pan_joint")] == pytest.approx(-2.2854, abs=0.005)
+    assert state.position[names.index("r_elbow_flex_joint")] == pytest.approx(0.0, abs=0.005)
+    refused = await _run(pr2, "move_head", pan=math.nan)
+    assert refused.status == "error" and refused.exception["ex"] == "::pr2::INVALID_VALUE"
+    outside = await _run(pr2, "go_to_position", x=100.0)
+    assert outside.exception["ex"] == "::pr2::INVALID_VALUE"
+
+
+async def test_morse_kemar_speed_control_stops_before_the_limit(host: ComponentHost) -> None:
+    kemar = await host.load("morse_kemar")
+    request = await _run(kemar, "ControlInSpeed", velocity=200.0)
+    assert request.status == "done"
+    assert kemar.currentPosition == pytest.approx(87.0, abs=2.0)
+    assert kemar.RobotMotion.read().angular.z == 0.0  # stopped
+    rotate = await _run(kemar, "Rotate", z=-30.0)
+    assert rotate.status == "done" and kemar.RobotMotion.read().angular.z == pytest.approx(math.radians(-30))
+    assert (await _run(kemar, "MoveRelativePosition", target=-20.0, velocity=0.0)).exception["ex"] == \
+        "::morse_kemar::INVALID_VALUE"
+    await _run(kemar, "Rotate", z=0.0)
+    world = host.get("world")
+    await world.kemar_pose.wait_published()
+    start = yaw_of(world.kemar_pose.read())
+    await _run(kemar, "MoveRelativePosition", target=-20.0, velocity=200.0)
+    assert yaw_of(world.kemar_pose.read()) == pytest.approx(start - 20.0, abs=0.3)
+
+
+async def test_connect_port_rewires_a_robot_to_another_camera(host: ComponentHost) -> None:
+    pr2 = await host.load("pr2")
+    request = await _run(pr2, "connect_port", local="Image", remote="world/kemar_camera_left")
+    assert request.status == "done"
+    world = host.get("world")
+    await world.kemar_camera_left.wait_published()
+    assert pr2.Image.read() is world.kemar_camera_left.read()
