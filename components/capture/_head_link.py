@@ -14,11 +14,16 @@ def simulated_head_azimuth(host: ComponentHost) -> Azimuth | None:
     There is a simulated head when the host's CAN bus is ``virtual``; the drive is
     shared through the host (``kemar.rig``), so the scene turns when the ``kemar``
     or ``kemarcapture`` component moves the head.  On a real bus there is none
-    (and real microphones hear the real room).
+    (and real microphones hear the real room).  When ``morse_kemar`` is loaded (before
+    the capture starts), the scene follows the virtual KEMAR of ``world`` instead.
     """
     # Imported here: plain capture must not pay for the CAN stack unless it simulates.
     from ..kemar import simulated_rig
+    from ..world import virtual_head_azimuth
 
+    virtual = virtual_head_azimuth(host)  # the KEMAR of the MuJoCo world, when morse_kemar drives it
+    if virtual is not None:
+        return virtual
     rig = simulated_rig(host)
     if rig is None:
         return None

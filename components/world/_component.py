@@ -158,6 +158,8 @@ class World(Component, name="world", version="1.0"):
         self.pr2_joints.publish(JointState(self._header("base_footprint"), list(PR2_JOINTS),
                                            sim.joint_positions(PR2_JOINTS), sim.joint_speeds(PR2_JOINTS)))
         yaw = sim.kemar_yaw()
+        #: The KEMAR head's azimuth in degrees (positive = left), for the simulated sound scene.
+        self.kemar_azimuth = math.degrees(yaw)
         pose = Pose(Point(KEMAR_ORIGIN[0], KEMAR_ORIGIN[1], 1.47),
                     Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)))
         self.kemar_pose.publish(PoseStamped(self._header("map"), pose))

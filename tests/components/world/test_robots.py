@@ -88,3 +88,13 @@ async def test_connect_port_rewires_a_robot_to_another_camera(host: ComponentHos
     world = host.get("world")
     await world.kemar_camera_left.wait_published()
     assert pr2.Image.read() is world.kemar_camera_left.read()
+
+
+async def test_the_simulated_sound_scene_follows_the_virtual_kemar(host: ComponentHost) -> None:
+    from aiogenomix.components.capture import scene_azimuth
+
+    kemar = await host.load("morse_kemar")
+    azimuth = scene_azimuth(host, "sim", None)
+    assert azimuth is not None and azimuth() == pytest.approx(0.0, abs=0.1)
+    await _run(kemar, "MoveAbsolutePosition", target=30.0, velocity=200.0)
+    assert azimuth() == pytest.approx(30.0, abs=0.15)
