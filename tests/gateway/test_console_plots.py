@@ -91,7 +91,7 @@ async def test_forms_events_plots_pictures_and_audio(page: Any, gateway_with_cam
     await goto.get_by_role("button", name="send").click()
     await page.locator("#events .event", has_text="GotoPosition done").wait_for(timeout=WAIT)
     await goto.locator("pre.result", has_text="done").wait_for(timeout=WAIT)
-    await mobile.locator("pre.data", has_text='"position": 0.5').wait_for(timeout=WAIT)
+    await mobile.locator("pre.data", has_text="position: 0.5").wait_for(timeout=WAIT)
     await counter_above(mobile.locator("canvas.series"), "points", 2)
     # An exception of the component reads as a sentence with its detail.
     await goto.locator('input[name="posRef"]').fill("3")
@@ -159,7 +159,7 @@ async def test_many_long_activities_leave_the_console_responsive(page: Any, gate
     speed = service(page, "GetSpeed")
     await speed.locator("summary").click()
     await speed.get_by_role("button", name="send").click()
-    await speed.locator("pre.result", has_text="speedRef: ::demo::SLOW").wait_for(timeout=WAIT)
+    await speed.locator("pre.result", has_text='speedRef: "::demo::SLOW"').wait_for(timeout=WAIT)
     # One running request is aborted from its row.
     row = page.locator("#requests tr", has_text="Monitor").first
     await row.get_by_role("button", name="abort").click()
