@@ -52,6 +52,12 @@ async def console(request: web.Request) -> web.Response:
                                                 "Content-Security-Policy": _CONSOLE_POLICY, **SERVER_HEADER})
 
 
+@routes.get("/favicon.ico")
+async def favicon(request: web.Request) -> web.Response:
+    """No icon, said without an error: browsers ask for it on every page."""
+    return web.Response(status=204, headers=SERVER_HEADER)
+
+
 @routes.get("/version")
 async def version(request: web.Request) -> web.Response:
     """The genomix protocol version (the Server header names aiogenomix)."""

@@ -124,6 +124,9 @@ async def _serve_until_signalled(config: GatewayConfig) -> None:
             simulated = config.simulated_parts()
             note = f" (simulated: {'; '.join(simulated)})" if simulated else " (no simulated parts)"
             print(f"aiogenomix gateway listening on {url}{note}", flush=True)
+            # What a new user opens next, and where the audio components serve their sockets.
+            print(f"  console {url}/console · OpenAPI {url}/openapi.json · "
+                  f"dedicated audio sockets on port {config.audio_socket_port} (DedicatedSocket)", flush=True)
             await stop.wait()
     except asyncio.CancelledError:
         if not stop.is_set():

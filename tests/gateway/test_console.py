@@ -27,3 +27,8 @@ async def test_the_console_is_served(http: aiohttp.ClientSession, tmp_path) -> N
     source.write_text(script)
     checked = subprocess.run(["node", "--check", str(source)], capture_output=True, text=True, check=False)
     assert checked.returncode == 0, checked.stderr
+
+
+async def test_the_browsers_favicon_request_is_no_error(http: aiohttp.ClientSession) -> None:
+    async with http.get("/favicon.ico") as reply:
+        assert reply.status == 204
