@@ -130,6 +130,17 @@ async def test_forms_events_plots_pictures_and_audio(page: Any, gateway_with_cam
     await shade.get_by_role("button", name="send").click()
     await page.wait_for_function(f"() => ({red})(document.querySelector('canvas.picture')) === 20", timeout=WAIT)
 
+    # A place on the floor is drawn on a top-down map as it changes.
+    odom = port(page, "Odom")
+    await odom.locator("summary").click()
+    await odom.get_by_role("button", name="watch").click()
+    await counter_above(odom.locator("canvas.map"), "points", 0)
+    drive = service(page, "Drive")
+    await drive.locator("summary").click()
+    await drive.locator('input[name="x"]').fill("2")
+    await drive.get_by_role("button", name="send").click()
+    await counter_above(odom.locator("canvas.map"), "points", 1)
+
     # Back to capture: its watch is still on, and says so.
     await page.locator("#loaded").get_by_role("button", name="capture").click()
     await port(page, "Port").get_by_role("button", name="stop watching").wait_for(timeout=WAIT)
