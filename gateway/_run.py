@@ -6,6 +6,7 @@ import asyncio
 import concurrent.futures
 import contextlib
 import os
+import socket
 import sys
 import threading
 from collections.abc import AsyncIterator, Iterator
@@ -127,11 +128,34 @@ async def _serve_until_signalled(config: GatewayConfig) -> None:
             # What a new user opens next, and where the audio components serve their sockets.
             print(f"  console {url}/console · OpenAPI {url}/openapi.json · "
                   f"dedicated audio sockets on port {config.audio_socket_port} (DedicatedSocket)", flush=True)
+            taken = _port_taken(config.host, config.audio_socket_port)
+            if taken:
+                print(f"aiogenomix gateway: warning: the audio socket port {config.audio_socket_port} is taken "
+                      f"({taken}): DedicatedSocket will fail until it is free; choose another with "
+                      "--audio-socket-port", file=sys.stderr, flush=True)
             await stop.wait()
     except asyncio.CancelledError:
         if not stop.is_set():
             raise
         main.uncancel()
+
+
+def _port_taken(host: str, port: int) -> str | None:
+    """Why *port* cannot be listened on now (None: it can, or 0 picks a free one at each DedicatedSocket).
+
+    The audio components bind it only when a client asks for their socket: a port taken by another program
+    would otherwise be found long after start, by whoever asks first.
+    """
+    if not port:
+        return None
+    try:
+        family = socket.AF_INET6 if ":" in host else socket.AF_INET
+        with socket.socket(family, socket.SOCK_STREAM) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            probe.bind((host, port))
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    return None
 
 
 def run(config: GatewayConfig) -> None:
