@@ -34,7 +34,7 @@ async def _watch_all(port: int, readers: int, seconds: float, latencies: list[fl
     transports = []
     for _ in range(readers):
         transport, _protocol = await loop.create_connection(lambda: _WatchReader(latencies), "127.0.0.1", port)
-        transport.write(b"GET /module/probe/watch/Ticks HTTP/1.1\r\nHost: bench\r\n\r\n")
+        transport.write(b"GET /module/probe/watch/Ticks HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
         transports.append(transport)
     await asyncio.sleep(seconds)  # the benchmark's measuring window, not a synchronisation
     for transport in transports:

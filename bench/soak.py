@@ -50,8 +50,11 @@ async def run(seconds: float = 120.0) -> Result:
         async with aiohttp.ClientSession(read_bufsize=1 << 22) as http:
             await http.get(f"{base}/load/capture")
             await http.get(f"{base}/module/capture/send/DedicatedSocket")
-            async with http.get(f"{base}/module/capture/send/GetCaptureStatus") as reply:
-                socket_port = (await reply.json())["output"]["socket_port"]
+            socket_port = 0
+            while not socket_port:  # the socket opens as its activity starts
+                async with http.get(f"{base}/module/capture/send/GetCaptureStatus") as reply:
+                    socket_port = (await reply.json())["output"]["socket_port"]
+                await asyncio.sleep(0.05)
             request = {"device": "sim", "transfer_rate": RATE, "chunk_time": CHUNK_MS, "Port_chunks": PORT_CHUNKS}
             await http.get(f"{base}/module/capture/send/StartCapture", params={"input": json.dumps(request)})
             await asyncio.sleep(2 * PORT_CHUNKS * CHUNK_MS / 1000)  # let the window fill
