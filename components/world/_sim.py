@@ -157,7 +157,8 @@ class Simulation:
         ctrl[self._actuator["base_x"]] = vx
         ctrl[self._actuator["base_y"]] = vy
         ctrl[self._actuator["base_yaw"]] = max(-BASE_LIMITS[1], min(BASE_LIMITS[1], vw))
-        yaw, speed = self.kemar_yaw(), max(-KEMAR_MAX_SPEED, min(KEMAR_MAX_SPEED, self.kemar_speed))
-        if (yaw >= KEMAR_LIMIT and speed > 0) or (yaw <= -KEMAR_LIMIT and speed < 0):
-            speed = 0.0  # the limit switch: the neck stops there
+        # The limit switches: the neck stops at its limit, never past it within a step.
+        yaw, step = self.kemar_yaw(), float(self.model.opt.timestep)
+        room_left, room_right = max(0.0, KEMAR_LIMIT - yaw) / step, max(0.0, KEMAR_LIMIT + yaw) / step
+        speed = max(-min(KEMAR_MAX_SPEED, room_right), min(KEMAR_MAX_SPEED, room_left, self.kemar_speed))
         ctrl[self._actuator["kemar_head_yaw"]] = speed
