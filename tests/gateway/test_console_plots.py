@@ -175,6 +175,12 @@ async def test_many_long_activities_leave_the_console_responsive(page: Any, gate
     row = page.locator("#requests tr", has_text="Monitor").first
     await row.get_by_role("button", name="abort").click()
     await page.locator("#events .event", has_text="Monitor error ::genom::interrupted").wait_for(timeout=WAIT)
+    # The KEMAR head's azimuth and speed are plotted as soon as its module opens.
+    await load(page, "kemar")
+    head = port(page, "currentState")
+    await head.get_by_role("button", name="stop watching").wait_for(timeout=WAIT)
+    assert await head.locator("canvas.series").count() == 2
+    await counter_above(head.locator("canvas.series").first, "points", 1)
     # Reloading the page keeps its session: no session is left behind per load.
     for _ in range(3):
         await page.reload()
