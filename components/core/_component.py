@@ -20,7 +20,7 @@ from ._exceptions import (
 )
 from ._ports import ComputedOutPort, InPortRuntime, OutPortRuntime, PortSpec
 from ._requests import Request, RequestTracker
-from ._services import ServiceSpec, activity, function, service_spec
+from ._services import ServiceSpec, activity, check_validate_hook, function, service_spec
 from ._state import GenomState
 from ._tasks import Task, TaskRuntime
 from ._types import ULong, string
@@ -95,6 +95,9 @@ class Component:
             for target in spec.interrupts:
                 if target not in services:
                     raise TypeError(f"{cls.__name__}.{spec.name} interrupts unknown service {target!r}")
+            if spec.validate is not None:
+                # Caught here rather than as an error at the first request of the service.
+                check_validate_hook(spec, f"component {cls.genom_name!r} ({cls.__name__})")
 
     def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
         self.host = host

@@ -9,6 +9,7 @@ return annotation), interrupts, declared exceptions and a validate hook.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import inspect
 import typing
 from collections.abc import Callable, Mapping, Sequence
@@ -17,7 +18,9 @@ from typing import Annotated, Any, Literal
 from ._exceptions import GenomException, InputError
 from ._types import IdlType, idl_type
 
-__all__ = ["function", "activity", "attribute", "Out", "ParamSpec", "ServiceSpec", "NO_DEFAULT"]
+__all__ = [
+    "function", "activity", "attribute", "Out", "ParamSpec", "ServiceSpec", "NO_DEFAULT", "check_validate_hook",
+]
 
 ServiceKind = Literal["function", "activity", "attribute"]
 
@@ -215,9 +218,79 @@ def _build_spec(func: Callable[..., Any], kind: ServiceKind, options: dict[str, 
     )
 
 
+#: The options every service decorator takes.
+_OPTIONS = ("name", "doc", "interrupts", "throws", "validate", "task")
+
+
+def _check_options(owner: str, kind: ServiceKind, options: Mapping[str, Any]) -> None:
+    """Refuse what a decorator would otherwise ignore or misread: unknown options, wrong shapes.
+
+    Raises:
+        TypeError: naming the method (``Component.Service``) and the option.
+    """
+    for key in options:
+        if key not in _OPTIONS:
+            close = difflib.get_close_matches(key, _OPTIONS, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise TypeError(f"{owner}: @{kind} has no option {key!r}{hint}; its options are {', '.join(_OPTIONS)}")
+    for key in ("interrupts", "throws"):
+        value = options.get(key, ())
+        # A bare string would be read as a sequence of one-letter names.
+        if isinstance(value, str) or not isinstance(value, Sequence):
+            raise TypeError(f"{owner}: @{kind} option {key!r} must be a tuple, not {value!r}")
+    for name in options.get("interrupts", ()):
+        if not isinstance(name, str):
+            raise TypeError(f"{owner}: @{kind} option 'interrupts' names services by string, not {name!r}")
+    for exc in options.get("throws", ()):
+        if not (isinstance(exc, type) and issubclass(exc, GenomException)):
+            raise TypeError(f"{owner}: @{kind} option 'throws' takes GenomException classes, not {exc!r}")
+    validate = options.get("validate")
+    if validate is not None and not callable(validate):
+        raise TypeError(f"{owner}: @{kind} option 'validate' must be callable, not {validate!r}")
+
+
+def check_validate_hook(spec: ServiceSpec, owner: str) -> None:
+    """Check that ``spec.validate(component, **inputs)`` fits the service's inputs.
+
+    Args:
+        spec: The service, with a validate hook.
+        owner: How to name the component in the message.
+
+    Raises:
+        TypeError: naming the component, the service and the parameter that does not match.
+    """
+    hook = spec.validate
+    try:
+        params = list(inspect.signature(hook).parameters.values())  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return  # no introspectable signature (a builtin): the call itself will tell
+    inputs = [p.name for p in spec.inputs]
+    call = f"validate(self{''.join(', ' + n for n in inputs)})"
+    where = f"{owner}, service {spec.name}: validate hook {getattr(hook, '__name__', hook)!r}"
+    positional = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    if not params or (params[0].kind not in positional and params[0].kind is not inspect.Parameter.VAR_POSITIONAL):
+        raise TypeError(f"{where} must take the component first: it is called as {call}")
+    rest = params[1:] if params[0].kind is not inspect.Parameter.VAR_POSITIONAL else params
+    takes_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in rest)
+    by_keyword = {p.name: p for p in rest if p.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                                                         inspect.Parameter.KEYWORD_ONLY)}
+    for param in rest:
+        if param.kind is inspect.Parameter.POSITIONAL_ONLY and param.default is param.empty:
+            raise TypeError(f"{where} has the positional-only parameter {param.name!r}: it is called as {call}")
+        if param.name in by_keyword and param.name not in inputs and param.default is param.empty:
+            listed = ", ".join(inputs) or "none"
+            raise TypeError(f"{where} takes the parameter {param.name!r}, which is not an input of "
+                            f"{spec.name} (inputs: {listed})")
+    for name in inputs:
+        if name not in by_keyword and not takes_any:
+            raise TypeError(f"{where} does not take the input {name!r} of {spec.name}: it is called as {call}")
+
+
 def _decorator(kind: ServiceKind) -> Callable[..., Any]:
     def decorator(func: Callable[..., Any] | None = None, /, **options: Any) -> Any:
         def attach(f: Callable[..., Any]) -> Callable[..., Any]:
+            # Checked now, in the class body: a misspelled option would otherwise be ignored.
+            _check_options(getattr(f, "__qualname__", repr(f)), kind, options)
             # The spec is built lazily: type hints may name classes defined after the method.
             f.__genom_service__ = (kind, options)  # type: ignore[attr-defined]
             return f
@@ -235,8 +308,12 @@ def _decorator(kind: ServiceKind) -> Callable[..., Any]:
         interrupts: Names of the services a request of this one interrupts.
         throws: The GenomException classes it may raise.
         validate: ``validate(self, **inputs)``, sync or async, raising a GenomException
-            to refuse a request before it starts.
+            to refuse a request before it starts (the request then ends in ``error``).
+            Its parameters must be the service's inputs: checked when the class is created.
         task: The Task an activity runs in (descriptive; use ``await self.<task>.tick()``).
+
+    Raises:
+        TypeError: for an unknown option (``interupts``) or an option of the wrong shape.
     """
     return decorator
 
