@@ -16,9 +16,10 @@
     ├── ModuleUnloaded                the module of a pending request was unloaded
     └── ClientClosed                  the client was closed, or its session was stopped
 
-A declared exception arrives the same way whether the service's ``validate``
-refused the input (an HTTP 400 body) or the running service threw it (the
-``error`` status of its request): both raise the same generated class.
+A declared exception arrives as the ``error`` status of a request, whether the
+service's ``validate`` refused the input or the running service threw it: both
+raise the same generated class.  A genom exception in an HTTP error body (such
+as ``too_many_activities``) raises its class too, with no ``request_id``.
 """
 
 from __future__ import annotations

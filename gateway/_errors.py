@@ -9,9 +9,11 @@
     └── TooManySessions               429  the session cap is reached
 
 Errors of the component runtime map as: unknown module/service/port/request
-404, bad input 400, a ``validate`` refusal 400, too many activities 429, a
-running request that cannot be cleaned 409.  The body is always
+404, bad input 400, too many activities 429, a killed component or a running
+request that cannot be cleaned 409.  The body is always
 ``{"ex": "<genom id>", "detail": {...}, "message": "<readable sentence>"}``.
+A ``validate`` refusal is not an HTTP error: like in genom3 it ends the
+request in ``error`` (docs/decisions/0011).
 """
 
 from __future__ import annotations
@@ -95,7 +97,8 @@ def error_body(exc: Exception) -> tuple[int, dict[str, Any]]:
             return 429, body | {"message": "too many activities are running in this component"}
         if isinstance(exc, disallowed):
             return 409, body | {"message": "the component was killed and no longer accepts requests"}
-        return 400, body | {"message": f"refused by validation: {message}"}
+        # A genom exception raised outside any request (a port read, for one): the request was refused.
+        return 400, body | {"message": message}
     if isinstance(exc, ComponentError):
         return 400, {"ex": "::genomix::error", "message": message}
     return 500, {"ex": "::genom::unkex", "detail": {"what": f"{type(exc).__name__}: {exc}"},

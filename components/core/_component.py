@@ -224,35 +224,37 @@ class Component:
                    oneway: bool = False) -> Request:
         """Start a request of service *name* with the JSON-decoded *raw_input*.
 
+        As in genom3, ``validate`` runs inside the component once the request is
+        sent: a refusal is a request that ends in ``error`` with the declared
+        exception, reported like any other end.  Only what genom3 refuses before
+        sending anything raises here.
+
         Returns:
-            The request, already running (an activity) or possibly ended (a function).
+            The request: running (an activity), or possibly ended (a function, or a
+            request refused by ``validate``).
 
         Raises:
             NoSuchService, InputError: for a bad request (nothing is started).
-            GenomException: when ``validate`` refuses the input, or for
-                ``too_many_activities`` and ``disallowed`` (component killed).
+            GenomException: ``too_many_activities``, or ``disallowed`` once the
+                component was killed (no request is created).
         """
         spec = self.service(name)
         inputs = self.decode_inputs(spec, raw_input)
-        try:
-            if self._killed:
-                raise disallowed()
-            if spec.validate is not None:
-                verdict = spec.validate(self, **inputs)
-                if inspect.isawaitable(verdict):
-                    await verdict
-            if spec.kind == "activity" and sum(
-                r.service.kind == "activity" for r in self.requests.running()
-            ) >= self.max_activities:
-                raise too_many_activities()
-        except GenomException as exc:
-            exc.component = self.genom_name
-            raise
-        victims = [r for r in self.requests.running() if r.service.name in spec.interrupts] if spec.interrupts else []
+        # Checked before validate too: a killed component's validate may touch closed hardware.
+        self._refuse_if_killed()
+        refusal = await self._validate(spec, inputs)
+        # From here to the creation of its task nothing awaits: a concurrent send sees
+        # all of this admission or none of it, so interruption is decided atomically.
+        self._admit(spec)
         request = self.requests.create(spec, inputs, session, oneway)
-        if victims:
-            await asyncio.gather(*(self.interrupt(v, by=spec.name) for v in victims))
-        if spec.kind != "activity" and not spec.is_async:
+        if refusal is not None:
+            self._settle_error(request, refusal)
+            return request
+        victims = [r for r in self.requests.running()
+                   if r is not request and r.service.name in spec.interrupts]
+        for victim in victims:
+            self._signal_interrupt(victim, by=spec.name)
+        if not victims and spec.kind != "activity" and not spec.is_async:
             # A plain function or attribute runs to its end right here: no task to schedule.
             try:
                 result = spec.func(self, **inputs)
@@ -261,17 +263,56 @@ class Component:
             else:
                 self._settle(request, result)
         else:
-            request.task = asyncio.create_task(self._run(request), name=request.id)
-            if spec.kind != "activity":
-                # Functions and attributes are quick: let them end before the reply is sent.
-                await asyncio.wait({request.task}, timeout=self.host.function_grace)
-            if request.running:
-                self.requests.announce(request)
+            # The task first waits for the victims' stop paths: a request that is itself
+            # interrupted meanwhile is cancelled there and never runs its service.
+            request.task = asyncio.create_task(self._run(request, victims), name=request.id)
+            request.task.add_done_callback(lambda _: self._end_unstarted(request))
+            try:
+                if victims:
+                    # The reply (and the "sent" event) come after the victims' ends, as in genom3.
+                    await self._wait_stopped(victims)
+                if spec.kind != "activity":
+                    # Functions and attributes are quick: let them end before the reply is sent.
+                    await asyncio.wait({request.task}, timeout=self.host.function_grace)
+            finally:
+                # Even when the sender gave up waiting: the request runs, its session hears of it.
+                if request.running:
+                    self.requests.announce(request)
         self.genom_state.changed()
         return request
 
-    async def _run(self, request: Request) -> None:
+    def _refuse_if_killed(self) -> None:
+        if self._killed:
+            exc = disallowed()
+            exc.component = self.genom_name
+            raise exc
+
+    def _admit(self, spec: ServiceSpec) -> None:
+        """Raise what refuses a request before it exists: a killed component, too many activities."""
+        self._refuse_if_killed()
+        if spec.kind == "activity" and sum(
+            r.service.kind == "activity" for r in self.requests.running()
+        ) >= self.max_activities:
+            exc = too_many_activities()
+            exc.component = self.genom_name
+            raise exc
+
+    async def _validate(self, spec: ServiceSpec, inputs: dict[str, Any]) -> Exception | None:
+        """Run the service's ``validate`` hook; return what it raised (None: accepted)."""
+        if spec.validate is None:
+            return None
         try:
+            verdict = spec.validate(self, **inputs)
+            if inspect.isawaitable(verdict):
+                await verdict
+        except Exception as exc:
+            return exc
+        return None
+
+    async def _run(self, request: Request, victims: list[Request]) -> None:
+        try:
+            if victims:
+                await self._wait_stopped(victims)
             result = request.service.func(self, **request.inputs)
             if inspect.isawaitable(result):
                 result = await result
@@ -318,19 +359,40 @@ class Component:
             obj["detail"] = detail
         return obj
 
+    def _signal_interrupt(self, request: Request, by: str) -> None:
+        """Tell a running request to stop, at once and without waiting.
+
+        Only the first interrupter counts: cancelling a task again would cut
+        its stop path short (the robot would be left moving).
+        """
+        if not request.running or request.interrupted_by is not None:
+            return
+        request.interrupted_by = by
+        if request.task is None:
+            # Only an inline function has no task, and it never waits: kept so that no request is skipped.
+            self._end_unstarted(request)
+        else:
+            request.task.cancel(f"interrupted by {by}")
+
+    def _end_unstarted(self, request: Request) -> None:
+        """End a request whose task ended without ending it (cancelled before its first step)."""
+        if request.running and (request.task is None or request.task.done()):
+            self._end_error(request, interrupted(by=request.interrupted_by or "kill"))
+            self.genom_state.changed()
+
+    async def _wait_stopped(self, requests: list[Request]) -> None:
+        """Wait until every one of *requests* has ended (their stop paths have run)."""
+        tasks = {r.task for r in requests if r.task is not None and not r.task.done()}
+        if tasks:
+            # asyncio.wait never cancels what it waits for: a cancelled waiter leaves the victims stopping.
+            await asyncio.wait(tasks)
+        for request in requests:
+            self._end_unstarted(request)
+
     async def interrupt(self, request: Request, by: str) -> None:
         """Interrupt a running request and wait for its stop path to finish."""
-        if not request.running or request.task is None:
-            return
-        if request.interrupted_by is None:
-            request.interrupted_by = by
-        request.task.cancel(f"interrupted by {by}")
-        # Shielded so that a cancelled interrupter still lets the victim finish cleanly.
-        await asyncio.shield(asyncio.wait({request.task}))
-        if request.running:
-            # Cancelled before its first step: its code never ran, so end it here.
-            self._end_error(request, interrupted(by=request.interrupted_by))
-            self.genom_state.changed()
+        self._signal_interrupt(request, by)
+        await self._wait_stopped([request])
 
     async def abort(self, request_id: str) -> Request:
         """Interrupt the request *request_id* (``by: "abort"``) and return it."""

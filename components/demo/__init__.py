@@ -3,14 +3,15 @@
 from __future__ import annotations
 
 import enum
+import math
 from typing import Annotated
 
 from ..core import (
-    Component, Double, GenomException, OutPort, Out, Task, activity, attribute, function, idl_enum,
+    Component, Double, GenomException, OutPort, Out, String, Task, activity, attribute, function, idl_enum,
     idl_struct,
 )
 
-__all__ = ["Demo", "Speed", "State", "TOO_FAR_AWAY", "TRACK_END", "SPEEDS"]
+__all__ = ["Demo", "Speed", "State", "TOO_FAR_AWAY", "INVALID_VALUE", "TRACK_END", "SPEEDS"]
 
 #: The track runs from -TRACK_END to +TRACK_END metres.
 TRACK_END = 1.0
@@ -38,14 +39,30 @@ class State:
 
 
 class TOO_FAR_AWAY(GenomException):
-    """The target lies outside the track; ``overshoot`` says by how many metres (null: not a number)."""
+    """The target lies outside the track; ``overshoot`` says by how many metres."""
 
     overshoot: Double
 
 
+class INVALID_VALUE(GenomException):
+    """A parameter is not a number (NaN: JSON null decodes to it) or is infinite.
+
+    ``parameter`` names it; ``value`` is ``"nan"``, ``"inf"`` or ``"-inf"``.
+    """
+
+    parameter: String
+    value: String
+
+
+def _refuse_non_finite(parameter: str, value: float) -> None:
+    # A double accepts NaN and infinities, but no robot goes there: say so, rather than let a
+    # comparison with NaN fail somewhere downstream and report a misleading exception.
+    if not math.isfinite(value):
+        raise INVALID_VALUE(parameter=parameter, value=repr(value))
+
+
 def _refuse_off_track(position: float) -> None:
-    # A NaN (JSON null) position is nowhere on the track: refused too, with a null overshoot.
-    if not abs(position) <= TRACK_END:
+    if abs(position) > TRACK_END:
         raise TOO_FAR_AWAY(overshoot=abs(position) - TRACK_END)
 
 
@@ -62,10 +79,16 @@ class Demo(Component, name="demo", version="1.1"):
         self.Mobile.publish(self.state)
 
     def _validate_goto(self, posRef: float) -> None:
+        _refuse_non_finite("posRef", posRef)
         _refuse_off_track(posRef)
 
     def _validate_move(self, distRef: float) -> None:
+        _refuse_non_finite("distRef", distRef)
         _refuse_off_track(self.state.position + distRef)
+
+    def _validate_monitor(self, monitor: float) -> None:
+        # A NaN position is never reached nor crossed: the request would wait forever.
+        _refuse_non_finite("monitor", monitor)
 
     async def _drive_to(self, target: float) -> None:
         """Move at the reference speed, one step per task period, until *target* is reached."""
@@ -86,13 +109,13 @@ class Demo(Component, name="demo", version="1.1"):
                 self.state = State(self.state.position, 0.0)
                 self.Mobile.publish(self.state)
 
-    @activity(task=motion, interrupts=("GotoPosition", "MoveDistance"), throws=(TOO_FAR_AWAY,),
+    @activity(task=motion, interrupts=("GotoPosition", "MoveDistance"), throws=(TOO_FAR_AWAY, INVALID_VALUE),
               validate=_validate_goto)
     async def GotoPosition(self, posRef: Annotated[Double, "Goto position in m"] = 0.0) -> None:
         """Move the robot to an absolute position on the track."""
         await self._drive_to(posRef)
 
-    @activity(task=motion, interrupts=("GotoPosition", "MoveDistance"), throws=(TOO_FAR_AWAY,),
+    @activity(task=motion, interrupts=("GotoPosition", "MoveDistance"), throws=(TOO_FAR_AWAY, INVALID_VALUE),
               validate=_validate_move)
     async def MoveDistance(self, distRef: Annotated[Double, "Distance in m"] = 0.0) -> None:
         """Move the robot by a distance from where it is."""
@@ -112,7 +135,7 @@ class Demo(Component, name="demo", version="1.1"):
         """Get the speed of the motions."""
         return self.speed_ref
 
-    @activity(task=motion)
+    @activity(task=motion, throws=(INVALID_VALUE,), validate=_validate_monitor)
     async def Monitor(
         self, monitor: Annotated[Double, "Position to watch in m"] = 0.0
     ) -> Annotated[State, Out("state", "The state of the robot when it crossed the position")]:

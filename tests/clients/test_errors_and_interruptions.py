@@ -32,9 +32,14 @@ async def test_validate_refusal_raises_the_generated_class(gateway_url: str) -> 
         assert exc.service == "GotoPosition" and exc.module == "demo"
         assert "TOO_FAR_AWAY" in str(exc)
         assert demo.TOO_FAR_AWAY is remote_exception_class("::demo::TOO_FAR_AWAY")
-        # ack=True changes nothing: a refused request never starts, so there is no handle.
-        with pytest.raises(demo.TOO_FAR_AWAY):
-            await demo.MoveDistance(-3, ack=True)
+        assert exc.request_id is not None  # a refusal is a request that ended in error, as in genom3
+        # ack=True returns the handle of that request (Tcl's `&` gives its command): already ended,
+        # it raises the same class.
+        refused = await demo.MoveDistance(-3, ack=True)
+        assert refused.done and refused.status == "error"
+        with pytest.raises(demo.TOO_FAR_AWAY) as caught:
+            await refused.result()
+        assert caught.value.request_id == refused.id and caught.value.overshoot == pytest.approx(2.0)
         assert client.pending() == []
 
 

@@ -131,6 +131,7 @@ async def test_description_is_in_declaration_order(host: ComponentHost) -> None:
 async def test_interruption_runs_the_stop_path_and_names_the_interrupter(host: ComponentHost) -> None:
     gadget = await host.load("gadget")
     first = await gadget.send("Fill", {"amount": 5}, session="s")
+    await host.clock.advance(0.5)  # type: ignore[attr-defined]  # Fill is under way: it has a stop path to run
     second = await gadget.send("Fill", {"amount": 1}, session="s")
     assert first.status_object() == {"id": "gadget::0", "status": "error",
                                       "exception": {"ex": "::genom::interrupted", "detail": {"by": "Fill"}}}
@@ -175,14 +176,22 @@ async def test_exceptions_declared_and_unexpected(host: ComponentHost, caplog: p
     assert "boom" in caplog.text  # reported, not swallowed
 
 
-async def test_validate_refuses_before_anything_starts(host: ComponentHost) -> None:
+async def test_validate_refusal_ends_the_request_in_error(host: ComponentHost) -> None:
     gadget = await host.load("gadget")
-    with pytest.raises(TOO_BIG) as refused:
-        await gadget.send("Fill", {"amount": 11})
-    assert refused.value.id == "::gadget::TOO_BIG"
+    filling = await gadget.send("Fill", {"amount": 5}, session="s")
+    refused = await gadget.send("Fill", {"amount": 11}, session="s")
+    # As in genom3: the request exists, ends in error with the declared exception, and is reported once.
+    assert refused.status_object() == {"id": "gadget::1", "status": "error",
+                                        "exception": {"ex": "::gadget::TOO_BIG", "detail": {"limit": 10.0}}}
+    assert [e for e in host.events if e["id"] == "gadget::1"] == [refused.status_object()]
+    # A refused request interrupts nothing: Fill goes on.
+    assert filling.running and gadget.requests.running() == [filling]
+    # Input that does not fit its type is refused before anything is sent: no request.
     with pytest.raises(InputError):
         await gadget.send("Fill", {"amount": "lots"})
-    assert gadget.requests.running() == []
+    assert gadget.requests.running() == [filling]
+    await host.clock.advance(5)  # type: ignore[attr-defined]
+    assert filling.status == "done"
 
 
 async def test_oneway_requests_leave_no_trace(host: ComponentHost) -> None:

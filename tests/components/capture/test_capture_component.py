@@ -33,16 +33,16 @@ def test_info_shows_the_default_device_of_the_host() -> None:
     ({"chunk_time": 100_000}, "outside 1"),
 ])
 async def test_impossible_chunk_times_are_refused(capture: Capture, inputs: dict[str, int], message: str) -> None:
-    with pytest.raises(INVALID_CHUNK_TIME) as refused:
-        await capture.send("StartCapture", inputs)
-    assert message in refused.value.detail["what"]
+    refused = await capture.send("StartCapture", inputs)
+    assert refused.exception is not None and refused.exception["ex"] == INVALID_CHUNK_TIME.ex_id("capture")
+    assert message in refused.exception["detail"]["what"]
     assert not capture.requests.running() and capture.Port.read().index == 0
 
 
 @pytest.mark.parametrize("chunks", [0, 1_000_000])
 async def test_ports_too_large_or_empty_are_refused(capture: Capture, chunks: int) -> None:
-    with pytest.raises(ERROR_SEQUENCE_ENOMEM):
-        await capture.send("StartCapture", {"Port_chunks": chunks})
+    refused = await capture.send("StartCapture", {"Port_chunks": chunks})
+    assert refused.exception is not None and refused.exception["ex"] == ERROR_SEQUENCE_ENOMEM.ex_id("capture")
 
 
 async def test_a_missing_device_ends_the_request_in_error(capture: Capture) -> None:
@@ -63,9 +63,8 @@ async def test_a_missing_device_ends_the_request_in_error(capture: Capture) -> N
 
 async def test_a_second_start_is_refused_and_the_first_goes_on(capture: Capture) -> None:
     first = await capture.send("StartCapture", {"Port_chunks": 4})
-    with pytest.raises(ALREADY_CAPTURING) as refused:
-        await capture.send("StartCapture", {"device": "sim", "Port_chunks": 8})
-    assert refused.value.detail == {"device": "sim"}
+    refused = await capture.send("StartCapture", {"device": "sim", "Port_chunks": 8})
+    assert refused.exception == {"ex": ALREADY_CAPTURING.ex_id("capture"), "detail": {"device": "sim"}}
     await wait_for_index(capture, 3)
     assert first.running and capture.capturing
     stop = await capture.send("StopCapture")
@@ -116,8 +115,9 @@ async def test_portaudio_without_devices_is_a_declared_error(capture: Capture) -
 async def test_dedicated_socket_open_serve_and_close(capture: Capture) -> None:
     socket = await capture.send("DedicatedSocket")
     assert await capture.wait_socket() > 0 and socket.running
-    with pytest.raises(SOCKET_ERROR, match="already open"):
-        await capture.send("DedicatedSocket")
+    again = await capture.send("DedicatedSocket")
+    assert again.exception is not None and again.exception["ex"] == SOCKET_ERROR.ex_id("capture")
+    assert "already open" in str(again.exception["detail"])
     capturing = await capture.send("StartCapture", {"Port_chunks": 5})
     await wait_for_index(capture, 2)
     async with AsyncAudioSocketClient(port=capture.socket_port) as client:
