@@ -7,6 +7,7 @@ on in ports, which ``pr2`` and ``morse_kemar`` connect to their own ports when t
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import math
 from typing import Any
@@ -58,6 +59,9 @@ class World(Component, name="world", version="1.0"):
                      ("-size WIDTHxHEIGHT", "camera image size in pixels (default 256x256, the seed's)"),
                      ("-rate HZ", "camera and laser rate in frames per runtime second (default 10, at most 50)")]
 
+    sim: Simulation | None = None
+    renderer: SensorRenderer | None = None
+
     physics = Task(period=0.02, doc="Steps the physics to the runtime clock, applies commands, publishes poses")
     sensors = Task(period=0.02, doc="Renders the cameras and sweeps the laser off the event loop, at -rate")
 
@@ -78,6 +82,14 @@ class World(Component, name="world", version="1.0"):
     kemar_motion = InPort(Twist, doc="KEMAR neck speed (angular.z, rad/s); connected to morse_kemar/RobotMotion")
 
     async def on_start(self) -> None:
+        """Build the scene and the renderer; a failed start ends the tasks it began with."""
+        try:
+            await self._start()
+        except BaseException:
+            await self.stop()  # the tasks started before on_start: they end with the failed load
+            raise
+
+    async def _start(self) -> None:
         self.camera_size = parse_size(_option(self.argv, "-size", "256x256"))
         rate_text = _option(self.argv, "-rate", "10")
         try:
@@ -88,23 +100,25 @@ class World(Component, name="world", version="1.0"):
             raise LoadError(f"bad camera rate {rate_text!r}: 0.1 to 50 frames per second")
         self.frame_period = 1.0 / rate
         width, height = self.camera_size
-        self.sim = Simulation(width, height)
+        # Importing MuJoCo and compiling the scene take about half a second: off the event loop.
+        # The tasks already run meanwhile; they wait for the simulation (``sim`` is None until then).
+        self.sim = await asyncio.to_thread(Simulation, width, height)
         self.renderer = SensorRenderer(self.sim.mujoco, self.sim.model, width, height)
         self._origin = self.clock.now()
         self._next_frame = 0.0
         self._seq = 0
         self._seen: dict[str, tuple[int, int]] = {}
         self._publish_state()
-        # The tasks run from here on (the first await): everything they use is set above.
+        # The tasks step and render from here on: everything they use is set above.
         try:
             await self.renderer.open()
         except Exception as exc:
-            await self.renderer.aclose()
             raise LoadError(f"the world cannot render its cameras ({type(exc).__name__}: {exc}); "
                             "MuJoCo renders offscreen with MUJOCO_GL=osmesa and Debian's libosmesa6") from exc
 
     async def on_stop(self) -> None:
-        await self.renderer.aclose()
+        if self.renderer is not None:
+            await self.renderer.aclose()
 
     # -- commands --------------------------------------------------------------------------
 
@@ -140,6 +154,8 @@ class World(Component, name="world", version="1.0"):
 
     @physics.periodic
     def _step(self) -> None:
+        if self.renderer is None:  # still starting
+            return
         # Catch up with the clock first: a command then starts at the time it arrived, not at the
         # time of a simulation that lagged (a motion would end early on the clock).
         self.sim.advance(self.clock.now() - self._origin)
@@ -168,6 +184,8 @@ class World(Component, name="world", version="1.0"):
 
     @sensors.periodic
     async def _sense(self) -> None:
+        if self.renderer is None:  # still starting
+            return
         now = self.clock.now() - self._origin
         if now < self._next_frame:
             return
