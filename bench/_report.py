@@ -17,31 +17,50 @@ everything. A target that is missed says **MISSED**.
 
 ANALYSIS = """## Where the time goes (profiles behind the figures above)
 
-* **genomix JSON (target 12× the floor: missed).** A 4000 ms window is 3.46 MB of decimal text for 1.41 MB
-  of samples. Measured in isolation on this machine: the gateway encodes it with orjson straight from the
-  numpy arrays in about 3.4 ms; parsing it with `orjson.loads` alone takes 14.5 ms, and turning the two
-  Python lists into numpy arrays another 6.6 ms. The client therefore cuts the numeric arrays out of the
-  reply and parses them with numpy's C text parser (`clients/_fastjson.py`: 9.9 ms for both channels,
-  with a fall-back to orjson whenever the text is not plain numbers). What is left is the cost of
-  decimal text itself — about ten times the cost of moving the same samples as bytes — so the target is
-  out of reach for any JSON reader; the path is still faster for 4000 ms than the seed's dedicated socket
-  was for 500 ms, and the binary and incremental paths exist for this reason.
-* **Binary HTTP (target 2×: at the edge, 1.8–2.9× across runs).** Two copies of the window that the
-  floor does not make: the gateway snapshots the window before writing it (a chunk may arrive while a
-  large reply is still being written, so views are not safe there), and aiohttp's client joins the
-  received pieces before numpy wraps them. Measured with a timing middleware, the gateway's handler
-  takes 0.4–0.8 ms of the 1.2–1.5 ms of a read (snapshot, then 1.4 MB into the socket); a read issued
-  the instant the previous one ends pays more than one issued a few milliseconds later, which is why the
-  figure moves between runs. A streaming reader does not read the whole window: it uses `since=`.
-* **Dedicated socket (target 1.5×: met).** The server writes views of the window straight to the socket
-  (no encoding copy) and the client receives the reply directly into the numpy array it returns
-  (`clients/_receiver.py`); what remains over the floor is the request line and the server's loop turn.
-* **Incremental reads** move one 50 ms chunk (17.6 kB) instead of the window: 0.5 ms whatever the
-  window length, which is what a streaming reader pays every 50 ms.
-* **Load (target ≥ 50 % of bare aiohttp: met, 0.54).** Per request, aiohttp's own parsing, routing and
-  response writing cost about two thirds; the runtime's part (decode the input, create the request,
-  run the function inline, encode the status, route events) is the last third. The first round of each
-  run is slower for both servers (warm-up), hence the median of five rounds.
+Profiles: the benchmark gateway under cProfile (`python -m bench._server gateway --profile FILE`, stats
+written on SIGTERM) while a raw reader reads kemarcapture's Port for 4 s, per read; cProfile slows Python
+code about twofold, so the Python figures are upper bounds and what matters is their share.
+
+* **How a port read works now.** Each captured chunk is a read-only array wrapped in a `Chunk` that keeps its
+  JSON text once made (`components/core/_chunked.py`); a publication holds references to its chunks. A read
+  encodes the small struct with orjson, leaving a mark where each sample array goes, and splices in the
+  chunks' texts (`gateway/_pieces.py`); the binary form lists the chunks' memory. The body is the struct's
+  first bytes (sent with the HTTP head) and the rest joined once; the last whole-port body of each port is
+  kept, so readers of the same publication share it. Byte for byte what orjson gives for the joined arrays
+  (`tests/gateway/test_port_pieces.py`), and a window that turns over during a reply does not tear it.
+* **Back-to-back reads of the 4000 ms window (most share a publication's body).** Per read, the gateway's
+  Python work is the request: aiohttp parsing (0.06 ms), routing, the access-check, auth and error
+  middlewares and the handler (0.5 ms in all under the profiler; the handler itself 0.33 ms, of which 0.2 ms
+  is the one read in ~15 that builds a new body). The rest is `socket.send` copying 3.46 MB into the kernel
+  (1.5 ms/read under the profiler) — what the floor pays too. So the ratio is the request's fixed cost over
+  the floor, and on this shared machine it moves from block to block (see the spreads): other sessions'
+  test suites and simulators ran during this run (orjson needed far longer to parse the same reply than in
+  isolation, 14 ms).
+* **Each read a new publication.** The new chunk's JSON text (0.44 ms/read under the profiler, both
+  channels), the splice (json_pieces, 1.1 ms with it) and above all the join into one new 3.46 MB buffer:
+  2.1 ms/read under the profiler, where the same join into reused memory takes 0.15 ms. malloc maps a fresh
+  region for each new body (glibc's mmap threshold follows the size of the last freed body, and each body
+  is a little larger or smaller), so every one of its ~850 pages faults on first write, and the previous
+  body is unmapped when it is replaced. Binary: 1.3 ms of body building, of which the 1.41 MB join is
+  0.56 ms. Writing the chunks one by one instead of joining them was measured worse (one `send` per
+  piece: 325 system calls, each waking the reader); Python 3.12's `transport.writelines` sends a list of
+  buffers with one `sendmsg` and no copy (aiohttp uses it from Python 3.12.9), which removes the join; on
+  3.11 the remaining lever is malloc's thresholds (`mallopt`), not tried here.
+* **Small windows (500 and 1000 ms).** The floor moves 0.18–0.87 MB in 0.3–0.5 ms; the request's fixed cost
+  in the gateway (parsing, middlewares, handler, response head: 0.29 ms/read under the profiler for the
+  500 ms window) is of the same size, so 1.5× is out of reach for HTTP whatever the body costs; the
+  dedicated socket, which has no HTTP layer, stays near its floor.
+* **Dedicated sockets** write each reply from one buffer of their own (2014) or the snapshot's chunks
+  (2015); what remains over the floor is the request line and a loop turn.
+* **Load (target 0.7 of bare aiohttp).** Both servers spend most of a request in aiohttp (parsing, routing,
+  writing the response); the gateway adds its middlewares (access checks parse the peer address with
+  `ipaddress` on every request, token check, error translation), session lookup, input decoding, request
+  creation and the status reply. Those are the send path and the middlewares other work is changing now;
+  this run's rounds are in the table, with their spread.
+* **Memory.** At start the gateway imports only what serving needs (components are imported when first
+  loaded); the figure with every component loaded is dominated by the simulators (MuJoCo for `world`,
+  `pr2` and `morse_kemar`). A session costs about a kilobyte and sessions are bounded (`--max-sessions`);
+  an uncleaned request a few hundred bytes until its session ends.
 """
 
 
@@ -77,6 +96,8 @@ _LABELS = {
     "socket": "dedicated socket, request to last byte", "binary": "binary HTTP, request to last byte",
     "json": "genomix JSON, request to last byte", "binary_fresh": "binary HTTP, each read a new publication",
     "json_fresh": "genomix JSON, each read a new publication",
+    "binary_before": "before: binary HTTP, request to last byte",
+    "json_before": "before: genomix JSON, request to last byte",
 }
 
 
@@ -86,8 +107,10 @@ def _ratio_rows(where: str, paths: dict[str, Any], targets: dict[str, float]) ->
         if name not in paths:
             continue
         p, floor = paths[name], paths[paths[name]["floor"]]
-        target = targets[name.removesuffix("_fresh")]
+        target = targets[name.removesuffix("_fresh").removesuffix("_before")]
         verdict = "met" if p["ratio_to_floor"] <= target else "**MISSED**"
+        if name.endswith("_before"):
+            verdict = "(reference)"
         rows.append(f"| {where} | {label} | {p['bytes']} | {_ms(floor['median'])} | {_ms(p['median'])} "
                     f"({_ms(p['p10'])}–{_ms(p['p90'])}) | **{p['ratio_to_floor']:.2f}** | "
                     f"{p['ratio_min']:.2f}–{p['ratio_max']:.2f} | ≤ {target}× {verdict} |")
@@ -105,6 +128,8 @@ def _port_read(r: dict[str, Any]) -> str:
              "and the spread is the lowest and highest block ratio. *Each read a new publication*: the reader waits "
              "one chunk period (untimed) before each read, and so does its floor, so no read shares the reply of "
              "a publication already served (what a client polling at the port's rate gets).", "",
+             *([f"*Before*: the gateway of {r['baseline']}, run beside this one and read in the same blocks.", ""]
+               if r.get("baseline") else []),
              "| port | path | bytes | floor median ms | median ms (p10–p90) | × floor | block spread | target |",
              "|---|---|---|---|---|---|---|---|"]
     for window, paths in r["windows"].items():

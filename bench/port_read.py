@@ -15,7 +15,9 @@ orjson takes to parse the JSON reply (the client's business, not the gateway's).
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
+import os
 import statistics
 import sys
 import time
@@ -44,11 +46,31 @@ MODULE = "kemarcapture"
 Read = Callable[[], Awaitable[object]]
 #: Each measured path and the floor it is compared with.
 PAIRS = {"socket": "floor", "binary": "floor", "json": "floor_json", "binary_fresh": "floor_fresh",
-         "json_fresh": "floor_json_fresh"}
+         "json_fresh": "floor_json_fresh", "binary_before": "floor", "json_before": "floor_json"}
 
 
 def _http_get(path: str) -> bytes:
     return f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n".encode()
+
+
+#: Set to a directory holding another checkout as ``aiogenomix`` (``aiogenomix/gateway`` ... as
+#: links) to measure that gateway's JSON and binary reads in the same blocks ("before").
+BASELINE = os.environ.get("AIOGENOMIX_BENCH_BASELINE")
+BEFORE = "_before"
+
+
+def _before_paths(before_port: int | None, path: str, floors: dict[str, RawReader]) -> dict[str, Read]:
+    """The baseline gateway's reads (same port, same floors), when there is one."""
+    if before_port is None:
+        return {}
+    readers: dict[str, RawReader] = {}
+
+    async def read(name: str, query: str) -> object:
+        if name not in readers:
+            readers[name] = await RawReader.connect(before_port, http=True)
+        return await readers[name].exchange(_http_get(path + query))
+
+    return {"binary_before": lambda: read("binary", "?format=binary"), "json_before": lambda: read("json", "")}
 
 
 #: Paths whose name ends with this wait one chunk period (untimed) before each read, so that
@@ -104,7 +126,7 @@ async def _parse_ms(body: bytes) -> float:
 
 
 async def _capture_window(base: str, port: int, socket_port: int, floor_port: int, chunks: int, reads: int,
-                          block: int) -> dict[str, Any]:
+                          block: int, before_port: int | None = None) -> dict[str, Any]:
     values = FRAMES * chunks
     path = f"/module/{MODULE}/read/Port"
     readers = {name: await RawReader.connect(port, http=True) for name in ("json", "binary")}
@@ -153,6 +175,7 @@ async def _capture_window(base: str, port: int, socket_port: int, floor_port: in
             "binary_fresh": lambda: readers["binary"].exchange(_http_get(path + "?format=binary")),
             "floor_json_fresh": lambda: floors["json"].exchange(b"%d\n" % json_bytes),
             "json_fresh": lambda: readers["json"].exchange(_http_get(path)),
+            **_before_paths(before_port, path, floors),
             "client_socket": socket_read,
             "client_binary": client_binary,
             "client_json": client_json,
@@ -161,13 +184,15 @@ async def _capture_window(base: str, port: int, socket_port: int, floor_port: in
         samples = await _blocks(paths, reads, block)
     for reader in (*readers.values(), *floors.values(), raw_socket):
         reader.close()
-    results = _ratios(samples, PAIRS)
+    results = _ratios(samples, {k: v for k, v in PAIRS.items() if k in samples})
     results["client_incremental"] = summary(incremental)
-    for name in ("floor", "binary", "floor_fresh", "binary_fresh"):
-        results[name]["bytes"] = samples_bytes
+    for name in ("floor", "binary", "floor_fresh", "binary_fresh", "binary_before"):
+        if name in results:
+            results[name]["bytes"] = samples_bytes
     results["socket"]["bytes"] = samples_bytes + 8 + 4 * chunks  # count, last index, a float32 position per chunk
-    for name in ("floor_json", "json", "floor_json_fresh", "json_fresh"):
-        results[name]["bytes"] = json_bytes
+    for name in ("floor_json", "json", "floor_json_fresh", "json_fresh", "json_before"):
+        if name in results:
+            results[name]["bytes"] = json_bytes
     results["orjson_parse_ms"] = await _parse_ms(json_body[json_body.index(b"\r\n\r\n") + 4:])
     return results
 
@@ -198,7 +223,7 @@ async def _start_bass(http: aiohttp.ClientSession, base: str) -> None:
 
 
 async def _bass(http: aiohttp.ClientSession, base: str, port: int, floor_port: int, reads: int,
-                block: int) -> dict[str, Any]:
+                block: int, before_port: int | None = None) -> dict[str, Any]:
     chunks = WINDOWS[4000]
     print("bench: port_read bass", file=sys.stderr, flush=True)
     async with asyncio.timeout(60):
@@ -233,16 +258,19 @@ async def _bass(http: aiohttp.ClientSession, base: str, port: int, floor_port: i
             "binary_fresh": lambda: readers["binary"].exchange(_http_get(path + "?format=binary")),
             "floor_json_fresh": lambda: floors["json"].exchange(b"%d\n" % json_bytes),
             "json_fresh": lambda: readers["json"].exchange(_http_get(path)),
+            **_before_paths(before_port, path, floors),
         }
         samples = await _blocks(paths, reads, block)
     for reader in (*readers.values(), *floors.values(), raw_socket):
         reader.close()
     await _send(http, base, "bass", "Stop")
-    results = _ratios(samples, PAIRS)
-    for name in ("floor", "binary", "socket", "floor_fresh", "binary_fresh"):
-        results[name]["bytes"] = samples_bytes
-    for name in ("floor_json", "json", "floor_json_fresh", "json_fresh"):
-        results[name]["bytes"] = json_bytes
+    results = _ratios(samples, {k: v for k, v in PAIRS.items() if k in samples})
+    for name in ("floor", "binary", "socket", "floor_fresh", "binary_fresh", "binary_before"):
+        if name in results:
+            results[name]["bytes"] = samples_bytes
+    for name in ("floor_json", "json", "floor_json_fresh", "json_fresh", "json_before"):
+        if name in results:
+            results[name]["bytes"] = json_bytes
     results["orjson_parse_ms"] = await _parse_ms(json_body[json_body.index(b"\r\n\r\n") + 4:])
     return results
 
@@ -255,37 +283,50 @@ async def _bass_socket_port(http: aiohttp.ClientSession, base: str) -> int:
     return int(detail.get("port", 0))
 
 
+async def _start_window(http: aiohttp.ClientSession, base: str, chunks: int) -> None:
+    await _send(http, base, MODULE, "StartCapture", device="sim", transfer_rate=RATE, chunk_time=CHUNK_MS,
+                Port_chunks=chunks)
+    async with asyncio.timeout(60):
+        while True:  # the window fills in real time (a benchmark, not a test: poll)
+            status = (await _send(http, base, MODULE, "GetCaptureStatus"))["output"]
+            if status["capturing"] and status["index"] >= chunks:  # capturing: the new window's index
+                return
+            await asyncio.sleep(0.2)
+
+
+async def _stop_window(http: aiohttp.ClientSession, base: str) -> None:
+    await _send(http, base, MODULE, "StopCapture")
+    async with asyncio.timeout(30):
+        while (await _send(http, base, MODULE, "GetCaptureStatus"))["output"]["capturing"]:
+            await asyncio.sleep(0.05)  # the capture ends as its activity is interrupted
+
+
 async def run(reads: int = 50, block: int = 10) -> Result:
     """Measure every path for every window length, and bass's port."""
     results: dict[str, Any] = {}
-    async with server("gateway") as (port, _), server("socket") as (floor_port, _):
+    async with contextlib.AsyncExitStack() as stack:
+        port, _ = await stack.enter_async_context(server("gateway"))
+        floor_port, _ = await stack.enter_async_context(server("socket"))
+        before_port = (await stack.enter_async_context(server("gateway", BASELINE)))[0] if BASELINE else None
         base = f"http://127.0.0.1:{port}"
-        async with aiohttp.ClientSession(read_bufsize=1 << 22) as http:
-            await _start_bass(http, base)
-            await http.get(f"{base}/load/{MODULE}")
-            await _send(http, base, MODULE, "DedicatedSocket")
-            socket_port = 0
-            while not socket_port:  # the socket opens as its activity starts
-                socket_port = (await _send(http, base, MODULE, "GetCaptureStatus"))["output"]["socket_port"]
-                await asyncio.sleep(0.05)
-            for window_ms, chunks in WINDOWS.items():
-                await _send(http, base, MODULE, "StartCapture", device="sim", transfer_rate=RATE,
-                            chunk_time=CHUNK_MS, Port_chunks=chunks)
-                print(f"bench: port_read {window_ms} ms", file=sys.stderr, flush=True)
-                async with asyncio.timeout(60):
-                    while True:  # the window fills in real time (a benchmark, not a test: poll)
-                        status = (await _send(http, base, MODULE, "GetCaptureStatus"))["output"]
-                        if status["capturing"] and status["index"] >= chunks:  # capturing: the new window's index
-                            break
-                        await asyncio.sleep(0.2)
-                results[str(window_ms)] = await _capture_window(base, port, socket_port, floor_port, chunks, reads,
-                                                                block)
-                await _send(http, base, MODULE, "StopCapture")
-                async with asyncio.timeout(30):
-                    while (await _send(http, base, MODULE, "GetCaptureStatus"))["output"]["capturing"]:
-                        await asyncio.sleep(0.05)  # the capture ends as its activity is interrupted
-            await _send(http, base, MODULE, "CloseSocket")
-            bass = await _bass(http, base, port, floor_port, reads, block)
+        bases = [base] + ([f"http://127.0.0.1:{before_port}"] if before_port else [])
+        http = await stack.enter_async_context(aiohttp.ClientSession(read_bufsize=1 << 22))
+        for each in bases:
+            await _start_bass(http, each)
+            await http.get(f"{each}/load/{MODULE}")
+        await _send(http, base, MODULE, "DedicatedSocket")
+        socket_port = 0
+        while not socket_port:  # the socket opens as its activity starts
+            socket_port = (await _send(http, base, MODULE, "GetCaptureStatus"))["output"]["socket_port"]
+            await asyncio.sleep(0.05)
+        for window_ms, chunks in WINDOWS.items():
+            print(f"bench: port_read {window_ms} ms", file=sys.stderr, flush=True)
+            await asyncio.gather(*(_start_window(http, each, chunks) for each in bases))
+            results[str(window_ms)] = await _capture_window(base, port, socket_port, floor_port, chunks, reads,
+                                                            block, before_port)
+            await asyncio.gather(*(_stop_window(http, each) for each in bases))
+        await _send(http, base, MODULE, "CloseSocket")
+        bass = await _bass(http, base, port, floor_port, reads, block, before_port)
     verdicts: dict[str, str] = {}
     for where, paths in [*((f"{w} ms", results[str(w)]) for w in WINDOWS), ("bass", bass)]:
         for name, target in TARGETS.items():
@@ -294,4 +335,4 @@ async def run(reads: int = 50, block: int = 10) -> Result:
                 verdicts[f"{where} {name}{FRESH}"] = ("met" if paths[name + FRESH]["ratio_to_floor"] <= target
                                                       else "MISSED")
     return {"windows": results, "bass": bass, "module": MODULE, "targets": TARGETS, "seed_ms": SEED_MS,
-            "verdicts": verdicts}
+            "verdicts": verdicts, "baseline": os.environ.get("AIOGENOMIX_BENCH_BASELINE_NAME", BASELINE)}
