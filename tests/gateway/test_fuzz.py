@@ -158,9 +158,16 @@ class Witness:
         return self.moves
 
 
+@pytest.fixture
+def no_leaks() -> Iterator[None]:
+    """The gateway and what the fuzzer loads in it live for the whole module: leaks are checked at its end."""
+    yield
+
+
 @pytest.fixture(scope="module")
 def fuzzed() -> Iterator[tuple[Gateway, dict[str, Any], Witness]]:
     config = GatewayConfig(port=0, time_scale=1.0, audio_socket_port=0)
+    threads_before = set(threading.enumerate())
     with serve_in_thread(config) as url:
         gateway = Gateway(url)
         infos = {}
@@ -179,6 +186,11 @@ def fuzzed() -> Iterator[tuple[Gateway, dict[str, Any], Witness]]:
         assert not [e for e in witness.events if "event: unload" in e]
         gateway.close()
         assert gateway.count > 0
+    # Everything the fuzzer started (components' bus and device threads) ended with the gateway.
+    left = [t for t in threading.enumerate() if t not in threads_before and t.is_alive()]
+    for thread in left:
+        thread.join(timeout=5)
+    assert not [t.name for t in left if t.is_alive()], "the fuzzed gateway left threads running"
 
 
 # -- values ---------------------------------------------------------------------------------------
