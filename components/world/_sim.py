@@ -134,9 +134,22 @@ class Simulation:
         for _ in range(steps):
             self._control()
             self.mujoco.mj_step(self.model, self.data)
+            self._stop_at_switches()
         if until - self.time > MAX_LAG:
             self.data.time = until
         return steps
+
+    def _stop_at_switches(self) -> None:
+        """The neck's limit switches are hard: a step that carried the head past one ends on it, at rest.
+
+        (MuJoCo's joint limits are soft constraints, and the head's momentum can take it a
+        fraction of a degree past them when its speed command comes late.)
+        """
+        address, dof = self._qpos["kemar_head_yaw"], self._dof["kemar_head_yaw"]
+        yaw = float(self.data.qpos[address])
+        if abs(yaw) > KEMAR_LIMIT:
+            self.data.qpos[address] = math.copysign(KEMAR_LIMIT, yaw)
+            self.data.qvel[dof] = 0.0
 
     def _control(self) -> None:
         ctrl = self.data.ctrl
