@@ -36,6 +36,7 @@ from ._types import (
     MOTION_STOPPED,
     NOT_HOMED,
     KemarState,
+    MoveOutcome,
     Timestamp,
 )
 
@@ -212,10 +213,12 @@ class Kemar(Component, name="kemar", version="1.0"):
         self,
         target: Annotated[Double, "Azimuth in degrees (positive = left), kept 0.5 deg inside the limits"] = 0.0,
         velocity: Annotated[Double, "Speed in deg/s; 0 = the current speed (SetVelocity)"] = 0.0,
-    ) -> None:
-        """Turn the head to an azimuth and wait until it is there."""
+    ) -> MoveOutcome:
+        """Turn the head to an azimuth and wait until it is there (or at the limit, when it is beyond)."""
+        head = self.head()
         with _as_genom_exceptions():
-            await self.head().move_absolute(target, velocity or None)
+            state = await head.move_absolute(target, velocity or None)
+        return MoveOutcome(position=state.position, limited=head.clamp(target) != target)
 
     @activity(task=motion, interrupts=MOTIONS, validate=_validate_move,
               throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS))
@@ -223,10 +226,13 @@ class Kemar(Component, name="kemar", version="1.0"):
         self,
         target: Annotated[Double, "Degrees to turn from the present azimuth (positive = left)"] = 0.0,
         velocity: Annotated[Double, "Speed in deg/s; 0 = the current speed (SetVelocity)"] = 0.0,
-    ) -> None:
+    ) -> MoveOutcome:
         """Turn the head by an angle from where it is (the final azimuth is kept inside the limits)."""
+        head = self.head()
         with _as_genom_exceptions():
-            await self.head().move_relative(target, velocity or None)
+            start = await head.read_position()
+            state = await head.move_relative(target, velocity or None)
+        return MoveOutcome(position=state.position, limited=head.clamp(start + target) != start + target)
 
     @activity(task=motion, interrupts=MOTIONS, throws=(NOT_HOMED, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS),
               validate=_validate_speed_control)

@@ -5,11 +5,14 @@ from __future__ import annotations
 import dataclasses
 
 from .. import core
-from ..core import Double, GenomException, Long, String, idl_struct
+from typing import Annotated
+
+from ..core import Boolean, Double, GenomException, Long, String, idl_struct
 
 __all__ = [
     "Timestamp",
     "KemarState",
+    "MoveOutcome",
     "NOT_HOMED",
     "INVALID_TARGET",
     "INVALID_VELOCITY",
@@ -36,6 +39,18 @@ class KemarState:
     maxLeft: Double = 0.0
     maxRight: Double = 0.0
     timestamp: Timestamp = dataclasses.field(default_factory=Timestamp)
+
+
+@dataclasses.dataclass
+class MoveOutcome:
+    """The outputs of a position move: where the head stopped, and whether a limit stopped it short.
+
+    An addition to the seed's interface, which ends such a move ``done`` at the limit with no
+    sign that the target was out of reach.
+    """
+
+    position: Annotated[Double, "Azimuth reached, in degrees (positive = left)"] = 0.0
+    limited: Annotated[Boolean, "The target was beyond a limit: the head stopped half a degree inside it"] = False
 
 
 class NOT_HOMED(GenomException):

@@ -72,9 +72,10 @@ class KemarCapture(Capture, Kemar, name="kemarcapture", version="1.0"):
         "Turn the head to an azimuth and wait until it is there; publish (chunk index, azimuth) on Indexes "
         "at the start and on arrival.")))
     @functools.wraps(Kemar.MoveAbsolutePosition)
-    async def MoveAbsolutePosition(self, *args: Any, **kwargs: Any) -> None:
+    async def MoveAbsolutePosition(self, *args: Any, **kwargs: Any) -> Any:
         start = MoveIndexes(startIndex=self._current_index(), startPosition=await self._read_position())
         self.Indexes.publish(start)
-        await Kemar.MoveAbsolutePosition(self, *args, **kwargs)
+        outcome = await Kemar.MoveAbsolutePosition(self, *args, **kwargs)
         self.Indexes.publish(MoveIndexes(start.startIndex, start.startPosition, self._current_index(),
                                          await self._read_position(), arrived=True))
+        return outcome

@@ -194,3 +194,17 @@ def test_parse_bus() -> None:
     assert parse_bus("pcan:PCAN_USBBUS1") == ("pcan", "PCAN_USBBUS1")
     with pytest.raises(BusError):
         parse_bus("can0")
+
+
+async def test_a_move_beyond_a_limit_says_so(kemar: Kemar) -> None:
+    """Issue 13: a target out of reach ends done at the limit, and the output says it was limited."""
+    homing = await kemar.send("Homing")
+    await homing.ended.wait()
+    beyond = await kemar.send("MoveAbsolutePosition", {"target": 120.0, "velocity": 200.0})
+    await beyond.ended.wait()
+    assert beyond.status == "done" and beyond.output is not None
+    assert beyond.output["limited"] and 89.0 < beyond.output["position"] < 90.0
+    within = await kemar.send("MoveRelativePosition", {"target": -30.0, "velocity": 200.0})
+    await within.ended.wait()
+    assert within.output is not None and not within.output["limited"]
+    assert abs(within.output["position"] - (beyond.output["position"] - 30.0)) < 0.1
