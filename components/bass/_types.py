@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
+from typing import Annotated
+
 import numpy as np
 
 from ..core import GenomException, Long, String, ULong, ULongLong, idl_struct, sequence
@@ -31,12 +33,13 @@ class AudioPortData:
     (``since=k``) holds frames ``k + 1 … lastFrameIndex`` that the port still has.
     """
 
-    sampleRate: ULong = 0
-    nChunksOnPort: ULong = 0
-    nFramesPerChunk: ULong = 0
-    lastFrameIndex: ULongLong = 0
-    left: Samples = dataclasses.field(default_factory=_no_samples)
-    right: Samples = dataclasses.field(default_factory=_no_samples)
+    sampleRate: Annotated[ULong, "Sample rate in Hz"] = 0
+    nChunksOnPort: Annotated[ULong, "Chunks on the port"] = 0
+    nFramesPerChunk: Annotated[ULong, "Frames in a chunk"] = 0
+    lastFrameIndex: Annotated[ULongLong, "Index of the newest frame, the last of left and right (the first "
+                                         "captured frame is frame 1)"] = 0
+    left: Annotated[Samples, "Left samples (int32), oldest first"] = dataclasses.field(default_factory=_no_samples)
+    right: Annotated[Samples, "Right samples (int32), as left"] = dataclasses.field(default_factory=_no_samples)
 
 
 # The exceptions of bass.gen carry no data there; each carries a message here,

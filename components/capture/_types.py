@@ -40,12 +40,15 @@ class PortData:
     ``j`` of chunk ``i`` was captured at ``ts + ((i - 1) * chunk frames + j) / transfer_rate``.
     """
 
-    transfer_rate: ULong = 0
-    nbframes: ULong = 0
-    index: ULong = 0
-    ts: Timestamp = dataclasses.field(default_factory=Timestamp)
-    left: Samples = dataclasses.field(default_factory=_no_samples)
-    right: Samples = dataclasses.field(default_factory=_no_samples)
+    transfer_rate: Annotated[ULong, "Sample rate in Hz"] = 0
+    nbframes: Annotated[ULong, "Frames in left (and in right): Port_chunks chunks of frames"] = 0
+    index: Annotated[ULong, "Chunks captured so far: the index of the newest chunk (the last one of left)"] = 0
+    ts: Annotated[Timestamp, "When the capture started (it does not change while it runs): frame j of chunk i "
+                             "was captured at ts + ((i - 1) * chunk frames + j) / transfer_rate"] = \
+        dataclasses.field(default_factory=Timestamp)
+    left: Annotated[Samples, "Left samples (int32), oldest first; zeros before the first chunk"] = \
+        dataclasses.field(default_factory=_no_samples)
+    right: Annotated[Samples, "Right samples (int32), as left"] = dataclasses.field(default_factory=_no_samples)
 
 
 @dataclasses.dataclass

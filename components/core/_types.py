@@ -258,11 +258,25 @@ class StructType(IdlType):
         """The member types by name."""
         return dict(self.members)
 
+    @functools.cached_property
+    def member_docs(self) -> dict[str, str]:
+        """The documented members: ``Annotated[T, "what it is"]`` in the struct's declaration."""
+        hints = typing.get_type_hints(self.cls, include_extras=True)
+        docs = {}
+        for name, hint in hints.items():
+            if typing.get_origin(hint) is Annotated:
+                doc = next((m for m in hint.__metadata__ if isinstance(m, str)), "")
+                if doc:
+                    docs[name] = doc
+        return docs
+
     def describe(self) -> dict[str, Any]:
+        docs = self.member_docs
         return {
             "name": self.name,
             "kind": "struct",
-            "members": [{"name": n, "type": t.describe()} for n, t in self.members],
+            "members": [{"name": n, "type": t.describe(), **({"doc": docs[n]} if n in docs else {})}
+                        for n, t in self.members],
         }
 
     def decode(self, value: Any, path: str) -> Any:

@@ -34,11 +34,11 @@ class Timestamp(core.Timestamp):
 class KemarState:
     """The head: azimuth (deg, positive = left), speed (deg/s), the limits found by Homing (deg), and when."""
 
-    position: Double = 0.0
-    speed: Double = 0.0
-    maxLeft: Double = 0.0
-    maxRight: Double = 0.0
-    timestamp: Timestamp = dataclasses.field(default_factory=Timestamp)
+    position: Annotated[Double, "Head azimuth in degrees (positive = left)"] = 0.0
+    speed: Annotated[Double, "Angular speed in deg/s (positive = left)"] = 0.0
+    maxLeft: Annotated[Double, "Left limit found by Homing, degrees (0 before Homing)"] = 0.0
+    maxRight: Annotated[Double, "Right limit found by Homing, degrees (0 before Homing)"] = 0.0
+    timestamp: Annotated[Timestamp, "When the drive was read"] = dataclasses.field(default_factory=Timestamp)
 
 
 @dataclasses.dataclass

@@ -101,3 +101,15 @@ async def test_the_simulated_scene_follows_the_simulated_head(host: ComponentHos
     assert abs(ratio[0] - ratio[1]) > 0.05
     await bass.send("Stop")
     await acquiring.ended.wait()
+
+
+def test_port_members_say_what_they_are() -> None:
+    """Issue 13: a curl user reads in /info what a port's members mean (what is ts?)."""
+    from aiogenomix.components.capture import PortData
+    from aiogenomix.components.core import idl_type
+
+    capture = {m["name"]: m.get("doc", "") for m in idl_type(PortData).describe()["members"]}
+    assert "capture started" in capture["ts"] and "does not change" in capture["ts"]
+    audio = next(p for p in describe(Bass(ComponentHost(factories={}), "bass"))["ports"] if p["name"] == "Audio")
+    docs = {m["name"]: m.get("doc", "") for m in audio["type"]["members"]}
+    assert "newest frame" in docs["lastFrameIndex"] and all(docs.values())
