@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 from ..capture import (
     MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, Azimuth, CaptureBackend, CaptureError, FormatRefused,
-    list_capture_devices, open_backend, scene_azimuth,
+    list_capture_devices, open_backend, scene_azimuth, simulated_scene,
 )
 from ..core import Component, ComponentHost, Out, OutPort, String, Task, ULong, activity, function
 from ._history import AudioSnapshot, ChunkHistory
@@ -113,7 +113,8 @@ class Bass(Component, name="bass", version="1.0"):
         try:
             backend = open_backend(device, rate, frames, self.clock,
                                    azimuth=scene_azimuth(self.host, device, self.head_azimuth),
-                                   roots=self.host.settings.get("audio_files"))
+                                   roots=self.host.settings.get("audio_files"),
+                                   scene=simulated_scene(self.host, device))
             await backend.open()
         except FormatRefused as exc:
             raise e_hwparams(device=device, what=str(exc)) from exc

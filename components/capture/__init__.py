@@ -6,7 +6,7 @@ from ._errors import (
     BackendUnavailable, CaptureError, DeviceError, DeviceNotFound, FormatRefused, RequestError, SceneError,
 )
 from ._devices import list_capture_devices
-from ._head_link import scene_azimuth, simulated_head_azimuth
+from ._head_link import scene_azimuth, simulated_head_azimuth, simulated_scene
 from ._line_server import CLOSE, TOKEN_PREFIX, Conversation, LineServer, split_lines
 from ._head_model import SphericalHeadRenderer, woodworth_itd
 from ._scene import DEFAULT_SCENE, Scene, Source, load_scene
@@ -38,5 +38,5 @@ __all__ = [
     "CaptureError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "FormatRefused", "SceneError",
     "RequestError",
     # The simulated head the scene follows
-    "simulated_head_azimuth", "scene_azimuth", "list_capture_devices",
+    "simulated_head_azimuth", "scene_azimuth", "simulated_scene", "list_capture_devices",
 ]

@@ -18,12 +18,15 @@ from __future__ import annotations
 import abc
 import dataclasses
 from collections.abc import Callable, Sequence
-from typing import ClassVar, Self
+from typing import TYPE_CHECKING, ClassVar, Self
 
 import numpy as np
 import numpy.typing as npt
 
 from ..core import Clock
+
+if TYPE_CHECKING:
+    from ._scene import Scene
 
 __all__ = ["Chunk", "CaptureBackend", "PacedBackend", "open_backend", "split_device", "Azimuth"]
 
@@ -197,7 +200,8 @@ def split_device(device: str) -> tuple[str, str]:
 
 
 def open_backend(device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
-                 azimuth: Azimuth | None = None, roots: Sequence[str] | None = None) -> CaptureBackend:
+                 azimuth: Azimuth | None = None, roots: Sequence[str] | None = None,
+                 scene: Scene | None = None) -> CaptureBackend:
     """Create (not yet open) the backend a device string names.
 
     Args:
@@ -208,6 +212,7 @@ def open_backend(device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
         azimuth: Head azimuth source for the simulated scene (default: 0°).
         roots: The directories WAV and scene files may come from (the gateway's
             ``--audio-files``); None allows any path (a host built in code).
+        scene: The scene of plain ``sim`` (default: :data:`DEFAULT_SCENE`).
 
     Nothing is opened here: a backend touches its device or file in ``open()``,
     off the event loop.
@@ -218,7 +223,8 @@ def open_backend(device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
         from ._sim_backend import SimulatedSceneBackend
 
         backend = SimulatedSceneBackend(device, rate, frames_per_chunk, clock,
-                                        scene_file=argument or None, azimuth=azimuth, roots=roots)
+                                        scene_file=argument or None, scene=None if argument else scene,
+                                        azimuth=azimuth, roots=roots)
     elif kind == "file":
         from ._wav_backend import WavFileBackend
 

@@ -10,7 +10,7 @@ from ..core import Component, ComponentHost, OutPort, String, Task, ULong, activ
 from ._backend import Azimuth, CaptureBackend, Chunk, open_backend
 from ._devices import list_capture_devices
 from ._errors import CaptureError, DeviceNotFound
-from ._head_link import scene_azimuth
+from ._head_link import scene_azimuth, simulated_scene
 from ._socket_server import DEFAULT_PORT, DedicatedSocketServer
 from ._types import (
     ALREADY_CAPTURING, DEVICE_ERROR, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, NO_SUCH_DEVICE, SOCKET_ERROR,
@@ -154,7 +154,8 @@ class Capture(Component, name="capture", version="1.1"):
         try:
             backend = open_backend(device, rate, frames, self.clock,
                                    azimuth=scene_azimuth(self.host, device, self.head_azimuth),
-                                   roots=self.host.settings.get("audio_files"))
+                                   roots=self.host.settings.get("audio_files"),
+                                   scene=simulated_scene(self.host, device))
             await backend.open()
         except DeviceNotFound as exc:
             # The backend knows only its own devices: the user needs every source this gateway opens.

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from ..core import ComponentHost
 from ._backend import Azimuth, split_device
+from ._scene import Scene
 
-__all__ = ["simulated_head_azimuth", "scene_azimuth"]
+__all__ = ["simulated_head_azimuth", "scene_azimuth", "simulated_scene"]
 
 
 def simulated_head_azimuth(host: ComponentHost) -> Azimuth | None:
@@ -39,3 +40,18 @@ def scene_azimuth(host: ComponentHost, device: str, chosen: Azimuth | None) -> A
     if chosen is not None or split_device(device)[0] != "sim":
         return chosen
     return simulated_head_azimuth(host)
+
+
+def simulated_scene(host: ComponentHost, device: str) -> Scene | None:
+    """The scene the plain ``sim`` device renders (None: the default scene).
+
+    While ``morse_kemar`` drives the virtual KEMAR, the sources are the world's
+    sound-source markers, heard from where the KEMAR stands.  A scene file
+    (``sim:PATH``) always wins.
+    """
+    if device != "sim":
+        return None
+    from ..world import virtual_scene
+
+    scene: Scene | None = virtual_scene(host)
+    return scene

@@ -100,3 +100,16 @@ async def test_the_simulated_sound_scene_follows_the_virtual_kemar(host: Compone
     assert azimuth is not None and azimuth() == pytest.approx(0.0, abs=0.1)
     await _run(kemar, "MoveAbsolutePosition", target=30.0, velocity=200.0)
     assert azimuth() == pytest.approx(30.0, abs=0.15)
+
+
+async def test_the_simulated_sound_sources_are_the_worlds_markers(host: ComponentHost) -> None:
+    from aiogenomix.components.capture import simulated_scene
+
+    assert simulated_scene(host, "sim") is None                  # no virtual KEMAR yet: the default scene
+    await host.load("morse_kemar")
+    scene = simulated_scene(host, "sim")
+    assert scene is not None
+    # source_1 at (2.0, 2.5) and source_2 at (-1.0, -2.5), heard from the KEMAR at (-2.0, 1.5), facing +x.
+    assert [round(s.azimuth, 2) for s in scene.sources] == [14.04, -75.96]
+    assert [s.type for s in scene.sources] == ["noise", "tone"]
+    assert simulated_scene(host, "sim:my_scene.json") is None    # a scene file of the user's wins
