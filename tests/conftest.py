@@ -97,10 +97,12 @@ class _AsyncioErrors(logging.Handler):
 
 @pytest.fixture(autouse=True)
 def no_leaks() -> Iterator[None]:
-    """Fail a test that leaves a thread running, an asyncio task pending, or a socket open behind it.
+    """Fail a test that leaves a thread running or a socket open behind it.
 
     Runs around every test (set up first, so torn down after its event loop is
     closed): leftovers are collected, and whatever they report is this test's.
+    A young-generation collection is enough for what a test made (a full one per
+    test would double the suite's time); the rest is collected at the end.
     """
     before = set(threading.enumerate())
     errors = _AsyncioErrors()
@@ -109,7 +111,7 @@ def no_leaks() -> Iterator[None]:
         yield
         # Leaked tasks and sockets announce themselves when collected (sockets as ResourceWarnings,
         # which the warning filters make errors).
-        gc.collect()
+        gc.collect(1)
     finally:
         logging.getLogger("asyncio").removeHandler(errors)
     leaked = [t for t in threading.enumerate() if t not in before and t.is_alive()]
@@ -120,3 +122,21 @@ def no_leaks() -> Iterator[None]:
     assert not leaked, f"the test left threads running: {leaked}"
     tasks = [m for m in errors.messages if "Task was destroyed" in m or "never retrieved" in m]
     assert not tasks, f"the test left asyncio tasks behind: {tasks}"
+
+
+@pytest.fixture(autouse=True)
+async def no_pending_tasks() -> AsyncIterator[None]:
+    """Fail a test that leaves asyncio tasks running on its loop after its own fixtures are torn down.
+
+    (The loop's owner would cancel them silently when it closes the loop.)
+    """
+    before = asyncio.all_tasks()
+    yield
+    for _ in range(3):
+        # Tasks whose end was just set in motion (a closed connection's handler) get to finish.
+        await asyncio.sleep(0)
+    me = asyncio.current_task()
+    left = [t for t in asyncio.all_tasks() - before if t is not me and not t.done()]
+    for task in left:
+        task.cancel()
+    assert not left, f"the test left asyncio tasks running: {[t.get_name() for t in left]}"

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import inspect
 import pydoc
+import re
 
 from aiogenomix.clients import AsyncRequest, Record, Request, Status, aconnect, connect
 
@@ -89,11 +90,17 @@ async def test_signature_help_and_dir(gateway_url: str) -> None:
 def test_help_renders_info_docs(threaded_gateway_url: str) -> None:
     with connect(threaded_gateway_url) as client:
         demo = client.load("demo")
-        rendered = pydoc.render_doc(demo.GotoPosition, renderer=pydoc.plaintext)
+        # Python 3.13's pydoc puts long signatures one parameter a line: compare them unwrapped
+        # (and without the " | " margin of a class's members).
+        def unwrapped(text: str) -> str:
+            text = re.sub(r"^ \|", "", text, flags=re.MULTILINE)
+            return re.sub(r"\(\s+", "(", re.sub(r",\s+", ", ", text))
+
+        rendered = unwrapped(pydoc.render_doc(demo.GotoPosition, renderer=pydoc.plaintext))
         assert "GotoPosition(posRef: float = 0.0, *, ack: bool = False" in rendered
         assert "Goto position in m" in rendered
         assert inspect.signature(demo.Monitor).return_annotation is Record
-        module_help = pydoc.render_doc(demo, renderer=pydoc.plaintext)
+        module_help = unwrapped(pydoc.render_doc(demo, renderer=pydoc.plaintext))
         assert "A virtual mobile robot on a line" in module_help
         assert "GotoPosition(posRef: float = 0.0" in module_help
         assert "Mobile(*, since: Optional[int] = None, raw: bool = False" in module_help

@@ -28,7 +28,8 @@ def shell(tmp_path: Any) -> Iterator[Any]:
     config = GatewayConfig(port=0, time_scale=20.0, audio_socket_port=0, preload=["demo"])
     with serve_in_thread(config) as url:
         # A private IPython directory (no history or profile of the user's); no cursor-position queries.
-        env = dict(os.environ, IPYTHONDIR=str(tmp_path), TERM="xterm", PROMPT_TOOLKIT_NO_CPR="1")
+        # PAGER=cat: help (Service?) prints in place, whatever the test process's terminal size.
+        env = dict(os.environ, IPYTHONDIR=str(tmp_path), TERM="xterm", PROMPT_TOOLKIT_NO_CPR="1", PAGER="cat")
         child = pexpect.spawn(sys.executable, ["-m", "aiogenomix.clients.shell", url.removeprefix("http://")],
                               env=env, encoding="utf-8", timeout=30, dimensions=(40, 160))
         log = open(tmp_path / "terminal.log", "w")  # what the terminal showed, for a failure's diagnosis

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import re
 
 import aiohttp
 import pytest
@@ -30,9 +31,12 @@ LIMITS = [
      {"input": '{"local":"\\ud800","remote":"demo/Mobile"}'}, 400, "::genom::serialization", "surrogate"),
     ("a lone surrogate as a parameter name", GOTO, {"input": '{"\\udfff":1}'}, 400, "::genom::serialization",
      "surrogate"),
-    ("JSON nested 1500 deep", GOTO, {"input": "[" * 1500 + "]" * 1500}, 400, "::genom::serialization", "nested"),
-    ("JSON nested 2700 deep", GOTO, {"input": '{"a":' * 2700 + "1" + "}" * 2700}, 400, "::genom::serialization",
+    # Deep enough for every parser's recursion limit (Python 3.13's C scanner takes 5000), within the URL limit.
+    ("JSON nested 10000 deep", GOTO, {"input": "[" * 10000 + "]" * 10000}, 400, "::genom::serialization",
      "nested"),
+    # Python 3.13 parses objects this deep (deeper ones exceed the URL limit): then the member is unknown.
+    ("JSON nested 2700 deep", GOTO, {"input": '{"a":' * 2700 + "1" + "}" * 2700}, 400, "::genom::serialization",
+     "nested|unknown parameter"),
     ("wait timeout NaN", "/module/demo/wait/0", {"timeout": "nan"}, 400, "::genom::serialization", "timeout"),
     ("wait timeout -1", "/module/demo/wait/0", {"timeout": "-1"}, 400, "::genom::serialization", "timeout"),
     ("wait timeout -inf", "/module/demo/wait/0", {"timeout": "-inf"}, 400, "::genom::serialization", "timeout"),
@@ -61,7 +65,7 @@ async def test_inputs_at_the_limits_get_documented_errors(http: aiohttp.ClientSe
         async with http.get(path, params=query) as reply:
             body = await reply.json()
             assert (reply.status, body["ex"]) == (status, ex), (what, body)
-            assert word in body["message"] and len(body["message"]) < 400, (what, body["message"])
+            assert re.search(word, body["message"]) and len(body["message"]) < 400, (what, body["message"])
     async with http.get("/module/demo/wait/0") as reply:  # the gateway and the activity carried on
         assert (await reply.json()) == {"id": "demo::0", "status": "done", "output": {}}
     async with http.get("/") as reply:
