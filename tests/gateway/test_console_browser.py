@@ -8,7 +8,6 @@ script, and the page must log no error.
 
 from __future__ import annotations
 
-import shutil
 from collections.abc import AsyncIterator
 from typing import Any
 
@@ -17,13 +16,10 @@ import pytest
 from aiogenomix.gateway import GatewayConfig
 
 from ..conftest import TEST_TIME_SCALE
+from ._browser import CHROMIUM, browser_page
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="needs Debian's chromium (./run test installs it)")
 TOKEN = "s3cret-console"
-#: Chromium as the machine allows it: no sandbox (root), no GPU, no calls home.
-FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
-         "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage"]
 
 
 @pytest.fixture
@@ -33,19 +29,8 @@ def gateway_config() -> GatewayConfig:
 
 @pytest.fixture
 async def page(gateway: str) -> AsyncIterator[Any]:
-    from playwright.async_api import async_playwright
-
-    async with async_playwright() as driver:
-        browser = await driver.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
-        context = await browser.new_context()
-        page = await context.new_page()
-        page.problems = []  # type: ignore[attr-defined]
-        page.on("console", lambda m: m.type == "error" and page.problems.append(m.text))  # type: ignore[attr-defined]
-        page.on("pageerror", lambda e: page.problems.append(str(e)))  # type: ignore[attr-defined]
-        try:
-            yield page
-        finally:
-            await browser.close()
+    async with browser_page() as opened:
+        yield opened
 
 
 async def test_the_console_asks_for_the_token_once_then_works(page: Any, gateway: str) -> None:

@@ -21,7 +21,7 @@ from aiogenomix.gateway import GatewayConfig, serve
 
 from ..conftest import TEST_TIME_SCALE
 from ._console_camera import Camera
-from .test_console_browser import CHROMIUM, FLAGS
+from ._browser import CHROMIUM, browser_page
 
 pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="needs Debian's chromium (./run test installs it)")
 SCREENSHOT = pathlib.Path(__file__).parents[2] / "docs" / "images" / "console.png"
@@ -39,18 +39,8 @@ async def gateway_with_camera() -> AsyncIterator[str]:
 
 @pytest.fixture
 async def page(gateway_with_camera: str) -> AsyncIterator[Any]:
-    from playwright.async_api import async_playwright
-
-    async with async_playwright() as driver:
-        browser = await driver.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
-        page = await browser.new_page(viewport={"width": 1400, "height": 900})
-        page.problems = []  # type: ignore[attr-defined]
-        page.on("console", lambda m: m.type == "error" and page.problems.append(m.text))  # type: ignore[attr-defined]
-        page.on("pageerror", lambda e: page.problems.append(str(e)))  # type: ignore[attr-defined]
-        try:
-            yield page
-        finally:
-            await browser.close()
+    async with browser_page(viewport={"width": 1400, "height": 900}) as opened:
+        yield opened
 
 
 async def load(page: Any, name: str) -> None:
