@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 from ..capture import CLOSE, LineServer
 from ._history import AudioSnapshot
-from ._socket_wire import HEADER, encode_frame_reply, parse_frame_request
+from ._socket_wire import encode_frame_reply, parse_frame_request
 
 __all__ = ["FrameSocketServer"]
 
@@ -14,34 +14,27 @@ __all__ = ["FrameSocketServer"]
 class _FrameConversation:
     """One client of the 2015 protocol."""
 
-    def __init__(self, snapshot: Callable[[], AudioSnapshot | None]) -> None:
+    def __init__(self, snapshot: Callable[[], AudioSnapshot]) -> None:
         self._snapshot = snapshot
 
     def answer(self, line: bytes) -> bytes | bytearray | None:
         request = parse_frame_request(line)
         if request is None:
             return CLOSE
-        snapshot = self._snapshot()
-        if snapshot is None:
-            # No acquisition yet: nothing to send, and the client keeps its place.
-            return _empty_reply(request.next_frame)
-        return encode_frame_reply(snapshot.frames(request.next_frame, request.frames))
-
-
-def _empty_reply(next_frame: int) -> bytes:
-    return HEADER.pack(0, 0, next_frame)
+        # Before the first acquisition the port is AudioSnapshot.empty(): no frames, the client keeps its place.
+        return encode_frame_reply(self._snapshot().frames(request.next_frame, request.frames))
 
 
 class FrameSocketServer(LineServer):
     """Serve the frame-indexed 2015 protocol to any number of clients.
 
     Args:
-        snapshot: Returns the port's newest publication (None before the first acquisition).
+        snapshot: Returns the port's newest publication.
         host: The address to bind (``0.0.0.0`` for every interface).
         port: The TCP port; 0 picks a free one (read :attr:`port` after :meth:`start`).
         token: When set, every client must first send ``Token <token>``.
     """
 
-    def __init__(self, snapshot: Callable[[], AudioSnapshot | None], *, host: str = "127.0.0.1",
+    def __init__(self, snapshot: Callable[[], AudioSnapshot], *, host: str = "127.0.0.1",
                  port: int = 8081, token: str | None = None) -> None:
         super().__init__(lambda: _FrameConversation(snapshot), host=host, port=port, token=token)
