@@ -69,6 +69,8 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
         host.add_unload_listener(lambda name: sessions.broadcast(format_event("unload", orjson.dumps(name))))
         host.add_unload_listener(app[UNLOADS].notice)
         try:
+            if app[CONFIG].zenoh:
+                await _find_remote_components(app)
             for item in app[CONFIG].preload:
                 name, _, args = item.partition(":")
                 await host.load(name, args.split())
@@ -82,3 +84,14 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
         yield  # the shutdown step (_shutdown) stops the components, within a bounded time
 
     return lifetime
+
+
+async def _find_remote_components(app: web.Application) -> None:
+    """Let ``load`` find the components other processes offer on Zenoh (imported only when asked for)."""
+    from .remote import ZenohDirectory, ZenohEndpoints
+
+    config, host = app[CONFIG], app[HOST]
+    directory = await ZenohDirectory.open(ZenohEndpoints(connect=config.zenoh_connect, listen=config.zenoh_listen))
+    host.finder = directory
+    # The host closes its shared resources last, after unloading the proxies that use the session.
+    host.shared("zenoh", lambda: directory)

@@ -13,7 +13,7 @@ from ._exceptions import (
     RequestRunning, disallowed, interrupted, no_such_inport, no_such_outport, no_such_service, port_io,
     serialization, syserr, too_many_activities, unkex,
 )
-from ._host import ComponentHost, LoadError, TooManyInstances
+from ._host import ComponentHost, LoadError, RemoteFinder, TooManyInstances
 from ._ports import Incremental, InPort, InPortRuntime, OutPort, OutPortRuntime
 from ._requests import Request, RequestTracker
 from ._services import NO_DEFAULT, Out, ParamSpec, ServiceSpec, activity, attribute, function
@@ -27,7 +27,7 @@ from ._types import (
 
 __all__ = [
     # Components and their host
-    "Component", "ComponentHost", "LoadError", "TooManyInstances", "describe",
+    "Component", "ComponentHost", "LoadError", "TooManyInstances", "RemoteFinder", "describe",
     # Declarations
     "function", "activity", "attribute", "Out", "Task", "OutPort", "InPort",
     # Runtime objects

@@ -190,6 +190,14 @@ class OutPortRuntime(_PortRuntime):
         """The element names of a multiple port."""
         return list(self._elements)
 
+    def read_as(self, kind: IdlType, name: str | None = None) -> Any:
+        """The latest value as a reader of type *kind* holds it (an in port connected here).
+
+        The data of a port of this process is that value already; a port mirrored
+        from another process holds encoded data, which it decodes.
+        """
+        return self.read(name)
+
     def encoded(self, name: str | None = None) -> Any:
         """The latest value as JSON-ready data."""
         return self.type.encode(self.read(name))
@@ -240,7 +248,7 @@ class InPortRuntime(_PortRuntime):
         """The latest data of the connected out port (None while unconnected)."""
         if self.remote is None:
             return None
-        return self.remote.read(self.element)
+        return self.remote.read_as(self.type, self.element)
 
     def encoded(self, name: str | None = None) -> Any:
         """The latest data as JSON-ready data."""
