@@ -40,6 +40,7 @@ class PortEncoder:
     def __init__(self, port: OutPortRuntime) -> None:
         self.port = port
         self._sent: int | None = None
+        self._counts: dict[str, int] | None = None
 
     def _struct(self, value: Any, since: int | None) -> tuple[Any, int]:
         if isinstance(value, Chunked):
@@ -49,6 +50,32 @@ class PortEncoder:
         else:
             data, lost = value.since(since)
         return self.port.type.encode(data), lost
+
+    def _count_members(self, value: Any, whole: Any) -> dict[str, int]:
+        """The members of numbered data that count an array's elements (``nbframes``), by array number.
+
+        They are the members a read of no item gives as 0 while the whole read gives its array's
+        length: the gateway sets them for each ``since=`` read it answers.
+        """
+        if self._counts is not None or not isinstance(whole, dict):
+            return self._counts or {}
+        empty, _ = self._struct(value, value.index)
+        full: list[Any] = []
+        none: list[Any] = []
+        arrays_of(whole, full)
+        arrays_of(empty, none)
+        counts: dict[str, int] = {}
+        if not any(len(a) for a in full):
+            return counts  # nothing to tell the members apart by yet
+        for member, number in whole.items():
+            if isinstance(number, bool) or not isinstance(number, int):
+                continue
+            for at, (array, nothing) in enumerate(zip(full, none, strict=True)):
+                if len(array) and number == len(array) and empty.get(member) == len(nothing) == 0:
+                    counts[member] = at
+                    break
+        self._counts = counts
+        return counts
 
     def base(self) -> bytes:
         """The whole data now (a numbered window with its items marked)."""
@@ -63,7 +90,8 @@ class PortEncoder:
         found: list[Any] = []
         arrays_of(held, found)
         return encode_message(self.port.name, whole, whole, kind="base", index=value.index,
-                              items=max(0, value.index - lost), held=[len(a) for a in found])
+                              items=max(0, value.index - lost), held=[len(a) for a in found],
+                              counts=self._count_members(value, whole))
 
     def messages(self) -> list[bytes]:
         """The messages of the publications since the last call (one per element of a multiple port)."""
@@ -85,7 +113,8 @@ class PortEncoder:
         prev, self._sent = self._sent, value.index
         whole, _ = self._struct(value, None)
         delta, lost = self._struct(value, prev)
-        return [encode_message(port.name, whole, delta, kind="delta", index=value.index, prev=prev + lost)]
+        return [encode_message(port.name, whole, delta, kind="delta", index=value.index, prev=prev + lost,
+                               counts=self._count_members(value, whole))]
 
 
 class ComponentExporter:

@@ -228,6 +228,7 @@ class MirroredOutPort(OutPortRuntime):
         arrays_of(delta, arrays)
         dtypes = tuple(np.asarray(a).dtype for a in arrays)
         index, prev = int(header["index"]), int(header.get("prev", 0))
+        self._counts = header.get("counts") or self._counts
         follows = True
         if kind == "base":
             held = header["held"]
@@ -240,7 +241,6 @@ class MirroredOutPort(OutPortRuntime):
             follows = prev == self._index
             if not follows:
                 self.gaps += 1
-            self._learn_counts(whole, delta, arrays)
             entry = _Entry(prev + 1, index, tuple(_chunk(a) for a in arrays))
             entries = _trimmed((*self._entries, entry), whole) if index > prev else self._entries
         self._entries, self._index = entries, index
@@ -248,20 +248,6 @@ class MirroredOutPort(OutPortRuntime):
                                      dict(self._counts), dtypes)
         self.changed()
         return follows
-
-    def _learn_counts(self, whole: Any, delta: Any, arrays: list[Any]) -> None:
-        """Find the members that count an array's elements: they differ between whole and since reads."""
-        if not isinstance(whole, dict) or not isinstance(delta, dict):
-            return
-        lengths: list[Any] = []
-        arrays_of(_lengths_as_arrays(whole), lengths)
-        for member, value in whole.items():
-            if member in self._counts or isinstance(value, bool) or not isinstance(value, int):
-                continue
-            for number, (full, part) in enumerate(zip(lengths, arrays, strict=True)):
-                if len(full) != len(part) and value == len(full) and delta.get(member) == len(part):
-                    self._counts[member] = number
-                    break
 
 
 def _trimmed(entries: tuple[_Entry, ...], whole: Any) -> tuple[_Entry, ...]:
@@ -276,4 +262,16 @@ def _trimmed(entries: tuple[_Entry, ...], whole: Any) -> tuple[_Entry, ...]:
     ):
         totals = [total - len(entries[start].chunks[n]) for n, total in enumerate(totals)]
         start += 1
-    return entries[start:]
+    kept = entries[start:]
+    oldest = kept[0]
+    if oldest.items and oldest.first is not None:
+        # The oldest entry may reach back past the window (a publication of several items): its
+        # items the remote window no longer holds are lost for a since= reader there too.
+        per_item = [len(chunk) // oldest.items for chunk in oldest.chunks]
+        excess = min(((total - want) // each for total, want, each in zip(totals, wanted, per_item, strict=True)
+                      if each), default=0)
+        if 0 < excess < oldest.items:
+            sliced = tuple(Chunk(chunk.array[excess * each:]) for chunk, each in zip(oldest.chunks, per_item,
+                                                                                     strict=True))
+            kept = (_Entry(oldest.first + excess, oldest.last, sliced), *kept[1:])
+    return kept
