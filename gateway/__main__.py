@@ -60,6 +60,9 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
                              "--zenoh; with any endpoint, multicast scouting is off)")
     remote.add_argument("--zenoh-listen", action="append", default=[], metavar="ENDPOINT",
                         help="a Zenoh endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable; implies --zenoh)")
+    remote.add_argument("--zenoh-timeout", type=_at_least(float, 0.1), default=defaults.zenoh_timeout,
+                        metavar="SECONDS", help="time a component host has to answer before the gateway answers "
+                                                "::genom::remote_io (default %(default)s)")
     limits = parser.add_argument_group("limits", "what one client can hold or send")
     limits.add_argument("--header-timeout", type=_at_least(float, 0.001), default=defaults.header_timeout,
                         metavar="SECONDS", help="time a client has to send a request's line and headers, "
@@ -83,7 +86,7 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
         header_timeout=args.header_timeout, max_url_bytes=args.max_url_bytes, session_idle=args.session_idle,
         max_sessions=args.max_sessions, max_instances=args.max_instances,
         zenoh=args.zenoh or bool(args.zenoh_connect or args.zenoh_listen), zenoh_connect=args.zenoh_connect,
-        zenoh_listen=args.zenoh_listen,
+        zenoh_listen=args.zenoh_listen, zenoh_timeout=args.zenoh_timeout,
     )
 
 

@@ -88,10 +88,13 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
 
 async def _find_remote_components(app: web.Application) -> None:
     """Let ``load`` find the components other processes offer on Zenoh (imported only when asked for)."""
-    from .remote import ZenohDirectory, ZenohEndpoints
+    from .remote import RemoteTimeouts, ZenohDirectory, ZenohEndpoints
 
     config, host = app[CONFIG], app[HOST]
-    directory = await ZenohDirectory.open(ZenohEndpoints(connect=config.zenoh_connect, listen=config.zenoh_listen))
+    timeouts = RemoteTimeouts(control=config.zenoh_timeout,
+                              send=2 * config.zenoh_timeout + config.function_grace)
+    directory = await ZenohDirectory.open(ZenohEndpoints(connect=config.zenoh_connect, listen=config.zenoh_listen),
+                                          timeouts)
     host.finder = directory
     # The host closes its shared resources last, after unloading the proxies that use the session.
     host.shared("zenoh", lambda: directory)

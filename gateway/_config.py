@@ -40,6 +40,8 @@ class GatewayConfig:
         zenoh_connect: Zenoh endpoints to connect to (``tcp/HOST:PORT``); with any endpoint given,
             multicast scouting is off: the gateway talks to these and to whoever connects to it.
         zenoh_listen: Zenoh endpoints to listen on.
+        zenoh_timeout: Seconds a component host has to answer a query (a send gets twice that plus
+            ``function_grace``) before the gateway answers ``::genom::remote_io``.
     """
 
     host: str = "127.0.0.1"
@@ -64,6 +66,7 @@ class GatewayConfig:
     zenoh: bool = False
     zenoh_connect: list[str] = dataclasses.field(default_factory=list)
     zenoh_listen: list[str] = dataclasses.field(default_factory=list)
+    zenoh_timeout: float = 5.0
 
     def host_settings(self) -> dict[str, Any]:
         """The settings handed to the components."""
