@@ -50,6 +50,9 @@ class RemoteFinder(Protocol):
     async def find(self, host: ComponentHost, name: str, argv: list[str]) -> Component | None:
         """A started proxy of the remote instance *name*, or None when no process offers it."""
 
+    def offered(self) -> list[str]:
+        """The instances other processes offer now, as far as this finder knows."""
+
 
 class ComponentHost:
     """Loads, runs and unloads component instances.
@@ -89,8 +92,9 @@ class ComponentHost:
     # -- what can be loaded ----------------------------------------------------------------
 
     def available(self) -> list[str]:
-        """The names of the loadable components."""
-        return sorted(self._factories)
+        """The names of the loadable components (with a finder, those other processes offer too)."""
+        offered = self.finder.offered() if self.finder is not None else []
+        return sorted({*self._factories, *offered})
 
     def register(self, name: str, factory: Callable[..., Component]) -> None:
         """Make a component class loadable under *name*."""
@@ -104,6 +108,8 @@ class ComponentHost:
         """
         factory = self._factories.get(name)
         if factory is None:
+            if self.finder is not None and name in self.finder.offered():
+                raise NoSuchModule(f"{name} runs in another process, which did not answer: load it again")
             raise NoSuchModule(f"no component {name!r} (available: {', '.join(self.available())})")
         return factory.load() if isinstance(factory, _LazyFactory) else factory  # type: ignore[return-value]
 

@@ -38,7 +38,9 @@ class ZenohDirectory:
         self.timeouts = timeouts or RemoteTimeouts()
         self._loop = asyncio.get_running_loop()
         self._proxies: dict[str, RemoteComponent] = {}
-        self._watch = session.liveliness().declare_subscriber(alive_key("*"), self._on_liveliness)
+        self._offered: set[str] = set()
+        # With history: the tokens already declared come first, then every change.
+        self._watch = session.liveliness().declare_subscriber(alive_key("*"), self._on_liveliness, history=True)
 
     @classmethod
     async def open(cls, endpoints: ZenohEndpoints, timeouts: RemoteTimeouts | None = None) -> ZenohDirectory:
@@ -68,12 +70,19 @@ class ZenohDirectory:
         if self._proxies.get(instance) is proxy:
             del self._proxies[instance]
 
+    def offered(self) -> list[str]:
+        """The instances whose liveliness token this directory sees now."""
+        return sorted(self._offered)
+
     def _on_liveliness(self, sample: zenoh.Sample) -> None:
+        instance = str(sample.key_expr).rsplit("/", 1)[-1]
         if sample.kind == zenoh.SampleKind.DELETE:
-            instance = str(sample.key_expr).rsplit("/", 1)[-1]
             self._loop.call_soon_threadsafe(self._gone, instance)
+        else:
+            self._loop.call_soon_threadsafe(self._offered.add, instance)
 
     def _gone(self, instance: str) -> None:
+        self._offered.discard(instance)
         proxy = self._proxies.pop(instance, None)
         if proxy is not None:
             log.warning("%s is gone: its component host stopped or cannot be reached", instance)

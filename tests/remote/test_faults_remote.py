@@ -66,13 +66,11 @@ async def test_a_killed_host_ends_its_requests_once_and_a_new_one_is_found(start
             host2 = await start_component_host(["demo"], listen=endpoint, extra=["--time-scale", "1"])
             started.append(host2)
             async with asyncio.timeout(30):
-                while True:
-                    async with http.get(f"/load/demo?s={session}") as reply:
-                        if reply.status == 200:
-                            break
-                    # Until the gateway has reconnected, demo is loaded in-process: unload and retry.
-                    await http.get("/unload/demo")
-                    await asyncio.sleep(0.2)
+                # The gateway lists what component hosts offer once it hears of them.
+                while "demo" not in (await _get(http, "/"))[1]["offered"]:
+                    await asyncio.sleep(0.1)
+            async with http.get(f"/load/demo?s={session}") as reply:
+                assert reply.status == 200
             status, sent = await _get(http, f"/module/demo/send/GetSpeed?s={session}")
             assert sent["status"] == "done"
             # It is the new host's demo: when that host stops, the gateway unloads it.
