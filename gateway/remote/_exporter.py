@@ -18,7 +18,8 @@ from typing import Any
 import orjson
 import zenoh
 
-from ...components.core import Chunked, Component, Incremental, OutPortRuntime, Request
+from ...components.core import Chunked, Component, ComponentError, Incremental, OutPortRuntime, Request
+from ...components.core._ports import ComputedOutPortRuntime
 from .._errors import error_body
 from ._wire import (
     alive_key, arrays_of, encode_message, error_reply, events_key, info_key, ok_reply, port_key, request_key,
@@ -28,6 +29,9 @@ from ._wire import (
 __all__ = ["ComponentExporter", "PortEncoder"]
 
 log = logging.getLogger(__name__)
+
+#: Seconds between two publications of a computed port (its data is made when read, on each change).
+COMPUTED_PERIOD = 0.05
 
 
 class PortEncoder:
@@ -133,6 +137,7 @@ class ComponentExporter:
         self.instance = component.instance
         self._declared: list[Any] = []
         self._tasks: set[asyncio.Task[Any]] = set()
+        self._pending_events: list[bytes] = []
         self._events = session.declare_publisher(events_key(self.instance),
                                                  congestion_control=zenoh.CongestionControl.BLOCK,
                                                  reliability=zenoh.Reliability.RELIABLE)
@@ -142,6 +147,7 @@ class ComponentExporter:
                                                         self._on_query(self._request)))
         self._declared.append(session.declare_queryable(snapshot_key(self.instance, "*"),
                                                         self._on_query(self._snapshot)))
+        self._declared.append(session.declare_subscriber(request_key(self.instance, "clean"), self._on_clean))
         self._encoders: dict[str, PortEncoder] = {}
         for name, spec in type(component).ports().items():
             if spec.direction != "out":
@@ -185,7 +191,7 @@ class ComponentExporter:
                 answer = error_reply(status, error)
             # A multiple port's snapshot is one reply per element.
             for body in answer if isinstance(answer, list) else [answer]:
-                query.reply(query.key_expr, body)
+                query.reply(query.key_expr, body, express=True)
         except zenoh.ZError:
             pass  # the querier gave up (timeout): nobody to answer
         finally:
@@ -227,18 +233,45 @@ class ComponentExporter:
             return PortEncoder(encoder.port).messages()
         return [encoder.base()]
 
+    def _on_clean(self, sample: zenoh.Sample) -> None:
+        body = sample.payload.to_bytes()
+        self.loop.call_soon_threadsafe(self._clean_published, body)
+
+    def _clean_published(self, body: bytes) -> None:
+        """A clean the gateway answered itself (it saw the request end): nothing to report back."""
+        try:
+            self.component.requests.clean(str(orjson.loads(body).get("id", "")))
+        except (ComponentError, ValueError) as exc:
+            log.debug("%s: published clean not applied: %s", self.instance, exc)
+
     # -- publications -----------------------------------------------------------------------
 
     def _on_request(self, request: Request) -> None:
         if request.instance != self.instance or request.oneway:
             return
-        self._events.put(orjson.dumps({"status": request.status_object(), "session": request.session}))
+        event = orjson.dumps({"status": request.status_object(), "session": request.session})
+        if not self._pending_events:
+            # Published at the end of this loop turn: the reply to a send that ended its request at
+            # once goes first (the caller waits on it), its event after.
+            self.loop.call_soon(self._publish_events)
+        self._pending_events.append(event)
+
+    def _publish_events(self) -> None:
+        events, self._pending_events = self._pending_events, []
+        for event in events:
+            self._events.put(event)
 
     async def _pump(self, encoder: PortEncoder, publisher: Any) -> None:
         port = encoder.port
+        # A computed port (genom_state) changes with every request: it is sent at most every
+        # COMPUTED_PERIOD, its last state always, so that requests do not pay for it one by one.
+        pause = COMPUTED_PERIOD if isinstance(port, ComputedOutPortRuntime) else 0.0
         seen = port.version
         while True:
             seen = await port.wait_published(seen)
+            if pause:
+                await asyncio.sleep(pause)
+                seen = port.version
             for message in encoder.messages():
                 publisher.put(message)
 

@@ -82,8 +82,11 @@ async def ask(session: zenoh.Session, key: str, payload: Any = None, timeout: fl
     def on_end() -> None:
         loop.call_soon_threadsafe(settle, None)
 
-    # With a callback, get() returns at once: the replies come on Zenoh's threads.
-    session.get(key, zenoh.handlers.Callback(on_reply, on_end), payload=orjson.dumps(payload), timeout=timeout)
+    # With a callback, get() returns at once: the replies come on Zenoh's threads.  Express: sent at once,
+    # not held to be batched with other messages (a request waits on it).
+    # One queryable answers each key: no consolidation to wait for.
+    session.get(key, zenoh.handlers.Callback(on_reply, on_end), payload=orjson.dumps(payload), timeout=timeout,
+                express=True, consolidation=zenoh.ConsolidationMode.NONE)
     try:
         # Zenoh ends the query at its timeout; the margin covers a callback thread that is late.
         async with asyncio.timeout(timeout + 1.0):

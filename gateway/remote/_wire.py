@@ -7,7 +7,8 @@ Every instance ``M`` a host offers lives under ``aiogenomix/M/``::
     aiogenomix/M/rq/send          query: {"service", "input", "session", "oneway", "origin"} -> status object
     aiogenomix/M/rq/status        query: {"id"} -> status object
     aiogenomix/M/rq/abort         query: {"id"} -> status object
-    aiogenomix/M/rq/clean         query: {"id"} -> null
+    aiogenomix/M/rq/clean         query: {"id"} -> null; or a publication {"id"} for a request the gateway
+                                  knows has ended (nothing to refuse: no reply is waited for)
     aiogenomix/M/events           publication: {"status": status object, "session", "origin"} per change
     aiogenomix/M/port/P           publication: port P's data, once per publication (binary, below)
     aiogenomix/M/snapshot/P       query: port P's whole data now (same form)
