@@ -12,7 +12,7 @@ from aiogenomix.clients import aconnect, connect
 from tests.clients.test_figure_4_3 import figure_4_3_session
 from tests.conftest import RawEventStream
 
-from ._processes import Process
+from ._processes import Process, start_gateway
 
 
 def _input(value: object) -> str:
@@ -103,3 +103,21 @@ async def test_a_component_nobody_offers_still_loads_in_the_gateway(demo_rig: tu
     with connect(demo_rig[0]) as client:
         countclient = client.load("countclient")
         assert "connect_port" in dir(countclient)
+
+
+async def test_token_and_allow_list_apply_to_remote_components(demo_rig: tuple[str, Process, str],
+                                                                started: list[Process]) -> None:
+    endpoint = demo_rig[2]
+    gateway, url = await start_gateway([endpoint], extra=["--components", "countserver", "--token", "t0k"])
+    started.append(gateway)
+    async with aiohttp.ClientSession(base_url=url) as http:
+        async with http.get("/load/countserver") as reply:
+            assert reply.status == 401
+        authorized = {"Authorization": "Bearer t0k"}
+        async with http.get("/load/demo", headers=authorized) as reply:
+            # demo is offered on Zenoh, but not in this gateway's allow-list.
+            assert reply.status == 404 and (await reply.json())["ex"] == "::genomix::no_such_module"
+        async with http.get("/load/countserver", headers=authorized) as reply:
+            assert (reply.status, await reply.text()) == (200, "countserver")
+        async with http.get("/", headers=authorized) as reply:
+            assert "countserver" in (await reply.json())["offered"]
