@@ -43,6 +43,8 @@ class PortEncoder:
 
     def __init__(self, port: OutPortRuntime) -> None:
         self.port = port
+        #: The port version the last messages carried.
+        self.version = port.version
         self._sent: int | None = None
         self._counts: dict[str, int] | None = None
 
@@ -100,6 +102,7 @@ class PortEncoder:
     def messages(self) -> list[bytes]:
         """The messages of the publications since the last call (one per element of a multiple port)."""
         port = self.port
+        self.version = port.version
         if port.spec.multiple:
             out = []
             for element in port.elements():
@@ -140,7 +143,7 @@ class ComponentExporter:
         self._pending_events: list[bytes] = []
         self._events = session.declare_publisher(events_key(self.instance),
                                                  congestion_control=zenoh.CongestionControl.BLOCK,
-                                                 reliability=zenoh.Reliability.RELIABLE)
+                                                 reliability=zenoh.Reliability.RELIABLE, express=True)
         self._declared.append(self._events)
         self._declared.append(session.declare_queryable(info_key(self.instance), self._on_query(self._info)))
         self._declared.append(session.declare_queryable(request_key(self.instance, "*"),
@@ -149,16 +152,18 @@ class ComponentExporter:
                                                         self._on_query(self._snapshot)))
         self._declared.append(session.declare_subscriber(request_key(self.instance, "clean"), self._on_clean))
         self._encoders: dict[str, PortEncoder] = {}
+        self._publishers: dict[str, Any] = {}
         for name, spec in type(component).ports().items():
             if spec.direction != "out":
                 continue
             port = component.port(name)
             assert isinstance(port, OutPortRuntime)
             encoder = self._encoders[name] = PortEncoder(port)
-            # Numbered data must not be dropped (a gap is a loss); other data is replaced by the next anyway.
-            publisher = session.declare_publisher(port_key(self.instance, name),
-                                                  congestion_control=zenoh.CongestionControl.BLOCK,
-                                                  reliability=zenoh.Reliability.RELIABLE)
+            # Reliable and blocking: a dropped delta would be a gap (a loss).  Express like the replies and
+            # events: nothing is held back in a batch, so all leave in the order they are made.
+            publisher = self._publishers[name] = session.declare_publisher(
+                port_key(self.instance, name), congestion_control=zenoh.CongestionControl.BLOCK,
+                reliability=zenoh.Reliability.RELIABLE, express=True)
             self._declared.append(publisher)
             task = loop.create_task(self._pump(encoder, publisher), name=f"zenoh {self.instance}/{name}")
             self._tasks.add(task)
@@ -189,6 +194,8 @@ class ComponentExporter:
                 if status >= 500:
                     log.exception("%s: query %s failed", self.instance, query.key_expr)
                 answer = error_reply(status, error)
+            # What the component published before answering reaches the gateway before the answer.
+            self._flush_ports()
             # A multiple port's snapshot is one reply per element.
             for body in answer if isinstance(answer, list) else [answer]:
                 query.reply(query.key_expr, body, express=True)
@@ -257,23 +264,31 @@ class ComponentExporter:
         self._pending_events.append(event)
 
     def _publish_events(self) -> None:
+        # A request's end comes after what it published: a read once it is done sees its last data.
+        self._flush_ports()
         events, self._pending_events = self._pending_events, []
         for event in events:
             self._events.put(event)
+
+    def _flush_ports(self) -> None:
+        """Publish now the ports that changed since their last message (not the computed ones: see _pump)."""
+        for name, encoder in self._encoders.items():
+            if encoder.port.version != encoder.version and not isinstance(encoder.port, ComputedOutPortRuntime):
+                for message in encoder.messages():
+                    self._publishers[name].put(message)
 
     async def _pump(self, encoder: PortEncoder, publisher: Any) -> None:
         port = encoder.port
         # A computed port (genom_state) changes with every request: it is sent at most every
         # COMPUTED_PERIOD, its last state always, so that requests do not pay for it one by one.
         pause = COMPUTED_PERIOD if isinstance(port, ComputedOutPortRuntime) else 0.0
-        seen = port.version
         while True:
-            seen = await port.wait_published(seen)
+            await port.wait_published(encoder.version)
             if pause:
                 await asyncio.sleep(pause)
-                seen = port.version
-            for message in encoder.messages():
-                publisher.put(message)
+            if port.version != encoder.version:  # not flushed before a reply meanwhile
+                for message in encoder.messages():
+                    publisher.put(message)
 
     async def close(self) -> None:
         """Withdraw the instance: the token first (the gateway hears it is gone), then the rest."""

@@ -31,6 +31,7 @@ class _Port:
         self.name = "Port"
         self.type = idl_type(annotation)
         self.value: Any = None
+        self.version = 0
 
     def read(self, name: str | None = None) -> Any:
         return self.value
