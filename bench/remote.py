@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import datetime
+import os
 import re
 import socket
 import statistics
@@ -181,7 +183,9 @@ async def run(calls: int = 2000, reads: int = 200, blocks: int = 10, seconds: fl
         service = await _service_blocks((local, remote), calls, blocks)
         read = await _read_blocks((local, remote), reads, blocks)
         readers = await _since_readers(remote, pid, seconds)
-    return {"service": service, "read_4000ms_binary": read, "since_readers": readers}
+    return {"service": service, "read_4000ms_binary": read, "since_readers": readers,
+            "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+            "load_average": os.getloadavg()[0]}
 
 
 def render(r: dict[str, Any]) -> str:
@@ -195,7 +199,9 @@ def render(r: dict[str, Any]) -> str:
         "## Remote components (Zenoh)", "",
         "A gateway hosting `demo` and `capture` itself, and a gateway fronting an `aiogenomix-component demo "
         "capture` process over Zenoh on loopback, measured in the same run, taking turns in blocks; a ratio "
-        "is the median over blocks of (remote median ÷ in-process median), the spread its lowest and highest.",
+        "is the median over blocks of (remote median ÷ in-process median), the spread its lowest and highest. "
+        f"Measured {r.get('date', '')} (load average {r.get('load_average', 0):.1f} on the shared machine: "
+        "absolute times are noisy, the ratios less so).",
         "",
         "| what | in-process median ms (p99) | remote median ms (p99) | remote ÷ in-process | block spread | target |",
         "|---|---|---|---|---|---|",

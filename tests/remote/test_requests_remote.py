@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import asyncio
 import json
+import subprocess
+import sys
 import urllib.parse
 
 import aiohttp
@@ -121,3 +123,12 @@ async def test_token_and_allow_list_apply_to_remote_components(demo_rig: tuple[s
             assert (reply.status, await reply.text()) == (200, "countserver")
         async with http.get("/", headers=authorized) as reply:
             assert "countserver" in (await reply.json())["offered"]
+
+
+def test_zenoh_is_not_imported_unless_asked_for() -> None:
+    check = ("import sys, asyncio\n"
+             "from aiogenomix.gateway import GatewayConfig, create_app\n"
+             "create_app(GatewayConfig(port=0))\n"
+             "assert 'zenoh' not in sys.modules, 'zenoh was imported'\n")
+    done = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
