@@ -116,12 +116,16 @@ def main(argv: list[str] | None = None) -> int:
     try:
         config = parse_args(argv)
         print("aiogenomix gateway starting", file=sys.stderr, flush=True)
+        from ._errors import ZenohSessionError
         from ._run import ListenError, run
 
         try:
             run(config)
         except ListenError as exc:
             print(f"aiogenomix gateway: {exc}; {_listen_hint(exc)}", file=sys.stderr, flush=True)
+            return 1
+        except ZenohSessionError as exc:
+            print(f"aiogenomix gateway: {exc}", file=sys.stderr, flush=True)
             return 1
     except StopSignal as stop:
         print(f"aiogenomix gateway stopping on {stop}", file=sys.stderr, flush=True)

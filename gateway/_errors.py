@@ -35,7 +35,7 @@ from ._replies import json_reply
 
 __all__ = [
     "GatewayError", "NoSuchSession", "BadQuery", "LoadForbidden", "TooManySessions", "RemoteRefusal",
-    "RemoteUnreachable", "error_middleware", "error_body",
+    "RemoteUnreachable", "ZenohSessionError", "error_middleware", "error_body",
 ]
 
 log = logging.getLogger(__name__)
@@ -76,6 +76,10 @@ class RemoteRefusal(GatewayError):
 
 class RemoteUnreachable(GatewayError):
     """A component of another process did not answer in time (its process died, or the network is cut)."""
+
+
+class ZenohSessionError(GatewayError):
+    """The Zenoh session cannot be opened (a malformed endpoint, an address that cannot be listened on)."""
 
 
 _LOOKUPS: dict[type[Exception], str] = {

@@ -13,13 +13,13 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import contextlib
 import logging
 import signal
 import sys
 
 from ...components.core import ComponentError, ComponentHost, ScaledClock
 from .._config import GatewayConfig
+from .._errors import ZenohSessionError
 
 __all__ = ["main", "parse_args"]
 
@@ -117,14 +117,8 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         asyncio.run(run())
-    except ComponentError as exc:
+    except (ComponentError, ZenohSessionError) as exc:
         print(f"aiogenomix-component: {exc}", file=sys.stderr, flush=True)
-        return 1
-    except Exception as exc:
-        # A Zenoh endpoint that cannot be listened on or parsed, most often.
-        with contextlib.suppress(Exception):
-            log.debug("start failed", exc_info=exc)
-        print(f"aiogenomix-component: {type(exc).__name__}: {exc}", file=sys.stderr, flush=True)
         return 1
     print("aiogenomix-component stopped", file=sys.stderr, flush=True)
     return 0

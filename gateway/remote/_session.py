@@ -15,7 +15,7 @@ from typing import Any
 import orjson
 import zenoh
 
-from .._errors import RemoteRefusal, RemoteUnreachable
+from .._errors import RemoteRefusal, RemoteUnreachable, ZenohSessionError
 
 __all__ = ["ZenohEndpoints", "open_session", "ask", "ask_all", "alive"]
 
@@ -43,8 +43,10 @@ class ZenohEndpoints:
         config.insert_json5("scouting/multicast/enabled", "true" if scouting else "false")
         if self.connect:
             config.insert_json5("connect/endpoints", json.dumps(self.connect))
-            # Keep trying an endpoint that is not up yet (the gateway may start before the robot).
-            config.insert_json5("connect/timeout_ms", "-1")
+            # Start without waiting for a peer that is not up yet (the gateway may start before the robot),
+            # and keep trying it in the background.
+            config.insert_json5("connect/timeout_ms", "1000")
+            config.insert_json5("connect/exit_on_failure", "false")
         if self.listen:
             config.insert_json5("listen/endpoints", json.dumps(self.listen))
         return config
@@ -54,9 +56,24 @@ def open_session(endpoints: ZenohEndpoints) -> zenoh.Session:
     """Open a Zenoh peer session (blocking: call it in a thread).
 
     Raises:
-        zenoh.ZError: for a malformed endpoint or one that cannot be listened on.
+        ZenohSessionError: for a malformed endpoint or one that cannot be listened on.
     """
-    return zenoh.open(endpoints.config())
+    for endpoint in [*endpoints.connect, *endpoints.listen]:
+        # Zenoh would retry a connect endpoint it cannot parse forever, silently.
+        address = endpoint.split("?", 1)[0].split("#", 1)[0]
+        protocol, _, place = address.partition("/")
+        port = place.rpartition(":")[2]
+        if not (protocol.isalnum() and place and port.isdigit() and 0 < int(port) < 65536):
+            raise ZenohSessionError(f"{endpoint!r} is not a Zenoh endpoint: write PROTOCOL/ADDRESS:PORT, "
+                                    f"e.g. tcp/192.168.1.10:7447")
+    try:
+        return zenoh.open(endpoints.config())
+    except zenoh.ZError as exc:
+        # Zenoh's message ends with the place in its Rust sources: not for the user.
+        reason = str(exc).split(" at /", 1)[0].rstrip(".")
+        raise ZenohSessionError(f"cannot open the Zenoh session (connect: {', '.join(endpoints.connect) or 'none'}; "
+                                f"listen: {', '.join(endpoints.listen) or 'none'}): {reason}; check "
+                                f"--zenoh-connect and --zenoh-listen (e.g. tcp/192.168.1.10:7447)") from None
 
 
 async def ask(session: zenoh.Session, key: str, payload: Any = None, timeout: float = 5.0) -> Any:

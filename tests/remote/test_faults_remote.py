@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import json
 import signal
+import sys
 import time
 import urllib.parse
 
@@ -104,3 +105,26 @@ async def test_a_frozen_host_gives_clear_errors_in_bounded_time(started: list[Pr
             host.kill(signal.SIGCONT)
         status, sent = await _get(http, "/module/demo/send/GetSpeed")
         assert status == 200 and sent["status"] == "done"
+
+
+async def test_a_gateway_started_before_its_host_finds_it_when_it_comes(started: list[Process]) -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    gateway, url = await start_gateway([endpoint])  # nobody listens there yet: the gateway starts anyway
+    started.append(gateway)
+    started.append(await start_component_host(["demo"], listen=endpoint))
+    async with aiohttp.ClientSession(base_url=url) as http:
+        async with asyncio.timeout(30):
+            while "demo" not in (await _get(http, "/"))[1]["offered"]:
+                await asyncio.sleep(0.1)
+        async with http.get("/load/demo") as reply:
+            assert (reply.status, await reply.text()) == (200, "demo")
+
+
+async def test_a_malformed_endpoint_is_one_line_and_status_1() -> None:
+    for command in (["-m", "aiogenomix.gateway", "--port", "0", "--zenoh-connect", "tcp/robot"],
+                    ["-m", "aiogenomix.gateway.remote._host_main", "demo", "--zenoh-listen", "tcp/robot:x"]):
+        process = await asyncio.create_subprocess_exec(sys.executable, *command, stdout=asyncio.subprocess.PIPE,
+                                                       stderr=asyncio.subprocess.PIPE)
+        _, err = await asyncio.wait_for(process.communicate(), 60)
+        assert process.returncode == 1
+        assert "is not a Zenoh endpoint: write PROTOCOL/ADDRESS:PORT" in err.decode().splitlines()[-1]
