@@ -109,10 +109,12 @@ class World(Component, name="world", version="1.0"):
         # they wait for ``_running``.
         sim, opened = await asyncio.gather(asyncio.to_thread(Simulation, width, height), self.renderer.open(),
                                            return_exceptions=True)  # both end before the load does
-        for outcome in (sim, opened):
-            if isinstance(outcome, RenderError):
-                raise LoadError(f"the world cannot render its cameras ({outcome}); MuJoCo renders offscreen "
-                                "with MUJOCO_GL=osmesa and Debian's libosmesa6") from outcome
+        if isinstance(opened, RenderError):
+            raise LoadError(f"the world cannot render its cameras ({opened}); MuJoCo renders offscreen "
+                            "with MUJOCO_GL=osmesa and Debian's libosmesa6") from opened
+        if isinstance(sim, Exception):  # MuJoCo missing or refusing its settings (MUJOCO_GL...)
+            raise LoadError(f"the world cannot start MuJoCo ({type(sim).__name__}: {sim})") from sim
+        for outcome in (opened, sim):
             if isinstance(outcome, BaseException):
                 raise outcome
         self.sim = sim  # type: ignore[assignment]

@@ -36,6 +36,13 @@ SLOTS_PER_CAMERA = 4
 CLOSE_TIMEOUT = 5.0
 
 
+def _cores() -> int:
+    """The cores this process may run on."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
 class RenderError(RuntimeError):
     """The render process could not start, or ended, or failed to draw (the message says which)."""
 
@@ -82,6 +89,8 @@ class SensorRenderer:
         env.setdefault("MUJOCO_GL", "osmesa")  # no display or GPU needed
         if env["MUJOCO_GL"] == "osmesa":
             env.setdefault("PYOPENGL_PLATFORM", "osmesa")
+            # OSMesa's rasteriser (llvmpipe) starts a thread per core: leave one core to the gateway.
+            env.setdefault("LP_NUM_THREADS", str(max(0, _cores() - 1)))
         fd = self.pool.fileno()
         # -P: the script's folder is not put on the import path (it holds modules named like others).
         self._process = await asyncio.create_subprocess_exec(
