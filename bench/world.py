@@ -45,14 +45,19 @@ async def _fps(cameras: int, seconds: float) -> float:
         await renderer.aclose()
 
 
-async def _lateness(seconds: float) -> list[float]:
-    """How late a 1 ms timer fires, over *seconds*."""
-    late, started = [], time.perf_counter()
+async def _lateness(seconds: float) -> tuple[list[float], float]:
+    """How late a 1 ms timer fires, over *seconds*; and the most CPU time the loop's thread used in one wait.
+
+    A stall during which the loop's thread used little CPU was the machine's (the process waited for a
+    core); one during which it ran was the loop's own work.
+    """
+    late, running, started = [], 0.0, time.perf_counter()
     while time.perf_counter() - started < seconds:
-        before = time.perf_counter()
+        before, cpu = time.perf_counter(), time.thread_time()
         await asyncio.sleep(0.001)
         late.append(max(0.0, time.perf_counter() - before - 0.001))
-    return late
+        running = max(running, time.thread_time() - cpu)
+    return late, running
 
 
 def _pooled(rounds: list[list[float]]) -> dict[str, float | list[float]]:
@@ -65,16 +70,23 @@ async def _stalls(seconds: float, rounds: int) -> dict[str, object]:
     """Timer lateness without a world and with one rendering its cameras and laser at 50 frames per second."""
     idle: list[list[float]] = []
     busy: list[list[float]] = []
+    running = {"without_world": 0.0, "with_world": 0.0}
     frames = []
     for _ in range(rounds):
-        idle.append(await _lateness(seconds))
+        late, ran = await _lateness(seconds)
+        idle.append(late)
+        running["without_world"] = max(running["without_world"], ran * 1e3)
         async with ComponentHost(clock=RealClock()) as host:
             world = await host.load("world", ["-size", f"{SIZE}x{SIZE}", "-rate", "50"])
             await world.pr2_video.wait_published()  # type: ignore[attr-defined]
             first, started = world.pr2_video.version, time.perf_counter()  # type: ignore[attr-defined]
-            busy.append(await _lateness(seconds))
+            late, ran = await _lateness(seconds)
+            busy.append(late)
+            running["with_world"] = max(running["with_world"], ran * 1e3)
             frames.append((world.pr2_video.version - first) / (time.perf_counter() - started))  # type: ignore[attr-defined]
-    return {"without_world": _pooled(idle), "with_world": _pooled(busy), "frames_per_second": statistics.median(frames)}
+    return {"without_world": _pooled(idle) | {"loop_ran": running["without_world"]},
+            "with_world": _pooled(busy) | {"loop_ran": running["with_world"]},
+            "frames_per_second": statistics.median(frames)}
 
 
 async def _round_trips(probe: object, calls: int) -> list[float]:
@@ -138,12 +150,14 @@ def render(r: Result) -> str:
         f"{r['rounds']} rounds of each, alternating:", "",
         *_table(stall, "world rendering flat out"), "",
         f"Worst stall with the world {_ms(stall['with_world']['worst'])} ms (target < {r['stall_target_ms']:.0f} ms: "
-        f"**{r['stall_verdict']}**). The cameras and the laser render in a process of the world's own, which "
-        "draws into memory shared with the gateway: the event loop sends the joint positions and publishes the "
-        "frames as drawn, read-only, without a copy, and steps the physics. What is left of the stall is the "
-        "machine's (compare the row without the world); the render process runs at a lower priority (`nice` 5) "
-        "and leaves a core to the gateway (OSMesa's `LP_NUM_THREADS`, one thread fewer than the cores), so that "
-        "on busy cores the gateway's requests come before frames.", "",
+        f"**{r['stall_verdict']}**). The longest the loop's thread itself ran within one timer wait: "
+        f"{_ms(stall['with_world']['loop_ran'])} ms with the world, {_ms(stall['without_world']['loop_ran'])} ms "
+        "without; in longer stalls the process was waiting for a core. The cameras and the laser render in a "
+        "process of the world's own, which draws into memory shared with the gateway: the event loop sends the "
+        "joint positions and publishes the frames as drawn, read-only, without a copy, and steps the physics. "
+        "The render process runs at a lower priority (`nice` 10) and leaves a core to the gateway (OSMesa's "
+        "`LP_NUM_THREADS`, one thread fewer than the cores), so that on busy cores the gateway's requests come "
+        "before frames.", "",
         "Another component's function (`probe.Stamp`, through a gateway process and the generated client), "
         f"{r['rounds']} rounds of each case, alternating:", "",
         *_table(services, "world, pr2 and morse_kemar loaded (10 frames/s)"), "",

@@ -31,7 +31,7 @@ __all__ = ["read_message", "write_message", "pack_message", "unpack_message", "H
 HEADER = struct.Struct(">I")
 #: How much lower than the gateway the render process runs (``nice``): frames are best effort (as
 #: MORSE's), the gateway's requests come first when the CPUs are busy.
-NICENESS = 5
+NICENESS = 10
 
 
 def pack_message(message: Any) -> bytes:
