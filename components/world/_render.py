@@ -92,13 +92,20 @@ class SensorRenderer:
             # OSMesa's rasteriser (llvmpipe) starts a thread per core: leave one core to the gateway.
             env.setdefault("LP_NUM_THREADS", str(max(0, _cores() - 1)))
         fd = self.pool.fileno()
-        # -P: the script's folder is not put on the import path (it holds modules named like others).
-        self._process = await asyncio.create_subprocess_exec(
-            sys.executable, "-P", str(Path(_render_worker.__file__)), str(fd),
-            stdin=asyncio.subprocess.PIPE, stdout=asyncio.subprocess.PIPE, pass_fds=(fd,), env=env)
-        self.pool.forget_file()
-        self._send(("open", self._xml, self.width, self.height, self._laser))
-        reply = await self._receive()
+        try:
+            # -P: the script's folder is not put on the import path (it holds modules named like others).
+            self._process = await asyncio.create_subprocess_exec(
+                sys.executable, "-P", str(Path(_render_worker.__file__)), str(fd),
+                stdin=asyncio.subprocess.PIPE, stdout=asyncio.subprocess.PIPE, pass_fds=(fd,), env=env)
+            self.pool.forget_file()
+            self._send(("open", self._xml, self.width, self.height, self._laser))
+            reply = await self._receive()
+        except OSError as exc:
+            await self.aclose()
+            raise RenderError(f"the render process cannot start ({exc})") from exc
+        except BaseException:
+            await self.aclose()
+            raise
         if reply[0] != "ready":
             await self.aclose()
             raise RenderError(reply[1])
@@ -119,8 +126,13 @@ class SensorRenderer:
         self._seq += 1
         seq = self._seq
         slots = [pool.take(spare) for spare in range(len(self.cameras))]
-        self._send(("render", seq, np.asarray(qpos, np.float64), list(zip(self.cameras, slots, strict=True)),
-                    with_laser))
+        try:
+            self._send(("render", seq, np.asarray(qpos, np.float64), list(zip(self.cameras, slots, strict=True)),
+                        with_laser))
+        except RenderError:
+            for slot in slots:
+                pool.give_back(slot)
+            raise
         self._pending[seq] = slots
         while True:
             reply = await self._receive()  # cancelled here: the slots stay pending until the reply
