@@ -20,6 +20,7 @@ from __future__ import annotations
 import mmap
 import os
 import pickle
+import signal
 import struct
 import sys
 import traceback
@@ -161,13 +162,16 @@ def main(argv: list[str]) -> int:
     # whatever else is printed to the standard error.
     outbox = os.fdopen(os.dup(1), "wb")
     os.dup2(2, 1)
+    # Ctrl-C in a terminal reaches the whole process group: the gateway stops the world, which ends
+    # this process (its input closes); dying first would only make the world report a lost renderer.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         os.nice(NICENESS)
     except OSError:
         pass
     try:
         serve(int(argv[1]), sys.stdin.buffer, outbox)
-    except (BrokenPipeError, KeyboardInterrupt):
+    except BrokenPipeError:
         pass  # the parent went away: nothing left to answer
     return 0
 
