@@ -20,7 +20,7 @@ from ._exceptions import (
 )
 from ._ports import ComputedOutPort, InPortRuntime, OutPortRuntime, PortSpec
 from ._requests import Request, RequestTracker
-from ._services import ServiceSpec, activity, check_validate_hook, function, service_spec
+from ._services import ServiceSpec, activity, check_redeclaration, check_validate_hook, function, service_spec
 from ._state import GenomState
 from ._tasks import Task, TaskRuntime
 from ._types import ULong, string
@@ -91,13 +91,20 @@ class Component:
             services[standard] = services.pop(standard)
         ports["genom_state"] = ports.pop("genom_state")
         cls._services, cls._ports, cls._tasks = services, ports, tasks
+        owner = f"component {cls.genom_name!r} ({cls.__name__})"
+        for port in ports.values():
+            try:
+                port.type  # noqa: B018 -- resolved now: a port of no IDL type is refused with its class
+            except TypeError as exc:
+                raise TypeError(f"{owner}, port {port.name}: {exc}") from None
         for spec in services.values():
+            check_redeclaration(spec, owner)
             for target in spec.interrupts:
                 if target not in services:
                     raise TypeError(f"{cls.__name__}.{spec.name} interrupts unknown service {target!r}")
             if spec.validate is not None:
                 # Caught here rather than as an error at the first request of the service.
-                check_validate_hook(spec, f"component {cls.genom_name!r} ({cls.__name__})")
+                check_validate_hook(spec, owner)
 
     def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
         self.host = host
