@@ -14,7 +14,7 @@ from ._access import AccessPolicy, access_middleware, security_headers
 from ._auth import AUTH_PATH, LOGIN_PATH, TokenCheck, auth_without_token, login_without_token
 from ._config import GatewayConfig
 from ._errors import error_middleware
-from ._keys import CONFIG, HOST, SESSIONS, SHUTDOWN, UNLOADS, Shutdown
+from ._keys import CONFIG, HOST, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, Shutdown, WatchFrames
 from ._sessions import SessionStore
 from ._shutdown import shut_down
 from ._sse import format_event
@@ -45,6 +45,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app[CONFIG] = config
     app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)
     app[SHUTDOWN] = Shutdown()
+    app[WATCH_FRAMES] = WatchFrames()
     owns_host = host is None
     app[HOST] = host or ComponentHost(clock=ScaledClock(config.time_scale), settings=config.host_settings(),
                                       function_grace=config.function_grace, max_instances=config.max_instances)
