@@ -7,6 +7,7 @@ from collections.abc import AsyncIterator, Callable
 
 import orjson
 from aiohttp import web
+from aiohttp.typedefs import Middleware
 
 from ..components.core import ComponentHost, ScaledClock
 from . import _routes_admin, _routes_modules, _routes_openapi, _routes_ports, _routes_sessions
@@ -35,7 +36,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
         An aiohttp application; run it with ``web.run_app`` or an ``AppRunner``.
     """
     config = config or GatewayConfig()
-    middlewares = [error_middleware]
+    middlewares: list[Middleware] = [error_middleware]
     if config.token:
         middlewares.insert(0, TokenCheck(config.token).middleware)
     # Browsers are checked first: a refused page learns nothing, not even whether a token is needed.

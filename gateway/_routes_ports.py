@@ -103,7 +103,7 @@ async def read(request: web.Request) -> web.StreamResponse:
     binary = _wants_binary(request)
     if since is not None:
         _require_incremental(port, value)
-    if _is_chunked(type(value)):
+    if _is_chunked(type(value)):  # type: ignore[arg-type]  # a type[Any] is hashable
         # The publication's chunks as they are: no copy of the window, and JSON texts made
         # once per chunk.  The data is immutable, so the reply holds this publication alone
         # however long it takes to write.

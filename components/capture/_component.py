@@ -78,7 +78,8 @@ class Capture(Component, name="capture", version="1.1"):
 
     retrieve_data = Task(doc="Reads chunks from the sound device and publishes them on Port")
     socket = Task(doc="Serves the dedicated TCP socket")
-    Port = OutPort(PortData, doc="The last Port_chunks chunks of binaural audio, oldest first")
+    # Published as views of the chunk window (incremental reads); encoded as PortData.
+    Port: OutPort[PortView] = OutPort(PortData, doc="The last Port_chunks chunks of binaural audio, oldest first")
 
     #: The struct published on Port.
     port_data: ClassVar[type[PortData]] = PortData
@@ -243,7 +244,8 @@ class Capture(Component, name="capture", version="1.1"):
             await reader  # the end of the stream, or the device's error
         finally:
             # Stopped or failed: nothing started here outlives the capture.
-            for task in (reader, *queries):
+            started: list[asyncio.Future[Any]] = [reader, *queries]
+            for task in started:
                 task.cancel()
             await asyncio.gather(reader, *queries, return_exceptions=True)
 

@@ -111,7 +111,7 @@ class Component:
         self.instance = instance
         self.argv = list(argv or [])
         self.requests = RequestTracker(instance, host.announce_request)
-        self._port_runtimes: dict[str, OutPortRuntime | InPortRuntime] = {}
+        self._port_runtimes: dict[str, OutPortRuntime[Any] | InPortRuntime[Any]] = {}
         self._task_runtimes: dict[str, TaskRuntime] = {}
         self._started = False
         self._killed = False
@@ -158,11 +158,10 @@ class Component:
         """The host's clock."""
         return self.host.clock
 
-    def _port_runtime(self, name: str) -> Any:
+    def _port_runtime(self, name: str) -> OutPortRuntime[Any] | InPortRuntime[Any]:
         runtime = self._port_runtimes.get(name)
         if runtime is None:
-            runtime = self._ports[name].runtime(self)  # type: ignore[attr-defined]
-            self._port_runtimes[name] = runtime
+            runtime = self._port_runtimes[name] = self._ports[name].runtime(self)
         return runtime
 
     def _task_runtime(self, name: str) -> TaskRuntime:
@@ -171,7 +170,7 @@ class Component:
             runtime = self._task_runtimes[name] = TaskRuntime(self._tasks[name], self)
         return runtime
 
-    def port(self, name: str) -> OutPortRuntime | InPortRuntime:
+    def port(self, name: str) -> OutPortRuntime[Any] | InPortRuntime[Any]:
         """The runtime of a port.
 
         Raises:
@@ -179,7 +178,7 @@ class Component:
         """
         if name not in self._ports:
             raise NoSuchPort(f"{self.instance} has no port {name!r} (ports: {', '.join(self._ports)})")
-        return self._port_runtime(name)  # type: ignore[no-any-return]
+        return self._port_runtime(name)
 
     # -- lifecycle ------------------------------------------------------------------------
 
@@ -409,7 +408,7 @@ class Component:
 
     def _genom_state(self) -> GenomState:
         """The data of the ``genom_state`` port, computed when it is read."""
-        activities = [{"id": r.number, "name": r.service.name} for r in self.requests.running()
+        activities: list[dict[str, Any]] = [{"id": r.number, "name": r.service.name} for r in self.requests.running()
                       if r.service.kind == "activity"]
         tasks = [rt.state() | {"activity": [a for a in activities
                                             if self._services[a["name"]].task == rt.name]}

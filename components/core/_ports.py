@@ -12,6 +12,7 @@ its annotation: ``Position: OutPort[float] = OutPort(Double)``.
 from __future__ import annotations
 
 import asyncio
+import builtins
 from typing import Any, Generic, Protocol, Self, TypeVar, overload, runtime_checkable
 
 from ._exceptions import NoSuchPort, port_io
@@ -67,7 +68,7 @@ class PortSpec:
             self._type = idl_type(self.annotation)
         return self._type
 
-    def __set_name__(self, owner: type, name: str) -> None:
+    def __set_name__(self, owner: builtins.type, name: str) -> None:
         self.name = name
 
     def describe(self) -> dict[str, Any]:

@@ -544,10 +544,9 @@ def idl_struct(name: str) -> Callable[[_Class], _Class]:
     """
 
     def decorate(cls: _Class) -> _Class:
-        if not dataclasses.is_dataclass(cls):
-            cls = dataclasses.dataclass(cls)
-        cls.__idl_type__ = StructType(cls, _scoped(name))
-        return cls
+        struct: Any = cls if dataclasses.is_dataclass(cls) else dataclasses.dataclass(cls)
+        struct.__idl_type__ = StructType(struct, _scoped(name))
+        return typing.cast(_Class, struct)
 
     return decorate
 

@@ -7,6 +7,7 @@ import math
 from typing import Any
 
 from ..capture import Capture, HeadPositionSource
+from ..capture._port_view import PortView
 from ..core import OutPort, redeclare
 from ..kemar import BUS_ERROR, Kemar, KemarError
 from ._types import KemarPortData, MoveIndexes
@@ -27,8 +28,8 @@ class KemarCapture(Capture, Kemar, name="kemarcapture", version="1.0"):
     with the simulated head.
     """
 
-    Port = OutPort(KemarPortData, doc="The last Port_chunks chunks of binaural audio and the head azimuth "
-                                      "at the end of each, oldest first")
+    Port: OutPort[PortView] = OutPort(KemarPortData, doc="The last Port_chunks chunks of binaural audio and the "
+                                                         "head azimuth at the end of each, oldest first")
     Indexes = OutPort(MoveIndexes, doc="Chunk index and head azimuth at the start and the end of the last "
                                        "MoveAbsolutePosition")
 
