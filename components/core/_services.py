@@ -305,6 +305,18 @@ _OPTIONS_DOC = """
 """
 
 
+_KEYWORD = inspect.Parameter.KEYWORD_ONLY
+_DECORATOR_SIGNATURE = inspect.Signature([
+    inspect.Parameter("func", inspect.Parameter.POSITIONAL_ONLY, default=None, annotation="Callable[..., Any] | None"),
+    inspect.Parameter("name", _KEYWORD, default=None, annotation="str | None"),
+    inspect.Parameter("doc", _KEYWORD, default=None, annotation="str | None"),
+    inspect.Parameter("interrupts", _KEYWORD, default=(), annotation="Sequence[str]"),
+    inspect.Parameter("throws", _KEYWORD, default=(), annotation="Sequence[type[GenomException]]"),
+    inspect.Parameter("validate", _KEYWORD, default=None, annotation="Callable[..., Any] | None"),
+    inspect.Parameter("task", _KEYWORD, default=None, annotation="Task | str | None"),
+], return_annotation="Any")
+
+
 def _decorator(kind: ServiceKind) -> ServiceDecorator:
     def decorator(func: Callable[..., Any] | None = None, /, **options: Any) -> Any:
         def attach(f: Callable[..., Any]) -> Callable[..., Any]:
@@ -317,6 +329,9 @@ def _decorator(kind: ServiceKind) -> ServiceDecorator:
         return attach(func) if func is not None else attach
 
     decorator.__name__ = decorator.__qualname__ = kind
+    # help() shows the options the type checker knows; the body takes **options to refuse a
+    # misspelled one with a suggestion rather than Python's bare "unexpected keyword argument".
+    decorator.__signature__ = _DECORATOR_SIGNATURE  # type: ignore[attr-defined]
     decorator.__doc__ = f"""Declare a method as a genom3 *{kind}* service.
 
     Usable bare (``@{kind}``) or with options (``@{kind}(interrupts=("Stop",))``).
