@@ -12,7 +12,7 @@ import asyncio
 import datetime
 import inspect
 import logging
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar
 
 from ._exceptions import (
     GenomException, InputError, NoSuchPort, NoSuchService, disallowed, interrupted,
@@ -23,7 +23,7 @@ from ._requests import Request, RequestTracker
 from ._services import ServiceSpec, activity, check_redeclaration, check_validate_hook, function, service_spec
 from ._state import GenomState
 from ._tasks import Task, TaskRuntime
-from ._types import ULong, string
+from ._types import Bound, ULong
 
 if TYPE_CHECKING:
     from ._clock import Clock
@@ -432,7 +432,7 @@ class Component:
             await self.interrupt(request, by="abort_activity")
 
     @function(throws=(no_such_inport, no_such_outport))
-    def connect_port(self, local: string(128), remote: string(128)) -> None:  # type: ignore[valid-type]
+    def connect_port(self, local: Annotated[str, Bound(128)], remote: Annotated[str, Bound(128)]) -> None:
         """Connect the in port ``local`` to the out port ``remote`` ("component/port[/element]")."""
         spec = self._ports.get(local)
         if spec is None or spec.direction != "in":
@@ -450,7 +450,7 @@ class Component:
         self.port(local).connect(target, remote, parts[2] if len(parts) > 2 else None)  # type: ignore[union-attr]
 
     @function(throws=(no_such_service,))
-    def connect_service(self, local: string(128), remote: string(128)) -> None:  # type: ignore[valid-type]
+    def connect_service(self, local: Annotated[str, Bound(128)], remote: Annotated[str, Bound(128)]) -> None:
         """Connect a used service to a remote one (no component here uses remote services)."""
         raise no_such_service()
 
