@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import types
 import typing
-from collections.abc import Iterable, MutableMapping
+from collections.abc import Iterable, Iterator, MutableMapping
 from typing import Any
 
 __all__ = ["show_as_public"]
@@ -27,7 +28,22 @@ def show_as_public(namespace: MutableMapping[str, Any], names: Iterable[str], mo
             if any(isinstance(hint, str) for hint in own.values()):
                 resolved = typing.get_type_hints(obj, include_extras=True)
                 obj.__annotations__ = {key: resolved[key] for key in own}
+            # Its methods too: pydoc (3.13) says "from <module>.<class>" of a method whose module differs.
+            for function in _functions_of(obj):
+                if function.__module__ == obj.__module__:
+                    function.__module__ = module
         try:
             obj.__module__ = module
         except (AttributeError, TypeError):
             continue  # an object whose module is fixed
+
+
+def _functions_of(cls: type) -> Iterator[Any]:
+    """The functions a class defines: methods, class and static methods, property accessors."""
+    for value in vars(cls).values():
+        if isinstance(value, property):
+            yield from (f for f in (value.fget, value.fset, value.fdel) if f is not None)
+        elif isinstance(value, (classmethod, staticmethod)):
+            yield value.__func__
+        elif isinstance(value, types.FunctionType):
+            yield value

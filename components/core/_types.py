@@ -589,6 +589,9 @@ def idl_type(annotation: Any) -> IdlType:
     explicit = getattr(annotation, "__idl_type__", None)
     if isinstance(explicit, IdlType):
         return explicit
+    expanded = _expand_type_alias(annotation)
+    if expanded is not None:
+        return idl_type(expanded)
     if annotation in _PLAIN:
         return _PLAIN[annotation]
     origin = typing.get_origin(annotation)
@@ -602,6 +605,20 @@ def idl_type(annotation: Any) -> IdlType:
     if origin is np.ndarray:
         return _numpy_sequence(annotation)
     raise TypeError(f"{annotation!r} has no IDL type: use Double, Long, String, an @idl_struct, ...")
+
+
+def _expand_type_alias(annotation: Any) -> Any:
+    """What a ``type X[T] = ...`` alias (PEP 695) stands for, or None for anything else.
+
+    numpy 2.5 and later declares ``NDArray`` so: ``NDArray[np.int32]`` then has the
+    alias for origin, not ``np.ndarray``.
+    """
+    alias = typing.get_origin(annotation) or annotation
+    value = getattr(alias, "__value__", None)
+    if value is None or not hasattr(alias, "__type_params__"):
+        return None
+    args = typing.get_args(annotation)
+    return value[args] if args else value
 
 
 #: The IDL scalar of each numpy element type (``NDArray[np.float64]`` is ``sequence<double>``).

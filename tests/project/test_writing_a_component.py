@@ -39,7 +39,8 @@ def test_the_page_runs_from_nothing_to_generated_client_functions(
     assert "done {'reached': {'pan': 20.0, 'tilt': -5.0}}" in shown
     assert "error {'ex': '::pantilt::OUT_OF_RANGE', 'detail': {'axis': 'pan', 'limit': 170.0}}" in shown
     assert "the follower points at Angles(pan=-20.0, tilt=0.0)" in shown
-    assert "async Point(pan: float = 0.0, tilt: float = 0.0, *, ack: bool = False" in shown  # help()
+    # help(): its signature (which pydoc wraps on 3.13) and its docstring
+    assert "async Point(" in shown and "pan: float = 0.0" in shown and "ack: bool = False" in shown
     assert "OUT_OF_RANGE: ::pantilt::OUT_OF_RANGE." in shown and "\ntilt 30.0\n" in shown
     assert "@function has no option 'interupts' (did you mean 'interrupts'?)" in shown
 
