@@ -205,8 +205,10 @@ class Pr2(Component, name="pr2", version="1.0"):
         _finite(**joints, time_to_finish=time_to_finish)
         limits = arm_limits(side)
         goals = {name: _clamp(value, *limits[name][:2]) for name, value in joints.items()}
-        port, command = (self.Port_l_arm, LeftArmCommand) if side == "l" else (self.Port_r_arm, RightArmCommand)
-        port.publish(command(*values, time_to_finish))
+        if side == "l":
+            self.Port_l_arm.publish(LeftArmCommand(**joints, time_to_finish=time_to_finish))
+        else:
+            self.Port_r_arm.publish(RightArmCommand(**joints, time_to_finish=time_to_finish))
         await self._move_joints(goals, JOINT_TOLERANCE, JOINT_STILL)
 
     @activity(task=PublishPort, interrupts=("move_l_arm",), throws=(INVALID_VALUE,))

@@ -221,9 +221,11 @@ class World(Component, name="world", version="1.0"):
     async def _restart_renderer(self, error: RenderError) -> None:
         """After a failed frame, a new render process; cameras and laser stop if it cannot start either."""
         log.error("world %s: %s; starting a new render process", self.instance, error)
-        await self.renderer.aclose()
+        renderer = self.renderer
+        assert renderer is not None  # set before _running
+        await renderer.aclose()
         try:
-            await self.renderer.open()
+            await renderer.open()
         except RenderError as exc:
             log.error("world %s: the cameras and the laser stop: %s", self.instance, exc)
             self._blind = True
