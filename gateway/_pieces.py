@@ -82,9 +82,10 @@ class PiecesPayload(payload.Payload):
 
     async def write(self, writer: AbstractStreamWriter) -> None:
         """Write both parts without waiting for the socket in between (aiohttp drains at the end)."""
-        await writer.write(self._head, drain=False)
+        # aiohttp's StreamWriter takes drain=; the abstract writer it is typed as does not say so.
+        await writer.write(self._head, drain=False)  # type: ignore[call-arg]
         if self._rest:
-            await writer.write(self._rest, drain=False)
+            await writer.write(self._rest, drain=False)  # type: ignore[call-arg]
 
     def decode(self, encoding: str = "utf-8", errors: str = "strict") -> str:
         """The body as text (for logs and tests)."""

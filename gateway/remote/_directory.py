@@ -91,5 +91,5 @@ class ZenohDirectory:
     async def aclose(self) -> None:
         """Close the session (the proxies were unloaded by the host first)."""
         with contextlib.suppress(zenoh.ZError):
-            self._watch.undeclare()
+            self._watch.undeclare()  # type: ignore[no-untyped-call]
         await asyncio.to_thread(self.session.close)

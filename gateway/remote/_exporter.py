@@ -18,8 +18,8 @@ from typing import Any
 import orjson
 import zenoh
 
-from ...components.core import Chunked, Component, ComponentError, Incremental, OutPortRuntime, Request
-from ...components.core._ports import ComputedOutPortRuntime
+from ...components.core import Chunked, Component, Incremental, OutPortRuntime
+from ...components.core.runtime import ComponentError, ComputedOutPortRuntime, Request
 from .._errors import error_body
 from ._wire import (
     alive_key, arrays_of, encode_message, error_reply, events_key, info_key, ok_reply, port_key, request_key,
@@ -41,7 +41,7 @@ class PortEncoder:
         port: The out port.
     """
 
-    def __init__(self, port: OutPortRuntime) -> None:
+    def __init__(self, port: OutPortRuntime[Any]) -> None:
         self.port = port
         #: The port version the last messages carried.
         self.version = port.version
@@ -202,7 +202,7 @@ class ComponentExporter:
         except zenoh.ZError:
             pass  # the querier gave up (timeout): nobody to answer
         finally:
-            query.drop()
+            query.drop()  # type: ignore[no-untyped-call]
 
     @staticmethod
     def _payload(query: zenoh.Query) -> dict[str, Any]:
@@ -293,7 +293,7 @@ class ComponentExporter:
     async def close(self) -> None:
         """Withdraw the instance: the token first (the gateway hears it is gone), then the rest."""
         with contextlib.suppress(zenoh.ZError):
-            self._token.undeclare()
+            self._token.undeclare()  # type: ignore[no-untyped-call]
         tasks = list(self._tasks)
         for task in tasks:
             task.cancel()

@@ -17,7 +17,8 @@ import logging
 import signal
 import sys
 
-from ...components.core import ComponentError, ComponentHost, ScaledClock
+from ...components.core import ComponentHost, ScaledClock
+from ...components.core.runtime import ComponentError
 from .._config import GatewayConfig
 from .._errors import ZenohSessionError
 

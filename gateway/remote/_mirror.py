@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ...components.core import Chunk, ChunkedArray, OutPortRuntime
-from ...components.core._ports import PortSpec
+from ...components.core.runtime import PortSpec
 from ._wire import arrays_of
 
 __all__ = ["MirroredOutPort", "MirroredWindow", "MirroredType"]
@@ -187,7 +187,7 @@ def _joined(data: Any) -> Any:
     return data
 
 
-class MirroredOutPort(OutPortRuntime):
+class MirroredOutPort(OutPortRuntime[Any]):
     """A remote out port as the gateway holds it: updated by :meth:`apply`, read like a local port.
 
     Args:
@@ -230,6 +230,7 @@ class MirroredOutPort(OutPortRuntime):
         index, prev = int(header["index"]), int(header.get("prev", 0))
         self._counts = header.get("counts") or self._counts
         follows = True
+        entries: tuple[_Entry, ...]
         if kind == "base":
             held = header["held"]
             padding = _Entry(None, None, tuple(_chunk(a[:len(a) - h]) for a, h in zip(arrays, held, strict=True)))

@@ -19,7 +19,8 @@ from typing import TYPE_CHECKING, Any
 import orjson
 import zenoh
 
-from ...components.core import Component, ComponentHost, NoSuchPort, NoSuchRequest, RequestRunning
+from ...components.core import Component, ComponentHost
+from ...components.core.runtime import NoSuchPort, NoSuchRequest, RequestRunning
 from .._errors import RemoteUnreachable
 from ._mirror import MirroredOutPort
 from ._session import ask, ask_all
@@ -127,7 +128,7 @@ class RemoteComponent(Component, name="remote"):
         """The remote instance's ``/info``."""
         return self._description
 
-    def port(self, name: str) -> OutPortRuntime | InPortRuntime:
+    def port(self, name: str) -> OutPortRuntime[Any] | InPortRuntime[Any]:
         """The mirrored out port *name*.
 
         Raises:

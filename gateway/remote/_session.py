@@ -129,8 +129,12 @@ async def ask_all(session: zenoh.Session, key: str, timeout: float = 5.0) -> lis
             body = reply.ok.payload.to_bytes()
             loop.call_soon_threadsafe(replies.append, body)
 
+    def finish() -> None:
+        if not finished.done():
+            finished.set_result(None)
+
     def on_end() -> None:
-        loop.call_soon_threadsafe(lambda: finished.done() or finished.set_result(None))
+        loop.call_soon_threadsafe(finish)
 
     session.get(key, zenoh.handlers.Callback(on_reply, on_end), timeout=timeout)
     with contextlib.suppress(TimeoutError):
@@ -150,8 +154,12 @@ async def alive(session: zenoh.Session, key: str, timeout: float = 2.0) -> list[
             found = str(reply.ok.key_expr)
             loop.call_soon_threadsafe(keys.append, found)
 
+    def finish() -> None:
+        if not finished.done():
+            finished.set_result(None)
+
     def on_end() -> None:
-        loop.call_soon_threadsafe(lambda: finished.done() or finished.set_result(None))
+        loop.call_soon_threadsafe(finish)
 
     session.liveliness().get(key, zenoh.handlers.Callback(on_reply, on_end), timeout=timeout)
     with contextlib.suppress(TimeoutError):
