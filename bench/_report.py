@@ -88,6 +88,10 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
         from .world import render as world_section
 
         out.append(world_section(results["world"]))
+    if "remote" in results:
+        from .remote import render as remote_section
+
+        out.append(remote_section(results["remote"]))
     out.append(ANALYSIS)
     return "\n".join(out)
 
