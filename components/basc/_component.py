@@ -64,6 +64,9 @@ class Basc(Component, name="basc", version="1.0"):
 
     def _audio(self) -> AudioSnapshot:
         snapshot = self.Audio.read()
+        if isinstance(snapshot, AudioPortData):
+            # bass in another process: its port arrives as the struct, not as the snapshot object.
+            snapshot = AudioSnapshot.from_data(snapshot)
         if not isinstance(snapshot, AudioSnapshot) or not snapshot.chunks:
             raise e_noData(what="the Audio port is not connected to bass/Audio" if snapshot is None
                            else "bass is not acquiring (send Acquire first)")

@@ -112,6 +112,27 @@ class AudioSnapshot:
         """The port before any acquisition: no frames, every member zero."""
         return cls(0, 1, (), 0)
 
+    @classmethod
+    def from_data(cls, data: AudioPortData) -> AudioSnapshot:
+        """The snapshot a whole ``binaudio::portStruct`` describes (one read of another process's port).
+
+        An in port connected to ``bass`` in another process reads the port struct, not the
+        snapshot object: this gives it back the frame-indexed reads (:meth:`frames`).
+
+        Raises:
+            ValueError: when the struct's sizes do not describe whole chunks.
+        """
+        fpc, capacity = int(data.nFramesPerChunk), int(data.nChunksOnPort)
+        if fpc == 0 or capacity == 0:
+            return cls.empty()
+        left, right = np.asarray(data.left, dtype=np.int32), np.asarray(data.right, dtype=np.int32)
+        if len(left) != fpc * capacity or len(right) != len(left) or data.lastFrameIndex % fpc:
+            raise ValueError(f"a port of {capacity} chunks of {fpc} frames ending at frame "
+                             f"{data.lastFrameIndex} cannot hold {len(left)} and {len(right)} frames")
+        both = np.vstack((left, right))
+        chunks = tuple(_frozen(both[:, n * fpc:(n + 1) * fpc].copy()) for n in range(capacity))
+        return cls(int(data.sampleRate), fpc, chunks, int(data.lastFrameIndex) // fpc)
+
     @property
     def capacity(self) -> int:
         """Chunks on the port (``nChunksOnPort``)."""

@@ -150,6 +150,10 @@ class MirroredWindow:
                 data[member] = arrays[number].size
         return data, lost
 
+    def whole(self) -> Any:
+        """The whole data with its arrays joined, as the remote port published it (padding included)."""
+        return _joined(self.chunked()[0])
+
     def since(self, index: int) -> tuple[Any, int]:
         """The items after *index* with their arrays joined, and how many of them are lost."""
         data, lost = self.chunked(index)
@@ -207,7 +211,7 @@ class MirroredOutPort(OutPortRuntime[Any]):
         """The data decoded as type *kind* (for an in port of this process connected here)."""
         value = self.read(name)
         if isinstance(value, MirroredWindow):
-            value = value.since(0)[0]
+            value = value.whole()
         return None if value is None else kind.decode(value, self.name)
 
     def apply(self, header: dict[str, Any], whole: Any, delta: Any) -> bool:

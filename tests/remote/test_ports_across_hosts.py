@@ -40,3 +40,40 @@ async def test_countclient_in_one_host_fed_by_countserver_in_another(started: li
         with pytest.raises(RemoteError) as refused:
             await countclient.connect_port("CounterPort", "nobody/CounterPort")
         assert refused.value.ex == "::genom::no_such_outport"
+
+
+async def test_basc_in_one_host_reads_blocks_of_bass_in_another(started: list[Process]) -> None:
+    bass_endpoint = f"tcp/127.0.0.1:{free_port()}"
+    basc_endpoint = f"tcp/127.0.0.1:{free_port()}"
+    started.append(await start_component_host(["bass"], listen=bass_endpoint))
+    started.append(await start_component_host(["basc"], listen=basc_endpoint, connect=[bass_endpoint]))
+    gateway, url = await start_gateway([bass_endpoint, basc_endpoint])
+    started.append(gateway)
+    async with aconnect(url) as client:
+        bass = await client.load("bass")
+        basc = await client.load("basc")
+        await basc.connect_port("Audio", "bass/Audio")
+        # Before its first chunk bass holds no frames: GetBlocks would rightly refuse (e_noData).
+        with pytest.raises(RemoteError) as refused:
+            await basc.GetBlocks(nBlocks=1)
+        assert refused.value.ex == "::basc::e_noData"
+        # Ten seconds on the port: the last block is still there when the test compares it.
+        acquiring = await bass.Acquire(device="sim", nChunksOnPort=200, ack=True)
+        async with asyncio.timeout(30):
+            while (await bass.Audio()).lastFrameIndex < 4 * 12000:
+                await asyncio.sleep(0.02)
+        # Three consecutive half-second blocks, read across processes from the frame-indexed port.
+        assert await basc.GetBlocks(nBlocks=3, nFramesPerBlock=22050, startOffs=0) == 0
+        blocks = await basc.Blocks()
+        assert (blocks.blocks, blocks.nFrames, blocks.lost) == (3, 22050, 0)
+        assert len(blocks.left) == len(blocks.right) == 22050
+        # The last block is what bass itself holds under those frame indices.
+        window = await bass.Audio()
+        first = window.lastFrameIndex - window.nFramesPerChunk * window.nChunksOnPort + 1
+        offset = blocks.firstFrameIndex - first
+        assert offset >= 0
+        assert list(blocks.left) == list(window.left[offset:offset + 22050])
+        assert list(blocks.right) == list(window.right[offset:offset + 22050])
+        await bass.Stop()
+        with pytest.raises(Interrupted):
+            await acquiring
