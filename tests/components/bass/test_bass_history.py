@@ -81,3 +81,19 @@ def test_the_empty_port_and_bad_chunks() -> None:
         ChunkHistory(CHUNKS, FPC, 16000).append(np.zeros(3), np.zeros(3))
     with pytest.raises(ValueError):
         history_after(1).snapshot.frames(-1)
+
+
+def test_the_port_struct_of_another_process_reads_as_the_snapshot_it_came_from() -> None:
+    for chunks in (0, 2, 5):
+        published = history_after(chunks).snapshot
+        rebuilt = AudioSnapshot.from_data(published.data)
+        assert rebuilt.last_frame_index == published.last_frame_index
+        for first in (0, 3, 9, 30):
+            theirs, ours = published.frames(first, 5), rebuilt.frames(first, 5)
+            assert (ours.first, ours.lost, ours.left.tolist(), ours.right.tolist()) == \
+                   (theirs.first, theirs.lost, theirs.left.tolist(), theirs.right.tolist())
+    assert AudioSnapshot.from_data(AudioSnapshot.empty().data).chunks == ()
+    torn = history_after(2).snapshot.data
+    torn.left = torn.left[1:]
+    with pytest.raises(ValueError, match="cannot hold 11 and 12 frames"):
+        AudioSnapshot.from_data(torn)
