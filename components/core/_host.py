@@ -155,6 +155,7 @@ class ComponentHost:
                 existing = self._instances.get(name)
                 if existing is not None:
                     return existing
+                self._check_room()
                 proxy = await self.finder.find(self, name, list(argv or []))
                 if proxy is not None:
                     self._instances[name] = proxy
@@ -178,9 +179,7 @@ class ComponentHost:
                 if existing.genom_name != self.component_class(name).genom_name:
                     raise LoadError(f"instance name {instance!r} is taken by a {existing.genom_name} component")
                 return existing
-            if len(self._instances) >= self.max_instances:
-                raise TooManyInstances(f"{len(self._instances)} instances are loaded, the most this gateway allows: "
-                                       f"unload one first")
+            self._check_room()
             cls = self.component_class(name)
             component = cls(self, instance, args)
             token = _LOADING.set((self, asyncio.current_task()))
@@ -192,6 +191,12 @@ class ComponentHost:
             log.info("loaded %s as %s", name, instance)
             return component
 
+    def _check_room(self) -> None:
+        """Refuse one more instance beyond ``max_instances`` (the proxy of a remote one counts too)."""
+        if len(self._instances) >= self.max_instances:
+            raise TooManyInstances(f"{len(self._instances)} instances are loaded, the most this gateway allows: "
+                                   f"unload one first")
+
     async def peer(self, instance: str) -> Component:
         """The instance *instance*, loaded here or, with a finder, the proxy of one in another process.
 
@@ -202,6 +207,7 @@ class ComponentHost:
             return self.get(instance)
         async with self._lock:
             if instance not in self._instances:
+                self._check_room()
                 proxy = await self.finder.find(self, instance, [])
                 if proxy is None:
                     raise NoSuchModule(f"no module {instance!r} is loaded here or offered by another process")

@@ -125,6 +125,24 @@ async def test_token_and_allow_list_apply_to_remote_components(demo_rig: tuple[s
             assert "countserver" in (await reply.json())["offered"]
 
 
+async def test_remote_instances_count_towards_the_instance_cap(demo_rig: tuple[str, Process, str],
+                                                                 started: list[Process]) -> None:
+    gateway, url = await start_gateway([demo_rig[2]], extra=["--max-instances", "1"])
+    started.append(gateway)
+
+    async def load(name: str) -> tuple[int, str]:
+        async with http.get(f"/load/{name}") as reply:
+            return reply.status, await reply.text()
+
+    async with aiohttp.ClientSession(base_url=url) as http:
+        assert await load("demo") == (200, "demo")
+        status, text = await load("countserver")
+        assert (status, json.loads(text)["ex"]) == (429, "::genomix::too_many_instances")
+        assert await load("demo") == (200, "demo")  # the loaded proxy is returned, not counted again
+        await http.get("/unload/demo")
+        assert await load("countserver") == (200, "countserver")
+
+
 def test_zenoh_is_not_imported_unless_asked_for() -> None:
     check = ("import sys, asyncio\n"
              "from aiogenomix.gateway import GatewayConfig, create_app\n"
