@@ -18,16 +18,19 @@ from aiohttp import payload
 from aiohttp.abc import AbstractStreamWriter
 
 from ..components.core import ChunkedArray
+from ._gather import Buffer, direct_socket, unsent, write_gathered
 
-__all__ = ["json_pieces", "PiecesPayload"]
+__all__ = ["json_pieces", "PiecesPayload", "body_of", "JOINED_UP_TO"]
+
+#: Bodies up to this size are joined and go out in one write with the HTTP head:
+#: copying a few kilobytes costs less than a gathered write's second system call.
+JOINED_UP_TO = 1 << 16
 
 _OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 # orjson never writes a raw NUL byte (it escapes control characters in strings),
 # so a NUL in its output can only be a mark left by _mark.
 _MARK = b"\x00"
 _FRAGMENT = orjson.Fragment(_MARK)
-
-Buffer = bytes | memoryview
 
 
 def json_pieces(obj: Any) -> list[bytes]:
@@ -55,37 +58,67 @@ def json_pieces(obj: Any) -> list[bytes]:
     return pieces
 
 
-class PiecesPayload(payload.Payload):
-    """A reply body in two immutable parts: a small head, written with the HTTP head, and the rest.
+def body_of(pieces: Sequence[Buffer], content_type: str) -> bytes | PiecesPayload:
+    """The reply body of *pieces*: one joined ``bytes`` when small, else the pieces as they are."""
+    if sum(len(piece) for piece in pieces) <= JOINED_UP_TO:
+        return b"".join(pieces)
+    return PiecesPayload(pieces, content_type)
 
-    aiohttp joins the HTTP head with the first write of the body (one send for a small
-    reply).  For a body of megabytes that join would copy the whole body once more, so the
-    body is split: its first piece (a few hundred bytes) goes with the HTTP head, and the
-    rest, already one buffer, goes to the socket as it is.
+
+class PiecesPayload(payload.Payload):
+    """A reply body of immutable pieces, written in order and never joined.
+
+    The first piece (the struct's first bytes, a few hundred) goes out with the
+    HTTP head, as aiohttp sends a body's first write.  The others go straight to
+    the socket in one gathered write when the connection has nothing queued
+    (:mod:`._gather`), and what the socket does not take goes through aiohttp's
+    writer like any body.  Nothing is copied on the way but by the kernel.
 
     Args:
-        head: The first bytes of the body.
-        rest: The remaining bytes (empty for a small body).
+        pieces: The body's pieces, in order: bytes, or byte-format memoryviews of
+            data that never changes (a reply may still be written when the port
+            has moved on).
         content_type: The body's media type.
     """
 
-    def __init__(self, head: bytes, rest: bytes, content_type: str) -> None:
-        super().__init__(head, content_type=content_type)
-        self._head, self._rest = head, rest
-        self._size = len(head) + len(rest)
-
-    @classmethod
-    def of(cls, pieces: Sequence[Buffer], content_type: str) -> PiecesPayload:
-        """The payload of *pieces*: the first as the head, the others joined (one copy, none may change after)."""
-        head = bytes(pieces[0])
-        return cls(head, b"".join(pieces[1:]), content_type)
+    def __init__(self, pieces: Sequence[Buffer], content_type: str) -> None:
+        kept = tuple(piece for piece in pieces if len(piece))
+        super().__init__(kept, content_type=content_type)
+        self._pieces = kept
+        self._size = sum(len(piece) for piece in kept)
 
     async def write(self, writer: AbstractStreamWriter) -> None:
-        """Write both parts without waiting for the socket in between (aiohttp drains at the end)."""
-        await writer.write(self._head, drain=False)
-        if self._rest:
-            await writer.write(self._rest, drain=False)
+        """Write every piece without waiting for the socket in between (aiohttp drains at the end)."""
+        if not self._pieces:
+            return
+        await writer.write(self._pieces[0], drain=False)
+        rest = self._pieces[1:]
+        fd = direct_socket(getattr(writer, "transport", None)) if rest and _plain(writer) else None
+        if fd is not None:
+            sent = write_gathered(fd, rest)
+            _account(writer, sent)
+            rest = unsent(rest, sent)
+        for piece in rest:
+            await writer.write(piece, drain=False)
 
     def decode(self, encoding: str = "utf-8", errors: str = "strict") -> str:
         """The body as text (for logs and tests)."""
-        return (self._head + self._rest).decode(encoding, errors)
+        return b"".join(self._pieces).decode(encoding, errors)
+
+
+def _plain(writer: AbstractStreamWriter) -> bool:
+    # Bytes written beside aiohttp's writer must be the body as it is: no chunked framing,
+    # no compression (the port routes ask for neither; a Content-Length excludes chunks).
+    return not getattr(writer, "chunked", True) and getattr(writer, "_compress", None) is None
+
+
+def _account(writer: AbstractStreamWriter, sent: int) -> None:
+    """Tell aiohttp's writer about body bytes sent beside it (what it counts of a body it wrote itself)."""
+    if not sent:
+        return
+    writer.output_size += sent
+    if writer.length is not None:
+        writer.length -= sent
+    notify = getattr(writer, "on_body_write", None)
+    if notify is not None:
+        notify(sent, writer.output_size)

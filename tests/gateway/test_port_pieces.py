@@ -66,7 +66,7 @@ def test_binary_of_chunked_arrays_is_the_binary_of_the_joined_arrays() -> None:
 
 
 def test_a_payload_is_its_pieces() -> None:
-    payload = PiecesPayload.of([b"ab", memoryview(b"cd"), b"e"], "application/json")
+    payload = PiecesPayload([b"ab", memoryview(b"cd"), b"", b"e"], "application/json")
     assert payload.size == 5 and payload.decode() == "abcde"
 
 
