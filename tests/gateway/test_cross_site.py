@@ -6,6 +6,7 @@ import aiohttp
 import pytest
 
 from aiogenomix.gateway import GatewayConfig
+from aiogenomix.gateway._access import AccessPolicy
 
 from ..conftest import TEST_TIME_SCALE
 
@@ -85,3 +86,15 @@ async def test_odd_header_bytes_are_refused_readably(demo: aiohttp.ClientSession
     for headers in ({"Origin": "\x80"}, {"Host": "h\xe9llo"}):
         async with demo.get("/", headers=headers) as reply:
             assert reply.status == 403 and (await reply.json())["message"]
+
+
+def test_host_verdicts_are_remembered_and_a_flood_of_names_stays_bounded() -> None:
+    policy = AccessPolicy(allowed_hosts=["robot.lab"])
+    for _ in range(2):  # the second time from the remembered verdicts
+        assert policy.host_allowed("127.0.0.1:8080") and policy.host_allowed("[::1]:8080")
+        assert policy.host_allowed("Robot.Lab:80") and policy.host_allowed("a.localhost")
+        assert not policy.host_allowed("attacker.example:8080") and not policy.host_allowed("127.0.0.1.evil")
+    for i in range(3000):  # names chosen by a client: each refused, none kept for ever
+        assert not policy.host_allowed(f"attacker-{i}.example")
+    assert len(policy._verdicts) <= 256
+    assert policy.host_allowed("127.0.0.1:8080") and not policy.host_allowed("attacker-1.example")
