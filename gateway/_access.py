@@ -16,7 +16,8 @@ nor ``Sec-Fetch-Site``, so these checks cost them nothing:
   with no ``Origin`` (an image, a link, a form) is refused too, except a
   navigation to the read-only pages ``/`` and ``/console``.
 
-Every reply says ``X-Content-Type-Options: nosniff``; the console page gets a
+Every reply says ``X-Content-Type-Options: nosniff`` (in the headers every reply
+starts from, ``_replies.SERVER_HEADER``); the console page gets a
 Content-Security-Policy that lets only its own script and style run.
 """
 
@@ -33,7 +34,7 @@ from aiohttp import web
 
 from ._replies import json_reply
 
-__all__ = ["AccessPolicy", "access_middleware", "security_headers", "console_policy"]
+__all__ = ["AccessPolicy", "access_middleware", "console_policy"]
 
 #: How many distinct Host headers the policy remembers its verdict on.
 _REMEMBERED_HOSTS = 256
@@ -130,11 +131,6 @@ def _shown(header: str) -> str:
 
 def _forbidden(message: str) -> web.Response:
     return json_reply({"ex": "::genomix::forbidden", "message": message}, status=403)
-
-
-async def security_headers(request: web.Request, response: web.StreamResponse) -> None:
-    """``on_response_prepare``: no content sniffing on any reply (an error page is never run as a script)."""
-    response.headers.setdefault("X-Content-Type-Options", "nosniff")
 
 
 def console_policy(page: bytes) -> str:
