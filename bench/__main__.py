@@ -16,18 +16,19 @@ import sys
 import time
 from typing import Any
 
-from . import fanout, load, memory, port_read, service, soak, world
+from . import fanout, load, memory, port_read, profile, service, soak, world
 from ._common import ROOT
 from ._report import render
 
 BENCHMARKS = {
-    "port_read": (port_read.run, {"reads": 50, "block": 10}, {"reads": 9, "block": 3}),
+    "port_read": (port_read.run, {"reads": 50, "block": 10}, {"reads": 9, "block": 3, "windows": (500, 4000)}),
     "service": (service.run, {"calls": 2000}, {"calls": 300}),
     "fanout": (fanout.run, {"seconds": 10.0}, {"seconds": 2.0}),
     "load": (load.run, {"seconds": 30.0}, {"seconds": 3.0, "rounds": 3}),
     "soak": (soak.run, {"seconds": 120.0}, {"seconds": 5.0}),
     "memory": (memory.run, {"sessions": 250, "requests": 5000}, {"sessions": 100, "requests": 1000}),
     "world": (world.run, {"seconds": 5.0, "calls": 2000}, {"seconds": 2.0, "calls": 300}),
+    "profile": (profile.run, {"reads": 100}, {"reads": 10}),
 }
 
 

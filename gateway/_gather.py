@@ -59,13 +59,15 @@ def write_gathered(fd: int, buffers: Sequence[Buffer]) -> int:
         How many bytes went out (0 when the socket takes nothing now or fails: the
         transport then writes everything, and reports a failure its own way).
     """
+    if len(buffers) <= _IOV_MAX:  # the usual case: one call, no sizes to add up
+        try:
+            return os.writev(fd, buffers)
+        except OSError:  # full (EAGAIN), or a reset: the transport's next write sees the same
+            return 0
     written = 0
     for start in range(0, len(buffers), _IOV_MAX):
         batch = buffers[start:start + _IOV_MAX]
-        try:
-            count = os.writev(fd, batch)
-        except OSError:  # full (EAGAIN), or a reset: the transport's next write sees the same
-            return written
+        count = write_gathered(fd, batch)
         written += count
         if count < sum(len(piece) for piece in batch):
             return written

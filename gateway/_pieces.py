@@ -68,11 +68,12 @@ def body_of(pieces: Sequence[Buffer], content_type: str) -> bytes | PiecesPayloa
 class PiecesPayload(payload.Payload):
     """A reply body of immutable pieces, written in order and never joined.
 
-    The first piece (the struct's first bytes, a few hundred) goes out with the
-    HTTP head, as aiohttp sends a body's first write.  The others go straight to
-    the socket in one gathered write when the connection has nothing queued
-    (:mod:`._gather`), and what the socket does not take goes through aiohttp's
-    writer like any body.  Nothing is copied on the way but by the kernel.
+    When the connection has nothing queued, the HTTP head and every piece go
+    straight to the socket in one gathered write (:mod:`._gather`), and what the
+    socket does not take goes to the transport, which sends it as the socket
+    drains: nothing is copied on the way but by the kernel (and, on Python 3.11,
+    by the transport for what it queues).  Otherwise the pieces go through
+    aiohttp's writer, after what it holds.
 
     Args:
         pieces: The body's pieces, in order: bytes, or byte-format memoryviews of
@@ -89,17 +90,30 @@ class PiecesPayload(payload.Payload):
 
     async def write(self, writer: AbstractStreamWriter) -> None:
         """Write every piece without waiting for the socket in between (aiohttp drains at the end)."""
-        if not self._pieces:
+        pieces = self._pieces
+        if not pieces:
             return
-        await writer.write(self._pieces[0], drain=False)
-        rest = self._pieces[1:]
-        fd = direct_socket(getattr(writer, "transport", None)) if rest and _plain(writer) else None
-        if fd is not None:
-            sent = write_gathered(fd, rest)
-            _account(writer, sent)
-            rest = unsent(rest, sent)
-        for piece in rest:
-            await writer.write(piece, drain=False)
+        transport = getattr(writer, "transport", None)
+        fd = direct_socket(transport) if _plain(writer) else None
+        head = _take_http_head(writer) if fd is not None else None
+        if fd is None or head is None or transport is None:
+            # The transport has bytes queued (a pipelined reply before this one) or is not a
+            # plain socket: everything goes through aiohttp's writer, as any body.
+            for piece in pieces:
+                await writer.write(piece, drain=False)
+            return
+        # The HTTP head and the whole body in one system call: one wake-up of the reader.
+        buffers = [head, *pieces]
+        written = write_gathered(fd, buffers)
+        _account(writer, self._size)
+        if written == len(head) + self._size:
+            return
+        # What the socket did not take goes to the transport, which sends it as the socket
+        # drains (aiohttp waits for that at the end of the reply, as for any body).
+        for piece in unsent(buffers, written):
+            if transport.is_closing():  # the reader went away: what aiohttp's writer raises then
+                raise ConnectionResetError("the connection closed while the reply was written")
+            transport.write(piece)  # type: ignore[attr-defined]
 
     def decode(self, encoding: str = "utf-8", errors: str = "strict") -> str:
         """The body as text (for logs and tests)."""
@@ -112,9 +126,26 @@ def _plain(writer: AbstractStreamWriter) -> bool:
     return not getattr(writer, "chunked", True) and getattr(writer, "_compress", None) is None
 
 
+def _take_http_head(writer: AbstractStreamWriter) -> bytes | None:
+    """The HTTP head aiohttp holds until the body's first write, taken to go out with the body.
+
+    aiohttp (3.12 and later) keeps the serialised head in its writer and joins it with
+    the first body write.  Taken here, it goes out in the same ``writev`` as the body.
+    None when this aiohttp does not hold it (it was sent already, or is kept otherwise):
+    the body then goes through the writer, which sends the head first.
+    """
+    head = getattr(writer, "_headers_buf", None)
+    if not isinstance(head, bytes) or getattr(writer, "_headers_written", True):
+        return None
+    writer._headers_buf = None  # type: ignore[attr-defined]
+    writer._headers_written = True  # type: ignore[attr-defined]
+    writer.output_size += len(head)  # as aiohttp counts a head it writes
+    return head
+
+
 def _account(writer: AbstractStreamWriter, sent: int) -> None:
-    """Tell aiohttp's writer about body bytes sent beside it (what it counts of a body it wrote itself)."""
-    if not sent:
+    """Tell aiohttp's writer about body bytes written beside it (what it counts of a body it writes)."""
+    if sent <= 0:
         return
     writer.output_size += sent
     if writer.length is not None:
