@@ -38,6 +38,8 @@ async def _one(name: str, quick: bool) -> Any:
     started = time.monotonic()
     result = await runner(**(short if quick else full))
     print(f"bench: {name} took {time.monotonic() - started:.1f} s", file=sys.stderr, flush=True)
+    result["measured"] = {"date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+                          "python": platform.python_version(), "quick": quick}
     print(json.dumps(result, indent=1, default=float), flush=True)
     return result
 
