@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import math
 import socket
+import struct
 from collections.abc import AsyncIterator
 from typing import Any
 
@@ -230,3 +231,24 @@ async def test_pipelined_reads_of_a_slow_reader_come_back_whole_and_in_order(
     finally:
         writer.close()
         await writer.wait_closed()
+
+
+async def test_a_reader_that_leaves_mid_reply_costs_the_gateway_nothing(
+        served: tuple[Windowed, str], caplog: pytest.LogCaptureFixture) -> None:
+    component, url = served
+    view = PortView(window(32, 20_000, 40, seed=5), 44100, 0.0, KemarPortData)
+    component.Port.publish(view)
+    host, port = url.removeprefix("http://").split(":")
+    for query in ("", "?format=binary"):
+        sock = socket.socket()
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        sock.setblocking(False)
+        loop = asyncio.get_running_loop()
+        await loop.sock_connect(sock, (host, int(port)))
+        await loop.sock_sendall(sock, f"GET /module/windowed/read/Port{query} HTTP/1.1\r\nHost: {host}\r\n\r\n"
+                                .encode())
+        assert (await loop.sock_recv(sock, 1024)).startswith(b"HTTP/1.1 200")
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))  # close with a reset
+        sock.close()  # with most of the reply unsent
+    assert await get(url, "/module/windowed/read/Port") == expected_json(view)
+    assert not [r for r in caplog.records if r.levelname in ("ERROR", "WARNING", "CRITICAL")]
