@@ -16,7 +16,7 @@ import numpy
 
 from ._errors import short_name
 from ._types import NUMPY_DTYPES, Record, annotation_source, decode, encode
-from ._wire import ModuleInfo, ParameterInfo, PortInfo, ServiceInfo
+from ._wire import ExceptionInfo, ModuleInfo, ParameterInfo, PortInfo, ServiceInfo
 
 __all__ = [
     "CONTROL_OPTIONS",
@@ -201,7 +201,7 @@ class ServiceSpec:
         lines += ["", "Raises:"]
         exceptions = {e["name"]: e for e in module.get("exceptions", [])}
         for ex in self.info.get("throws", []):
-            declared = exceptions.get(ex, {})
+            declared: ExceptionInfo | dict[str, Any] = exceptions.get(ex, {})
             doc = (declared.get("doc") or "").strip()
             detail = ", ".join(f"{m['name']} ({m['type']['name']})" for m in declared.get("detail", []))
             detail = f" Detail: {detail}." if detail else ""

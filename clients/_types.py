@@ -121,7 +121,9 @@ def _encode_integer(value: Any, kind: str, path: str) -> int:
     if isinstance(value, (bool, np.bool_, numbers.Integral)):
         number = int(value)
     elif isinstance(value, numbers.Real) and float(value).is_integer():
-        number = int(value)  # 2.0 is meant as 2; never send 2.0 where genom wants an integer
+        # 2.0 is meant as 2; never send 2.0 where genom wants an integer.  (Every Real has __int__:
+        # typeshed's numbers.Real does not say so.)
+        number = int(value)  # type: ignore[call-overload]
     else:
         raise TypeError(f"{_where(path)}expected an integer ({kind}), got {value!r}")
     low, high = INTEGER_RANGES[kind]

@@ -27,7 +27,7 @@ from ._errors import short_name
 from ._module import ModuleDescription
 from ._service import CONTROL_OPTIONS, PortSpec, ServiceSpec
 from ._types import annotation_source
-from ._wire import ModuleInfo, base_url, check_info
+from ._wire import ExceptionInfo, ModuleInfo, base_url, check_info
 
 __all__ = ["fetch_info", "generate_source", "generate_stub", "main"]
 
@@ -99,7 +99,7 @@ def _port_source(port: PortSpec, stub: bool) -> str:
 
 def _exception_lines(description: ModuleDescription, stub: bool) -> list[str]:
     lines = []
-    declared = {e["name"]: e for e in description.info.get("exceptions", [])}
+    declared: dict[str, ExceptionInfo] = {e["name"]: e for e in description.info.get("exceptions", [])}
     taken = set(description.services) | set(description.ports)
     for name, cls in description.exceptions.items():
         if name in taken:
@@ -110,12 +110,12 @@ def _exception_lines(description: ModuleDescription, stub: bool) -> list[str]:
             lines.append(f"{name} = {cls.__name__}")
         elif stub:
             members = [f"    {m['name']}: {annotation_source(m['type'], 'out')}"
-                       for m in declared.get(ex, {}).get("detail", [])]
+                       for m in (declared[ex]["detail"] if ex in declared else [])]
             lines.append(f"class {name}(RemoteError):\n    {_docstring(cls.__doc__ or '', '    ')}\n"
                          + ("\n".join(members) + "\n" if members else ""))
         else:
-            e = declared.get(ex, {"doc": None, "detail": []})
-            lines.append(f"{name} = remote_exception_class({ex!r}, {e.get('doc')!r}, {e.get('detail', [])!r})")
+            doc, detail = (declared[ex].get("doc"), declared[ex].get("detail", [])) if ex in declared else (None, [])
+            lines.append(f"{name} = remote_exception_class({ex!r}, {doc!r}, {detail!r})")
     return lines
 
 

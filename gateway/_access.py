@@ -31,6 +31,7 @@ import socket
 from collections.abc import Awaitable, Callable, Iterable
 
 from aiohttp import web
+from aiohttp.typedefs import Middleware
 
 from ._replies import json_reply
 
@@ -96,7 +97,7 @@ class AccessPolicy:
         return "*" in self.origins or origin in self.origins
 
 
-def access_middleware(policy: AccessPolicy) -> Callable[..., Awaitable[web.StreamResponse]]:
+def access_middleware(policy: AccessPolicy) -> Middleware:
     """The middleware that applies *policy* before anything else runs."""
 
     @web.middleware

@@ -7,6 +7,7 @@ from collections.abc import AsyncIterator, Callable
 
 import orjson
 from aiohttp import web
+from aiohttp.typedefs import Middleware
 
 from ..components.core import ComponentHost, ScaledClock
 from . import _routes_admin, _routes_modules, _routes_openapi, _routes_ports, _routes_sessions
@@ -14,7 +15,7 @@ from ._access import AccessPolicy, access_middleware
 from ._auth import AUTH_PATH, LOGIN_PATH, TokenCheck, auth_without_token, login_without_token
 from ._config import GatewayConfig
 from ._errors import error_middleware
-from ._keys import CONFIG, HOST, SESSIONS, SHUTDOWN, UNLOADS, Shutdown
+from ._keys import CONFIG, HOST, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, Shutdown, WatchFrames
 from ._sessions import SessionStore
 from ._shutdown import shut_down
 from ._sse import format_event
@@ -35,7 +36,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
         An aiohttp application; run it with ``web.run_app`` or an ``AppRunner``.
     """
     config = config or GatewayConfig()
-    middlewares = [error_middleware]
+    middlewares: list[Middleware] = [error_middleware]
     if config.token:
         middlewares.insert(0, TokenCheck(config.token).middleware)
     # Browsers are checked first: a refused page learns nothing, not even whether a token is needed.
@@ -44,6 +45,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app[CONFIG] = config
     app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)
     app[SHUTDOWN] = Shutdown()
+    app[WATCH_FRAMES] = WatchFrames()
     owns_host = host is None
     app[HOST] = host or ComponentHost(clock=ScaledClock(config.time_scale), settings=config.host_settings(),
                                       function_grace=config.function_grace, max_instances=config.max_instances)

@@ -3,15 +3,17 @@
 from __future__ import annotations
 
 import asyncio
+import weakref
+from typing import Any
 
 from aiohttp import web
 
-from ..components.core import ComponentHost
+from ..components.core import ComponentHost, OutPortRuntime
 from ._config import GatewayConfig
 from ._sessions import SessionStore
 from ._unloads import Unloads
 
-__all__ = ["CONFIG", "HOST", "SESSIONS", "SHUTDOWN", "UNLOADS", "Shutdown"]
+__all__ = ["CONFIG", "HOST", "SESSIONS", "SHUTDOWN", "UNLOADS", "WATCH_FRAMES", "Shutdown", "WatchFrames"]
 
 CONFIG = web.AppKey("config", GatewayConfig)
 HOST = web.AppKey("host", ComponentHost)
@@ -43,3 +45,14 @@ class Shutdown:
 
 
 SHUTDOWN = web.AppKey("shutdown", Shutdown)
+
+
+class WatchFrames(weakref.WeakKeyDictionary[OutPortRuntime[Any], tuple[tuple[Any, ...], bytes, int | None]]):
+    """The last ``port`` event frame of each watched port, with its key and the reader's new index.
+
+    Watchers in step with each other share one encoding.  Held by the app (not
+    by a module): two gateways in one process never share frames.
+    """
+
+
+WATCH_FRAMES = web.AppKey("watch_frames", WatchFrames)

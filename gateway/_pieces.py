@@ -100,7 +100,8 @@ class PiecesPayload(payload.Payload):
             # The transport has bytes queued (a pipelined reply before this one) or is not a
             # plain socket: everything goes through aiohttp's writer, as any body.
             for piece in pieces:
-                await writer.write(piece, drain=False)
+                # aiohttp's StreamWriter takes drain=; the abstract writer it is typed as does not say so.
+                await writer.write(piece, drain=False)  # type: ignore[call-arg]
             return
         # The HTTP head and the whole body in one system call: one wake-up of the reader.
         buffers = [head, *pieces]

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+from typing import Any
 
 from aiohttp import web
 
@@ -76,7 +77,8 @@ async def wait(request: web.Request) -> web.Response:
     # asyncio.timeout rather than wait_for, which on 3.11 can lose a cancellation racing the end.
     try:
         async with asyncio.timeout(timeout):
-            await asyncio.wait({ended, shutdown.future}, return_when=asyncio.FIRST_COMPLETED)
+            waiters: set[asyncio.Future[Any]] = {ended, shutdown.future}
+            await asyncio.wait(waiters, return_when=asyncio.FIRST_COMPLETED)
     except TimeoutError:
         pass
     finally:

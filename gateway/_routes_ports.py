@@ -24,7 +24,7 @@ from aiohttp import web
 from ..components.core import Chunked, Incremental, OutPortRuntime
 from ._binary import CONTENT_TYPE, encode_binary
 from ._errors import BadQuery
-from ._keys import CONFIG, HOST, SHUTDOWN, UNLOADS
+from ._keys import CONFIG, HOST, SHUTDOWN, UNLOADS, WATCH_FRAMES, WatchFrames
 from ._pieces import PiecesPayload, body_of, json_pieces
 from ._replies import SERVER_HEADER, dumps
 from ._sse import PING, EventStream, format_event
@@ -105,7 +105,7 @@ async def read(request: web.Request) -> web.StreamResponse:
     binary = _wants_binary(request)
     if since is not None:
         _require_incremental(port, value)
-    if _is_chunked(type(value)):
+    if _is_chunked(type(value)):  # type: ignore[arg-type]  # a type[Any] is hashable
         # The publication's chunks as they are: no copy of the window, and JSON texts made
         # once per chunk.  The data is immutable, so the reply holds this publication alone
         # however long it takes to write.
@@ -126,17 +126,12 @@ async def read(request: web.Request) -> web.StreamResponse:
     return web.Response(body=body, headers=_HEADERS[binary])
 
 
-# The last event frame of each port: readers in step with each other share one encoding.
-_LAST_FRAME: weakref.WeakKeyDictionary[OutPortRuntime, tuple[tuple[Any, ...], bytes, int]] = \
-    weakref.WeakKeyDictionary()
-
-
-def _watch_frame(name: str, port: OutPortRuntime, element: str | None, delivered: int,
+def _watch_frame(frames: WatchFrames, name: str, port: OutPortRuntime[Any], element: str | None, delivered: int,
                  last_index: int | None) -> tuple[bytes, int, int | None]:
-    """The next ``port`` event for a reader; returns it with the reader's new version and index."""
+    """The next ``port`` event for a reader, shared through *frames*; returns it with the new version and index."""
     newest = port.version
     key = (newest, element, delivered if last_index is None else last_index, last_index is None)
-    cached = _LAST_FRAME.get(port)
+    cached = frames.get(port)
     if cached is not None and cached[0] == key:
         return cached[1], newest, cached[2]
     value = port.read(element)
@@ -150,7 +145,7 @@ def _watch_frame(name: str, port: OutPortRuntime, element: str | None, delivered
         lost = max(0, newest - delivered - 1) if delivered else 0
         new_index = last_index
     frame = format_event("port", dumps({name: port.type.encode(value), "lost": lost}))
-    _LAST_FRAME[port] = (key, frame, new_index)  # type: ignore[assignment]
+    frames[port] = (key, frame, new_index)
     return frame, newest, new_index
 
 
@@ -179,6 +174,7 @@ async def watch(request: web.Request) -> web.StreamResponse:
     if since is not None and port.version:
         _require_incremental(port, port.read(element))
     shutdown = request.app[SHUTDOWN]
+    frames = request.app[WATCH_FRAMES]
     unloaded = request.app[UNLOADS].of(port.owner)
     ping_interval = request.app[CONFIG].ping_interval
     stream = EventStream()
@@ -188,7 +184,7 @@ async def watch(request: web.Request) -> web.StreamResponse:
         last_index = since
         while not shutdown.is_set() and not unloaded.done():
             if port.version > delivered:
-                frame, delivered, last_index = _watch_frame(name, port, element, delivered, last_index)
+                frame, delivered, last_index = _watch_frame(frames, name, port, element, delivered, last_index)
                 await stream.write(frame)
                 continue
             # Shared futures: a hundred watchers wait without a task each.

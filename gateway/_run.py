@@ -35,7 +35,8 @@ class ListenError(GatewayError, OSError):
 
     def __init__(self, host: str, port: int, cause: OSError) -> None:
         # asyncio's message repeats the address; the bare reason reads better after ours.
-        reason = os.strerror(cause.errno) if (cause.errno or 0) > 0 else (cause.strerror or str(cause))
+        reason = os.strerror(cause.errno) if cause.errno is not None and cause.errno > 0 else (
+            cause.strerror or str(cause))
         super().__init__(cause.errno, reason)
         self.host, self.port, self.reason = host, port, reason.lower()
 

@@ -37,7 +37,9 @@ class Bass(Component, name="bass", version="1.0"):
 
     capture = Task(doc="Reads chunks from the sound device and publishes them on Audio")
     socket = Task(doc="Serves the dedicated TCP socket")
-    Audio = OutPort(AudioPortData, doc="The newest nChunksOnPort chunks of binaural audio, indexed by frame")
+    # Published as snapshots of the chunk history (read piece by piece); encoded as AudioPortData.
+    Audio: OutPort[AudioSnapshot] = OutPort(AudioPortData,
+                                            doc="The newest nChunksOnPort chunks of binaural audio, indexed by frame")
 
     def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
         super().__init__(host, instance, argv)
@@ -70,7 +72,7 @@ class Bass(Component, name="bass", version="1.0"):
     @property
     def snapshot(self) -> AudioSnapshot:
         """The newest publication of ``Audio``."""
-        snapshot: AudioSnapshot = self.Audio.read()
+        snapshot = self.Audio.read()
         return snapshot
 
     @property

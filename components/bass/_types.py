@@ -3,18 +3,19 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Annotated
+from typing import Annotated, TypeAlias
 
 import numpy as np
+from numpy.typing import NDArray
 
-from ..core import GenomException, Long, String, ULong, ULongLong, idl_struct, sequence
+from ..core import GenomException, String, ULong, ULongLong, idl_struct
 
 __all__ = ["AudioPortData", "Samples", "DeviceList", "e_nomem", "e_nodevice", "e_device", "e_hwparams",
            "e_swparams", "e_socket"]
 
 #: Samples of one channel, carried as an int32 numpy array.
-Samples = sequence(Long, numpy=True)
-DeviceList = sequence(String)
+Samples: TypeAlias = NDArray[np.int32]
+DeviceList: TypeAlias = list[String]
 
 
 def _no_samples() -> np.ndarray:

@@ -1,7 +1,7 @@
 """The ``capture`` component (binaural audio stream server), its capture backends and the dedicated socket."""
 
 from ._backend import Azimuth, CaptureBackend, Chunk, PacedBackend, open_backend, split_device
-from ._component import MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, Capture, frames_per_chunk
+from ._component import MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, Capture, HeadPositionSource, frames_per_chunk
 from ._errors import (
     BackendUnavailable, CaptureError, DeviceError, DeviceNotFound, FormatRefused, RequestError, SceneError,
 )
@@ -22,7 +22,7 @@ from ._window import ChunkWindow, WindowRead
 
 __all__ = [
     # The component and its types
-    "Capture", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK", "RATE_RANGE",
+    "Capture", "HeadPositionSource", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK", "RATE_RANGE",
     "PortData", "Timestamp", "CaptureConfig", "CaptureStatus", "frames_per_chunk",
     "INVALID_CHUNK_TIME", "ERROR_SEQUENCE_ENOMEM", "NO_SUCH_DEVICE", "DEVICE_ERROR", "ALREADY_CAPTURING",
     "SOCKET_ERROR",

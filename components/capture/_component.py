@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+from collections.abc import Awaitable, Callable
 from typing import Annotated, Any, ClassVar
 
 from ..core import Component, ComponentHost, OutPort, String, Task, ULong, activity, attribute, function
@@ -19,7 +20,12 @@ from ._types import (
 from ._port_view import PortView
 from ._window import ChunkWindow
 
-__all__ = ["Capture", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK", "RATE_RANGE", "frames_per_chunk"]
+__all__ = ["Capture", "HeadPositionSource", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK", "RATE_RANGE",
+           "frames_per_chunk"]
+
+#: Where the head azimuth published with each chunk comes from: awaited as each chunk
+#: arrives, it gives the azimuth in degrees (positive = left; NaN when unknown).
+HeadPositionSource = Callable[[], Awaitable[float]]
 
 log = logging.getLogger(__name__)
 
@@ -72,10 +78,9 @@ class Capture(Component, name="capture", version="1.1"):
 
     retrieve_data = Task(doc="Reads chunks from the sound device and publishes them on Port")
     socket = Task(doc="Serves the dedicated TCP socket")
-    Port = OutPort(PortData, doc="The last Port_chunks chunks of binaural audio, oldest first")
+    # Published as views of the chunk window (incremental reads); encoded as PortData.
+    Port: OutPort[PortView] = OutPort(PortData, doc="The last Port_chunks chunks of binaural audio, oldest first")
 
-    #: Whether the port and the socket carry a head position per chunk (the merged component).
-    port_positions: ClassVar[bool] = False
     #: The struct published on Port.
     port_data: ClassVar[type[PortData]] = PortData
 
@@ -146,9 +151,19 @@ class Capture(Component, name="capture", version="1.1"):
         if running:
             raise ALREADY_CAPTURING(device=running[0].inputs["device"])
 
-    async def _chunk_position(self) -> float:
-        """The head position (degrees) published with each chunk, read as the chunk arrives."""
-        raise NotImplementedError(f"{type(self).__name__} publishes no head positions")
+    def head_position_source(self) -> HeadPositionSource | None:
+        """Where the head position published with each chunk comes from (None: the chunks carry none).
+
+        A component that moves a head (``kemarcapture``) returns its source here
+        and publishes a :attr:`port_data` with a ``positions`` member; the
+        dedicated socket then appends the positions to each reply.
+        """
+        return None
+
+    @property
+    def port_positions(self) -> bool:
+        """Whether the port and the dedicated socket carry a head position per chunk."""
+        return self.head_position_source() is not None
 
     async def _open(self, device: str, rate: int, frames: int) -> CaptureBackend:
         try:
@@ -180,14 +195,15 @@ class Capture(Component, name="capture", version="1.1"):
         """
         frames = frames_per_chunk(transfer_rate, chunk_time)
         backend = await self._open(device, transfer_rate, frames)
-        window = ChunkWindow(Port_chunks, frames, with_positions=self.port_positions)
+        head_position = self.head_position_source()
+        window = ChunkWindow(Port_chunks, frames, with_positions=head_position is not None)
         self._config = CaptureConfig(device, transfer_rate, chunk_time, Port_chunks)
         self._window, self._backend = window, backend
         log.info("%s: capturing %s at %d Hz, %d frames per chunk, %d chunks on Port",
                  self.instance, device, transfer_rate, frames, Port_chunks)
         try:
-            if self.port_positions:
-                await self._pump_with_positions(backend, window)
+            if head_position is not None:
+                await self._pump_with_positions(backend, window, head_position)
             else:
                 while (chunk := await backend.read()) is not None:
                     self._publish_chunk(window, chunk, None)
@@ -197,7 +213,8 @@ class Capture(Component, name="capture", version="1.1"):
             self._backend = None
             await backend.aclose()
 
-    async def _pump_with_positions(self, backend: CaptureBackend, window: ChunkWindow) -> None:
+    async def _pump_with_positions(self, backend: CaptureBackend, window: ChunkWindow,
+                                   head_position: HeadPositionSource) -> None:
         """Publish chunks in order, each with the head position read as it arrived.
 
         The position is a bus round trip; waiting for it before reading the next
@@ -207,14 +224,14 @@ class Capture(Component, name="capture", version="1.1"):
         query is in flight: a chunk that arrives during one shares its answer,
         so a slow or silent bus delays publication but never piles up queries.
         """
-        handed: asyncio.Queue[tuple[Chunk, asyncio.Task[float]] | None] = asyncio.Queue()
-        queries: list[asyncio.Task[float]] = []
+        handed: asyncio.Queue[tuple[Chunk, asyncio.Future[float]] | None] = asyncio.Queue()
+        queries: list[asyncio.Future[float]] = []
 
         async def read() -> None:
             try:
                 while (chunk := await backend.read()) is not None:
                     if not queries or queries[-1].done():
-                        queries[:] = [asyncio.create_task(self._chunk_position())]
+                        queries[:] = [asyncio.ensure_future(head_position())]
                     handed.put_nowait((chunk, queries[-1]))
             finally:
                 handed.put_nowait(None)
@@ -227,7 +244,8 @@ class Capture(Component, name="capture", version="1.1"):
             await reader  # the end of the stream, or the device's error
         finally:
             # Stopped or failed: nothing started here outlives the capture.
-            for task in (reader, *queries):
+            started: list[asyncio.Future[Any]] = [reader, *queries]
+            for task in started:
                 task.cancel()
             await asyncio.gather(reader, *queries, return_exceptions=True)
 

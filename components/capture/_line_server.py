@@ -133,7 +133,7 @@ class LineServer:
                 self._server = await asyncio.start_server(
                     self._serve_client, self.host, self.requested_port, reuse_address=True)
             except OSError as exc:
-                reason = os.strerror(exc.errno).lower() if (exc.errno or 0) > 0 else str(exc)
+                reason = os.strerror(exc.errno).lower() if exc.errno is not None and exc.errno > 0 else str(exc)
                 raise OSError(exc.errno, f"cannot listen on {self.host}:{self.requested_port}: {reason}; "
                                          f"the gateway's --audio-socket-port chooses another port") from exc
             log.info("dedicated audio socket listening on %s:%d", self.host, self.port)

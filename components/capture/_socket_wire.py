@@ -102,5 +102,5 @@ def encode_reply(chunks: WindowRead, *, with_positions: bool = False) -> bytearr
     words[1 + samples:1 + 2 * samples] = chunks.right.reshape(-1)
     words[1 + 2 * samples] = chunks.last_index
     if with_positions:
-        words[2 + 2 * samples:].view("<f4")[:] = chunks.positions  # type: ignore[index]
+        words[2 + 2 * samples:].view("<f4")[:] = chunks.positions
     return reply

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Annotated
+from typing import Annotated, TypeAlias
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .. import core
-from ..core import Boolean, GenomException, Long, String, ULong, ULongLong, idl_struct, sequence
+from ..core import Boolean, GenomException, String, ULong, ULongLong, idl_struct
 
 __all__ = [
     "Timestamp", "PortData", "CaptureConfig", "CaptureStatus", "Samples", "DeviceList",
@@ -17,8 +18,8 @@ __all__ = [
 ]
 
 #: Samples of one channel, carried as an int32 numpy array.
-Samples = sequence(Long, numpy=True)
-DeviceList = sequence(String)
+Samples: TypeAlias = NDArray[np.int32]
+DeviceList: TypeAlias = list[String]
 
 
 def _no_samples() -> np.ndarray:

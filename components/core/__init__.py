@@ -1,47 +1,73 @@
-"""The GenoM3-like component runtime: declare services, ports, tasks and exceptions with type hints.
+"""Write a GenoM3-like component: services, ports, tasks and exceptions declared with type hints.
 
-See ``components/demo`` for a complete component, and docs/protocol.md for
-how a component is seen on the wire.
+What a component author uses lives here; the runtime that hosts components
+(request tracking, service specs, IDL type objects) is :mod:`.runtime`.
+``docs/writing_a_component.md`` walks a component from nothing to generated
+client functions; ``components/demo`` is a complete one.
 """
 
 from ._chunked import Chunk, Chunked, ChunkedArray
 from ._clock import Clock, ManualClock, RealClock, ScaledClock
 from ._component import Component
-from ._describe import describe
 from ._exceptions import (
-    ComponentError, GenomException, InputError, NoSuchModule, NoSuchPort, NoSuchRequest, NoSuchService,
-    RequestRunning, disallowed, interrupted, no_such_inport, no_such_outport, no_such_service, port_io,
+    GenomException, disallowed, interrupted, no_such_inport, no_such_outport, no_such_service, port_io,
     serialization, syserr, too_many_activities, unkex,
 )
-from ._host import ComponentHost, LoadError, TooManyInstances
-from ._ports import Incremental, InPort, InPortRuntime, OutPort, OutPortRuntime
-from ._requests import Request, RequestTracker
-from ._services import NO_DEFAULT, Out, ParamSpec, ServiceSpec, activity, attribute, function
-from ._tasks import Task, TaskRuntime
+from ._host import ComponentHost, LoadError
+from ._ports import ComputedOutPort, Incremental, InPort, InPortRuntime, OutPort, OutPortRuntime
+from ._public import show_as_public
+from ._services import Out, activity, attribute, function, redeclare
+from ._tasks import Task
 from ._timestamp import Timestamp
 from ._types import (
-    ArrayType, Boolean, Char, Double, EnumType, Float, IdlType, Long, LongLong, Octet, OptionalType,
-    Scalar, SequenceType, Short, String, StringType, StructType, ULong, ULongLong, UShort, array,
-    idl_enum, idl_struct, idl_type, optional, sequence, string,
+    Boolean, Bound, Char, Double, Float, Length, Long, LongLong, Octet, Short, String, ULong, ULongLong, UShort,
+    array, idl_enum, idl_struct, optional, sequence, string,
 )
 
+# The runtime's names stay importable from here (``X as X`` re-exports them for type checkers),
+# for the code written before the split; they are not part of the author's face (__all__).
+from .runtime import ArrayType as ArrayType
+from .runtime import ComponentError as ComponentError
+from .runtime import EnumType as EnumType
+from .runtime import IdlType as IdlType
+from .runtime import InputError as InputError
+from .runtime import NO_DEFAULT as NO_DEFAULT
+from .runtime import NoSuchModule as NoSuchModule
+from .runtime import NoSuchPort as NoSuchPort
+from .runtime import NoSuchRequest as NoSuchRequest
+from .runtime import NoSuchService as NoSuchService
+from .runtime import OptionalType as OptionalType
+from .runtime import ParamSpec as ParamSpec
+from .runtime import Request as Request
+from .runtime import RequestRunning as RequestRunning
+from .runtime import RequestTracker as RequestTracker
+from .runtime import Scalar as Scalar
+from .runtime import SequenceType as SequenceType
+from .runtime import ServiceSpec as ServiceSpec
+from .runtime import StringType as StringType
+from .runtime import StructType as StructType
+from .runtime import TaskRuntime as TaskRuntime
+from .runtime import TooManyInstances as TooManyInstances
+from .runtime import describe as describe
+from .runtime import idl_type as idl_type
+
 __all__ = [
-    # Components and their host
-    "Component", "ComponentHost", "LoadError", "TooManyInstances", "describe",
-    # Declarations
-    "function", "activity", "attribute", "Out", "Task", "OutPort", "InPort",
-    # Runtime objects
-    "Request", "RequestTracker", "ServiceSpec", "ParamSpec", "NO_DEFAULT", "TaskRuntime",
-    "OutPortRuntime", "InPortRuntime", "Incremental", "Chunked", "Chunk", "ChunkedArray",
-    # Clocks and time
-    "Timestamp", "Clock", "RealClock", "ScaledClock", "ManualClock",
-    # Types
-    "IdlType", "Scalar", "StringType", "EnumType", "StructType", "SequenceType", "ArrayType",
-    "OptionalType", "idl_type", "idl_struct", "idl_enum", "sequence", "array", "optional", "string",
-    "Boolean", "Octet", "Char", "Short", "UShort", "Long", "ULong", "LongLong", "ULongLong", "Float",
-    "Double", "String",
-    # Exceptions
-    "ComponentError", "InputError", "NoSuchModule", "NoSuchService", "NoSuchPort", "NoSuchRequest",
-    "RequestRunning", "GenomException", "interrupted", "too_many_activities", "unkex", "syserr",
-    "no_such_service", "no_such_outport", "no_such_inport", "port_io", "serialization", "disallowed",
+    # The component and what hosts it
+    "Component", "ComponentHost", "LoadError",
+    # Services
+    "function", "activity", "attribute", "redeclare", "Out",
+    # Ports and tasks
+    "OutPort", "InPort", "ComputedOutPort", "OutPortRuntime", "InPortRuntime", "Task",
+    # Port data read piece by piece
+    "Incremental", "Chunked", "Chunk", "ChunkedArray",
+    # Data types
+    "idl_struct", "idl_enum", "Bound", "Length", "Boolean", "Octet", "Char", "Short", "UShort", "Long", "ULong",
+    "LongLong", "ULongLong", "Float", "Double", "String", "sequence", "array", "optional", "string", "Timestamp",
+    # Clocks
+    "Clock", "RealClock", "ScaledClock", "ManualClock",
+    # Exceptions: the base of declared ones, and the standard ::genom:: ones
+    "GenomException", "interrupted", "too_many_activities", "unkex", "syserr", "no_such_service",
+    "no_such_outport", "no_such_inport", "port_io", "serialization", "disallowed",
 ]
+
+show_as_public(globals(), __all__, __name__, __name__)

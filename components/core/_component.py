@@ -12,7 +12,7 @@ import asyncio
 import datetime
 import inspect
 import logging
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar
 
 from ._exceptions import (
     GenomException, InputError, NoSuchPort, NoSuchService, disallowed, interrupted,
@@ -20,10 +20,10 @@ from ._exceptions import (
 )
 from ._ports import ComputedOutPort, InPortRuntime, OutPortRuntime, PortSpec
 from ._requests import Request, RequestTracker
-from ._services import ServiceSpec, activity, check_validate_hook, function, service_spec
+from ._services import ServiceSpec, activity, check_redeclaration, check_validate_hook, function, service_spec
 from ._state import GenomState
 from ._tasks import Task, TaskRuntime
-from ._types import ULong, string
+from ._types import Bound, ULong
 
 if TYPE_CHECKING:
     from ._clock import Clock
@@ -91,20 +91,27 @@ class Component:
             services[standard] = services.pop(standard)
         ports["genom_state"] = ports.pop("genom_state")
         cls._services, cls._ports, cls._tasks = services, ports, tasks
+        owner = f"component {cls.genom_name!r} ({cls.__name__})"
+        for port in ports.values():
+            try:
+                port.type  # noqa: B018 -- resolved now: a port of no IDL type is refused with its class
+            except TypeError as exc:
+                raise TypeError(f"{owner}, port {port.name}: {exc}") from None
         for spec in services.values():
+            check_redeclaration(spec, owner)
             for target in spec.interrupts:
                 if target not in services:
                     raise TypeError(f"{cls.__name__}.{spec.name} interrupts unknown service {target!r}")
             if spec.validate is not None:
                 # Caught here rather than as an error at the first request of the service.
-                check_validate_hook(spec, f"component {cls.genom_name!r} ({cls.__name__})")
+                check_validate_hook(spec, owner)
 
     def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
         self.host = host
         self.instance = instance
         self.argv = list(argv or [])
         self.requests = RequestTracker(instance, host.announce_request)
-        self._port_runtimes: dict[str, OutPortRuntime | InPortRuntime] = {}
+        self._port_runtimes: dict[str, OutPortRuntime[Any] | InPortRuntime[Any]] = {}
         self._task_runtimes: dict[str, TaskRuntime] = {}
         self._started = False
         self._killed = False
@@ -151,11 +158,10 @@ class Component:
         """The host's clock."""
         return self.host.clock
 
-    def _port_runtime(self, name: str) -> Any:
+    def _port_runtime(self, name: str) -> OutPortRuntime[Any] | InPortRuntime[Any]:
         runtime = self._port_runtimes.get(name)
         if runtime is None:
-            runtime = self._ports[name].runtime(self)  # type: ignore[attr-defined]
-            self._port_runtimes[name] = runtime
+            runtime = self._port_runtimes[name] = self._ports[name].runtime(self)
         return runtime
 
     def _task_runtime(self, name: str) -> TaskRuntime:
@@ -164,7 +170,7 @@ class Component:
             runtime = self._task_runtimes[name] = TaskRuntime(self._tasks[name], self)
         return runtime
 
-    def port(self, name: str) -> OutPortRuntime | InPortRuntime:
+    def port(self, name: str) -> OutPortRuntime[Any] | InPortRuntime[Any]:
         """The runtime of a port.
 
         Raises:
@@ -172,7 +178,7 @@ class Component:
         """
         if name not in self._ports:
             raise NoSuchPort(f"{self.instance} has no port {name!r} (ports: {', '.join(self._ports)})")
-        return self._port_runtime(name)  # type: ignore[no-any-return]
+        return self._port_runtime(name)
 
     # -- lifecycle ------------------------------------------------------------------------
 
@@ -402,7 +408,7 @@ class Component:
 
     def _genom_state(self) -> GenomState:
         """The data of the ``genom_state`` port, computed when it is read."""
-        activities = [{"id": r.number, "name": r.service.name} for r in self.requests.running()
+        activities: list[dict[str, Any]] = [{"id": r.number, "name": r.service.name} for r in self.requests.running()
                       if r.service.kind == "activity"]
         tasks = [rt.state() | {"activity": [a for a in activities
                                             if self._services[a["name"]].task == rt.name]}
@@ -426,7 +432,7 @@ class Component:
             await self.interrupt(request, by="abort_activity")
 
     @function(throws=(no_such_inport, no_such_outport))
-    def connect_port(self, local: string(128), remote: string(128)) -> None:  # type: ignore[valid-type]
+    def connect_port(self, local: Annotated[str, Bound(128)], remote: Annotated[str, Bound(128)]) -> None:
         """Connect the in port ``local`` to the out port ``remote`` ("component/port[/element]")."""
         spec = self._ports.get(local)
         if spec is None or spec.direction != "in":
@@ -444,7 +450,7 @@ class Component:
         self.port(local).connect(target, remote, parts[2] if len(parts) > 2 else None)  # type: ignore[union-attr]
 
     @function(throws=(no_such_service,))
-    def connect_service(self, local: string(128), remote: string(128)) -> None:  # type: ignore[valid-type]
+    def connect_service(self, local: Annotated[str, Bound(128)], remote: Annotated[str, Bound(128)]) -> None:
         """Connect a used service to a remote one (no component here uses remote services)."""
         raise no_such_service()
 

@@ -4,6 +4,9 @@ A decorated method keeps working as a plain method; the decorator attaches a
 :class:`ServiceSpec` read from its signature and type hints: parameter names,
 IDL types, defaults and docs (``Annotated[Double, "doc"]``), outputs (the
 return annotation), interrupts, declared exceptions and a validate hook.
+The options are keyword-only and typed; a misspelled one, or one of the wrong
+shape, is refused in the class body.  :func:`redeclare` declares, in a merged
+component, a new implementation of a service of one of its parts.
 """
 
 from __future__ import annotations
@@ -13,14 +16,20 @@ import difflib
 import inspect
 import typing
 from collections.abc import Callable, Mapping, Sequence
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal, Protocol, TypeVar, overload
 
 from ._exceptions import GenomException, InputError
 from ._types import IdlType, idl_type
 
+if TYPE_CHECKING:
+    from ._tasks import Task
+
 __all__ = [
-    "function", "activity", "attribute", "Out", "ParamSpec", "ServiceSpec", "NO_DEFAULT", "check_validate_hook",
+    "function", "activity", "attribute", "redeclare", "Out", "ParamSpec", "ServiceSpec", "NO_DEFAULT",
+    "ServiceDecorator", "check_validate_hook", "check_redeclaration",
 ]
+
+_F = TypeVar("_F", bound=Callable[..., Any])
 
 ServiceKind = Literal["function", "activity", "attribute"]
 
@@ -188,14 +197,26 @@ def _outputs_of(annotation: Any) -> tuple[tuple[ParamSpec, ...], str]:
     )
 
 
-def _build_spec(func: Callable[..., Any], kind: ServiceKind, options: dict[str, Any]) -> ServiceSpec:
-    hints = typing.get_type_hints(func, include_extras=True)
+@dataclasses.dataclass(frozen=True)
+class _Declaration:
+    """What a service decorator attaches to a method: the kind, the options, where the signature is read."""
+
+    kind: ServiceKind
+    options: Mapping[str, Any]
+    #: The method whose parameters and return annotation declare the service: the
+    #: decorated one, or for a redeclaration the original one.
+    signature_of: Callable[..., Any]
+
+
+def _build_spec(func: Callable[..., Any], declaration: _Declaration) -> ServiceSpec:
+    kind, options, source = declaration.kind, declaration.options, declaration.signature_of
+    hints = typing.get_type_hints(source, include_extras=True)
     inputs = []
-    for name, param in list(inspect.signature(func).parameters.items())[1:]:
+    for name, param in list(inspect.signature(source).parameters.items())[1:]:
         if param.kind in (param.VAR_POSITIONAL, param.VAR_KEYWORD):
-            raise TypeError(f"service {func.__name__}: *args and **kwargs have no IDL meaning")
+            raise TypeError(f"service {source.__name__}: *args and **kwargs have no IDL meaning")
         if name not in hints:
-            raise TypeError(f"service {func.__name__}: parameter {name!r} needs a type annotation")
+            raise TypeError(f"service {source.__name__}: parameter {name!r} needs a type annotation")
         hint = hints[name]
         doc = _doc_of(hint.__metadata__) if typing.get_origin(hint) is Annotated else ""
         default = NO_DEFAULT if param.default is param.empty else param.default
@@ -203,12 +224,12 @@ def _build_spec(func: Callable[..., Any], kind: ServiceKind, options: dict[str, 
     outputs, style = _outputs_of(hints.get("return", inspect.Signature.empty))
     task = options.get("task")
     return ServiceSpec(
-        name=options.get("name") or func.__name__,
+        name=options.get("name") or source.__name__,
         kind=kind,
         func=func,
         inputs=tuple(inputs),
         outputs=outputs,
-        doc=options.get("doc") or _split_doc(func),
+        doc=options.get("doc") or _split_doc(source),
         interrupts=tuple(options.get("interrupts", ())),
         throws=tuple(options.get("throws", ())),
         validate=options.get("validate"),
@@ -249,24 +270,149 @@ def _check_options(owner: str, kind: ServiceKind, options: Mapping[str, Any]) ->
         raise TypeError(f"{owner}: @{kind} option 'validate' must be callable, not {validate!r}")
 
 
-def check_validate_hook(spec: ServiceSpec, owner: str) -> None:
-    """Check that ``spec.validate(component, **inputs)`` fits the service's inputs.
+class ServiceDecorator(Protocol):
+    """The type of :func:`function`, :func:`activity` and :func:`attribute`: bare, or with keyword-only options."""
 
-    Args:
-        spec: The service, with a validate hook.
-        owner: How to name the component in the message.
+    @overload
+    def __call__(self, func: _F, /) -> _F: ...
+    @overload
+    def __call__(
+        self,
+        /,
+        *,
+        name: str | None = None,
+        doc: str | None = None,
+        interrupts: Sequence[str] = (),
+        throws: Sequence[type[GenomException]] = (),
+        validate: Callable[..., Any] | None = None,
+        task: Task | str | None = None,
+    ) -> Callable[[_F], _F]: ...
+
+
+_OPTIONS_DOC = """
+    Keyword Args:
+        name: The service name (default: the method name).
+        doc: Its documentation (default: the docstring's first paragraph).
+        interrupts: Names of the services a request of this one interrupts.
+        throws: The GenomException classes it may raise.
+        validate: ``validate(self, **inputs)``, sync or async, raising a GenomException
+            to refuse a request before it starts (the request then ends in ``error``).
+            Its parameters must be the service's inputs: checked when the class is created.
+        task: The Task an activity runs in (descriptive; use ``await self.<task>.tick()``).
 
     Raises:
-        TypeError: naming the component, the service and the parameter that does not match.
+        TypeError: for an unknown option (``interupts``) or an option of the wrong shape.
+"""
+
+
+_KEYWORD = inspect.Parameter.KEYWORD_ONLY
+_DECORATOR_SIGNATURE = inspect.Signature([
+    inspect.Parameter("func", inspect.Parameter.POSITIONAL_ONLY, default=None, annotation="Callable[..., Any] | None"),
+    inspect.Parameter("name", _KEYWORD, default=None, annotation="str | None"),
+    inspect.Parameter("doc", _KEYWORD, default=None, annotation="str | None"),
+    inspect.Parameter("interrupts", _KEYWORD, default=(), annotation="Sequence[str]"),
+    inspect.Parameter("throws", _KEYWORD, default=(), annotation="Sequence[type[GenomException]]"),
+    inspect.Parameter("validate", _KEYWORD, default=None, annotation="Callable[..., Any] | None"),
+    inspect.Parameter("task", _KEYWORD, default=None, annotation="Task | str | None"),
+], return_annotation="Any")
+
+
+def _decorator(kind: ServiceKind) -> ServiceDecorator:
+    def decorator(func: Callable[..., Any] | None = None, /, **options: Any) -> Any:
+        def attach(f: Callable[..., Any]) -> Callable[..., Any]:
+            # Checked now, in the class body: a misspelled option would otherwise be ignored.
+            _check_options(getattr(f, "__qualname__", repr(f)), kind, options)
+            # The spec is built lazily: type hints may name classes defined after the method.
+            f.__genom_service__ = _Declaration(kind, options, f)  # type: ignore[attr-defined]
+            return f
+
+        return attach(func) if func is not None else attach
+
+    decorator.__name__ = decorator.__qualname__ = kind
+    # help() shows the options the type checker knows; the body takes **options to refuse a
+    # misspelled one with a suggestion rather than Python's bare "unexpected keyword argument".
+    decorator.__signature__ = _DECORATOR_SIGNATURE  # type: ignore[attr-defined]
+    decorator.__doc__ = f"""Declare a method as a genom3 *{kind}* service.
+
+    Usable bare (``@{kind}``) or with options (``@{kind}(interrupts=("Stop",))``).
+    {_OPTIONS_DOC}"""
+    return decorator
+
+
+function = _decorator("function")
+activity = _decorator("activity")
+attribute = _decorator("attribute")
+
+
+def redeclare(
+    service: _F,
+    /,
+    *,
+    name: str | None = None,
+    doc: str | None = None,
+    interrupts: Sequence[str] | None = None,
+    throws: Sequence[type[GenomException]] | None = None,
+    validate: Callable[..., Any] | None = None,
+    task: Task | str | None = None,
+) -> Callable[[Callable[..., Any]], _F]:
+    """Declare a new implementation of a service declared by a base class (a merged component's).
+
+    The new method is the same service — its kind, parameters, outputs, docs and
+    options — except for the options given here.  It is called with the inputs
+    as keyword arguments, so ``async def Move(self, **inputs)`` fits, and it
+    may call the original (``await Base.Move(self, **inputs)``)::
+
+        class KemarCapture(Capture, Kemar, name="kemarcapture"):
+            @redeclare(Kemar.MoveAbsolutePosition, doc="Turn the head, publish the chunk indexes")
+            async def MoveAbsolutePosition(self, **inputs: Any) -> Any:
+                ...
+                return await Kemar.MoveAbsolutePosition(self, **inputs)
+
+    Type checkers see the decorated method with the original's signature.
+
+    Args:
+        service: The original method, decorated with ``@function``, ``@activity`` or ``@attribute``.
+        name: The service name (default: the original's).
+        doc: Its documentation (default: the original's).
+        interrupts: The services it interrupts (default: the original's).
+        throws: The GenomException classes it may raise (default: the original's).
+        validate: Its validate hook (default: the original's).
+        task: The Task it runs in (default: the original's).
+
+    Raises:
+        TypeError: when *service* declares no service, for an option of the wrong
+            shape, or (when the class is created) when the new method does not take
+            the service's inputs.
     """
-    hook = spec.validate
+    original = getattr(service, "__genom_service__", None)
+    if not isinstance(original, _Declaration):
+        raise TypeError(f"redeclare: {getattr(service, '__qualname__', service)!r} declares no service "
+                        "(decorate it with @function, @activity or @attribute)")
+    given = {"name": name, "doc": doc, "interrupts": interrupts, "throws": throws, "validate": validate,
+             "task": task}
+    changes = {key: value for key, value in given.items() if value is not None}
+
+    def attach(f: Callable[..., Any]) -> _F:
+        options = {**original.options, **changes}
+        _check_options(getattr(f, "__qualname__", repr(f)), original.kind, options)
+        f.__genom_service__ = _Declaration(original.kind, options, original.signature_of)  # type: ignore[attr-defined]
+        return f  # type: ignore[return-value]  # it takes the original's inputs: checked by the class
+
+    return attach
+
+
+def _check_takes_inputs(func: Callable[..., Any], spec: ServiceSpec, where: str, call_name: str) -> None:
+    """Check that ``func(component, **inputs)`` fits the service's inputs.
+
+    Raises:
+        TypeError: beginning with *where*, naming the parameter that does not match.
+    """
     try:
-        params = list(inspect.signature(hook).parameters.values())  # type: ignore[arg-type]
+        params = list(inspect.signature(func).parameters.values())
     except (TypeError, ValueError):
         return  # no introspectable signature (a builtin): the call itself will tell
     inputs = [p.name for p in spec.inputs]
-    call = f"validate(self{''.join(', ' + n for n in inputs)})"
-    where = f"{owner}, service {spec.name}: validate hook {getattr(hook, '__name__', hook)!r}"
+    call = f"{call_name}(self{''.join(', ' + n for n in inputs)})"
     positional = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
     if not params or (params[0].kind not in positional and params[0].kind is not inspect.Parameter.VAR_POSITIONAL):
         raise TypeError(f"{where} must take the component first: it is called as {call}")
@@ -286,47 +432,37 @@ def check_validate_hook(spec: ServiceSpec, owner: str) -> None:
             raise TypeError(f"{where} does not take the input {name!r} of {spec.name}: it is called as {call}")
 
 
-def _decorator(kind: ServiceKind) -> Callable[..., Any]:
-    def decorator(func: Callable[..., Any] | None = None, /, **options: Any) -> Any:
-        def attach(f: Callable[..., Any]) -> Callable[..., Any]:
-            # Checked now, in the class body: a misspelled option would otherwise be ignored.
-            _check_options(getattr(f, "__qualname__", repr(f)), kind, options)
-            # The spec is built lazily: type hints may name classes defined after the method.
-            f.__genom_service__ = (kind, options)  # type: ignore[attr-defined]
-            return f
+def check_validate_hook(spec: ServiceSpec, owner: str) -> None:
+    """Check that ``spec.validate(component, **inputs)`` fits the service's inputs.
 
-        return attach(func) if func is not None else attach
-
-    decorator.__name__ = kind
-    decorator.__doc__ = f"""Declare a method as a genom3 *{kind}* service.
-
-    Usable bare (``@{kind}``) or with options (``@{kind}(interrupts=("Stop",))``).
-
-    Keyword Args:
-        name: The service name (default: the method name).
-        doc: Its documentation (default: the docstring's first paragraph).
-        interrupts: Names of the services a request of this one interrupts.
-        throws: The GenomException classes it may raise.
-        validate: ``validate(self, **inputs)``, sync or async, raising a GenomException
-            to refuse a request before it starts (the request then ends in ``error``).
-            Its parameters must be the service's inputs: checked when the class is created.
-        task: The Task an activity runs in (descriptive; use ``await self.<task>.tick()``).
+    Args:
+        spec: The service, with a validate hook.
+        owner: How to name the component in the message.
 
     Raises:
-        TypeError: for an unknown option (``interupts``) or an option of the wrong shape.
+        TypeError: naming the component, the service and the parameter that does not match.
     """
-    return decorator
+    hook = spec.validate
+    assert hook is not None
+    _check_takes_inputs(hook, spec, f"{owner}, service {spec.name}: validate hook {getattr(hook, '__name__', hook)!r}",
+                        "validate")
 
 
-function = _decorator("function")
-activity = _decorator("activity")
-attribute = _decorator("attribute")
+def check_redeclaration(spec: ServiceSpec, owner: str) -> None:
+    """Check that a method declared with :func:`redeclare` takes the inputs of the service it redeclares.
+
+    Raises:
+        TypeError: naming the component, the service and the parameter that does not match.
+    """
+    declaration: _Declaration = spec.func.__genom_service__  # type: ignore[attr-defined]
+    if spec.func is not declaration.signature_of:
+        _check_takes_inputs(spec.func, spec, f"{owner}, service {spec.name}: the redeclared method "
+                                             f"{getattr(spec.func, '__qualname__', spec.func)!r}", spec.name)
 
 
 def service_spec(func: Callable[..., Any]) -> ServiceSpec | None:
     """The ServiceSpec of a decorated method (None for an ordinary method)."""
-    marker = getattr(func, "__genom_service__", None)
-    if marker is None:
+    declaration = getattr(func, "__genom_service__", None)
+    if not isinstance(declaration, _Declaration):
         return None
-    kind, options = marker
-    return _build_spec(func, kind, options)
+    return _build_spec(func, declaration)

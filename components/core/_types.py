@@ -14,8 +14,8 @@ import functools
 import math
 import types
 import typing
-from collections.abc import Mapping
-from typing import Annotated, Any, ClassVar
+from collections.abc import Callable, Mapping
+from typing import Annotated, Any, ClassVar, TypeVar, dataclass_transform
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from ._exceptions import InputError
 __all__ = [
     "IdlType", "Scalar", "StringType", "EnumType", "StructType", "SequenceType", "ArrayType",
     "OptionalType", "idl_type", "idl_struct", "idl_enum", "sequence", "array", "optional", "string",
-    "Boolean", "Octet", "Char", "Short", "UShort", "Long", "ULong", "LongLong", "ULongLong",
+    "Bound", "Length", "Boolean", "Octet", "Char", "Short", "UShort", "Long", "ULong", "LongLong", "ULongLong",
     "Float", "Double", "String",
 ]
 
@@ -151,7 +151,8 @@ class Scalar(IdlType):
             if not value.is_integer():
                 raise InputError(path, f"expected an integer ({self.name}), got {value!r}")
             value = int(value)
-        low, high = self.range  # type: ignore[misc]
+        assert self.range is not None  # every other scalar is an integer type, and has a range
+        low, high = self.range
         if not low <= value <= high:
             raise InputError(path, f"{_kind_of(value)} is out of range for {self.name} [{low}, {high}]")
         return value
@@ -321,6 +322,8 @@ class SequenceType(IdlType):
         self.element = element
         self.bound = bound
         self.numpy = numpy and isinstance(element, Scalar) and element.name != "char"
+        #: The dtype of the numpy arrays that carry this sequence (None: carried as a list).
+        self.dtype = element.numpy_dtype if self.numpy and isinstance(element, Scalar) else None
         self.name = f"sequence<{element.name}>" if bound is None else f"sequence<{element.name},{bound}>"
 
     def describe(self) -> dict[str, Any]:
@@ -354,13 +357,13 @@ class SequenceType(IdlType):
             items_count = len(value)
             if self.bound is not None and items_count > self.bound:
                 raise InputError(path, f"{items_count} elements exceed the bound of {self.bound}")
-            return value.astype(self.element.numpy_dtype, copy=False)  # type: ignore[attr-defined]
+            return value.astype(self.dtype, copy=False)
         items = self._items(value, path)
         if self.bound is not None and len(items) > self.bound:
             raise InputError(path, f"{len(items)} elements exceed the bound of {self.bound}")
         decoded = [self.element.decode(item, f"{path}[{i}]") for i, item in enumerate(items)]
         if self.numpy:
-            return np.asarray(decoded, dtype=self.element.numpy_dtype)  # type: ignore[attr-defined]
+            return np.asarray(decoded, dtype=self.dtype)
         return decoded
 
     def encode(self, value: Any) -> Any:
@@ -376,7 +379,7 @@ class SequenceType(IdlType):
 
     def zero(self) -> Any:
         if self.numpy:
-            return np.zeros(0, dtype=self.element.numpy_dtype)  # type: ignore[attr-defined]
+            return np.zeros(0, dtype=self.dtype)
         return []
 
 
@@ -404,7 +407,7 @@ class ArrayType(SequenceType):
 
     def zero(self) -> Any:
         if self.numpy:
-            return np.zeros(self.length, dtype=self.element.numpy_dtype)  # type: ignore[attr-defined]
+            return np.zeros(self.length, dtype=self.dtype)
         return [self.element.zero() for _ in range(self.length)]
 
 
@@ -451,42 +454,110 @@ _PLAIN: dict[Any, IdlType] = {
 }
 
 
+@dataclasses.dataclass(frozen=True)
+class Bound:
+    """Annotation metadata: the bound of a ``string<N>`` or a ``sequence<T,N>``.
+
+    ``Annotated[str, Bound(64)]`` is ``string<64>``; ``Annotated[list[Double], Bound(16)]``
+    is ``sequence<double,16>``; ``Annotated[NDArray[np.float64], Bound(16)]`` is the same
+    sequence carried as a numpy array.  Type checkers read the first argument (``str``,
+    ``list[float]``), the runtime reads both.
+    """
+
+    size: int
+
+    def apply(self, base: IdlType) -> IdlType:
+        """The bounded version of *base*.
+
+        Raises:
+            TypeError: when *base* is neither a string nor a sequence.
+        """
+        if isinstance(base, StringType):
+            return StringType(self.size)
+        if isinstance(base, SequenceType) and not isinstance(base, ArrayType):
+            return SequenceType(base.element, self.size, base.numpy)
+        raise TypeError(f"Bound({self.size}) applies to strings and sequences, not to {base.name}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Length:
+    """Annotation metadata: the fixed length of an IDL array ``T[N]``.
+
+    ``Annotated[list[Double], Length(3)]`` is ``double[3]``;
+    ``Annotated[NDArray[np.int32], Length(3)]`` is ``long[3]`` carried as a numpy array.
+    """
+
+    size: int
+
+    def apply(self, base: IdlType) -> IdlType:
+        """The fixed-length array of the elements of the sequence *base*.
+
+        Raises:
+            TypeError: when *base* is not an unbounded sequence.
+        """
+        if isinstance(base, SequenceType) and not isinstance(base, ArrayType) and base.bound is None:
+            return ArrayType(base.element, self.size, base.numpy)
+        raise TypeError(f"Length({self.size}) applies to list[...] and NDArray[...], not to {base.name}")
+
+
 def string(bound: int) -> Any:
-    """The annotation of a bounded ``string<bound>``."""
+    """The annotation of a bounded ``string<bound>``, built at run time.
+
+    Prefer ``Annotated[str, Bound(bound)]`` in declarations: a type checker
+    understands it, and not a call.
+    """
     return Annotated[str, StringType(bound)]
 
 
 def sequence(element: Any, bound: int | None = None, *, numpy: bool = False) -> Any:
-    """The annotation of ``sequence<element[,bound]>`` (numpy arrays when *numpy*)."""
+    """The annotation of ``sequence<element[,bound]>`` (numpy arrays when *numpy*), built at run time.
+
+    Prefer ``list[T]``, ``Annotated[list[T], Bound(n)]`` or ``NDArray[...]`` in
+    declarations: a type checker understands them, and not a call.
+    """
     return Annotated[np.ndarray if numpy else list, SequenceType(idl_type(element), bound, numpy)]
 
 
 def array(element: Any, length: int, *, numpy: bool = False) -> Any:
-    """The annotation of the fixed-length array ``element[length]``."""
+    """The annotation of the fixed-length array ``element[length]``, built at run time.
+
+    Prefer ``Annotated[list[T], Length(n)]`` in declarations.
+    """
     return Annotated[np.ndarray if numpy else list, ArrayType(idl_type(element), length, numpy)]
 
 
 def optional(element: Any) -> Any:
-    """The annotation of ``optional<element>``."""
+    """The annotation of ``optional<element>``, built at run time (prefer ``T | None``)."""
     return Annotated[Any, OptionalType(idl_type(element))]
 
 
-def idl_struct(name: str) -> Any:
-    """Class decorator: declare a dataclass as the IDL struct *name* (``"demo::state"``)."""
+_Class = TypeVar("_Class", bound=type)
 
-    def decorate(cls: type) -> type:
-        if not dataclasses.is_dataclass(cls):
-            cls = dataclasses.dataclass(cls)
-        cls.__idl_type__ = StructType(cls, _scoped(name))  # type: ignore[attr-defined]
-        return cls
+
+@dataclass_transform()
+def idl_struct(name: str) -> Callable[[_Class], _Class]:
+    """Class decorator: declare a class as the IDL struct *name* (``"demo::state"``).
+
+    The class becomes a dataclass (unless it is one already): members are its
+    annotated attributes, in order, with their defaults.  Type checkers see the
+    generated ``__init__`` too.
+    """
+
+    def decorate(cls: _Class) -> _Class:
+        struct: Any = cls if dataclasses.is_dataclass(cls) else dataclasses.dataclass(cls)
+        struct.__idl_type__ = StructType(struct, _scoped(name))
+        return typing.cast(_Class, struct)
 
     return decorate
 
 
-def idl_enum(name: str) -> Any:
+_Enum = TypeVar("_Enum", bound=type[enum.Enum])
+
+
+def idl_enum(name: str) -> Callable[[_Enum], _Enum]:
     """Class decorator: declare an :class:`enum.Enum` as the IDL enum *name*."""
 
-    def decorate(cls: type[enum.Enum]) -> type[enum.Enum]:
+    def decorate(cls: _Enum) -> _Enum:
         cls.__idl_type__ = EnumType(cls, _scoped(name))  # type: ignore[attr-defined]
         return cls
 
@@ -506,13 +577,21 @@ def idl_type(annotation: Any) -> IdlType:
     if isinstance(annotation, IdlType):
         return annotation
     if typing.get_origin(annotation) is Annotated:
-        for meta in reversed(annotation.__metadata__):
-            if isinstance(meta, IdlType):
-                return meta
-        return idl_type(annotation.__origin__)
+        metadata = annotation.__metadata__
+        # Nested Annotated flatten into one: the innermost IDL type comes first, the last one wins.
+        base = next((meta for meta in reversed(metadata) if isinstance(meta, IdlType)), None)
+        if base is None:
+            base = idl_type(annotation.__origin__)
+        for meta in metadata:
+            if isinstance(meta, (Bound, Length)):
+                base = meta.apply(base)
+        return base
     explicit = getattr(annotation, "__idl_type__", None)
     if isinstance(explicit, IdlType):
         return explicit
+    expanded = _expand_type_alias(annotation)
+    if expanded is not None:
+        return idl_type(expanded)
     if annotation in _PLAIN:
         return _PLAIN[annotation]
     origin = typing.get_origin(annotation)
@@ -523,4 +602,39 @@ def idl_type(annotation: Any) -> IdlType:
     if origin is list:
         (element,) = typing.get_args(annotation)
         return SequenceType(idl_type(element))
+    if origin is np.ndarray:
+        return _numpy_sequence(annotation)
     raise TypeError(f"{annotation!r} has no IDL type: use Double, Long, String, an @idl_struct, ...")
+
+
+def _expand_type_alias(annotation: Any) -> Any:
+    """What a ``type X[T] = ...`` alias (PEP 695) stands for, or None for anything else.
+
+    numpy 2.5 and later declares ``NDArray`` so: ``NDArray[np.int32]`` then has the
+    alias for origin, not ``np.ndarray``.
+    """
+    alias = typing.get_origin(annotation) or annotation
+    value = getattr(alias, "__value__", None)
+    if value is None or not hasattr(alias, "__type_params__"):
+        return None
+    args = typing.get_args(annotation)
+    return value[args] if args else value
+
+
+#: The IDL scalar of each numpy element type (``NDArray[np.float64]`` is ``sequence<double>``).
+_NUMPY_SCALARS: dict[type, str] = {
+    np.float64: "double", np.float32: "float", np.uint8: "octet", np.int16: "short", np.uint16: "unsigned short",
+    np.int32: "long", np.uint32: "unsigned long", np.int64: "long long", np.uint64: "unsigned long long",
+    np.bool_: "boolean",
+}
+
+
+def _numpy_sequence(annotation: Any) -> SequenceType:
+    """The sequence an ``NDArray[np.<scalar>]`` annotation stands for, carried as numpy arrays."""
+    args = typing.get_args(annotation)
+    dtype_args = typing.get_args(args[1]) if len(args) == 2 else ()
+    scalar = _NUMPY_SCALARS.get(dtype_args[0]) if dtype_args else None
+    if scalar is None:
+        known = ", ".join(f"np.{t.__name__}" for t in _NUMPY_SCALARS)
+        raise TypeError(f"{annotation!r} has no IDL type: use NDArray[T] with T one of {known}")
+    return SequenceType(Scalar(scalar), numpy=True)

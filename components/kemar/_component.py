@@ -140,6 +140,7 @@ class Kemar(Component, name="kemar", version="1.0"):
                     rig = simulated_rig(self.host)
                     assert rig is not None
                     channel = rig.channel
+                assert channel is not None  # the simulated rig always names its virtual channel
                 timeout = float(self.host.settings.get("can_timeout", 0.5))
                 driver = HarmonicaDriver.open(interface, channel, timeout=timeout)
                 driver.start()

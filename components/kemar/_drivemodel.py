@@ -160,7 +160,7 @@ class HarmonicaModel:
         self.advance(now)
         self.stuck = stuck
         if not stuck:
-            self._stuck_since = None
+            self._stuck_since: float | None = None
 
     def boot(self) -> None:
         """Announce the boot-up (heartbeat state 0)."""
@@ -191,7 +191,7 @@ class HarmonicaModel:
         self._hm = [0] * 6
         self._motion_command = "PA"
         self._stopped_by_limit = False
-        self._stuck_since: float | None = None
+        self._stuck_since = None
         self._profile_end = now
         self._objects = dict(_OBJECTS)
         position = self._trajectory.state_at(now)[0]

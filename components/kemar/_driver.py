@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import collections
 import logging
+from typing import Any
 from types import TracebackType
 from collections.abc import Callable
 
@@ -288,14 +289,14 @@ class HarmonicaDriver:
 
     # ------------------------------------------------------------------ plumbing
 
-    def _new_future(self) -> asyncio.Future:  # type: ignore[type-arg]
+    def _new_future(self) -> asyncio.Future[Any]:
         if self._closed:
             raise BusError("the driver is closed")
         if self._notifier is None:
             raise BusError("the driver is not started (use 'async with' or call start())")
         return asyncio.get_running_loop().create_future()
 
-    async def _wait(self, future: asyncio.Future, what: str):  # type: ignore[no-untyped-def,type-arg]
+    async def _wait(self, future: asyncio.Future[Any], what: str) -> Any:
         try:
             async with asyncio.timeout(self.timeout):
                 return await future

@@ -9,7 +9,7 @@ import logging
 from collections.abc import Awaitable, Callable, Iterator
 from dataclasses import dataclass
 
-from aiogenomix.components.core._clock import Clock
+from ..core import Clock
 
 from ._codec import INPUT_FORWARD_LIMIT, INPUT_REVERSE_LIMIT, NmtCommand, StatusRegister, describe_motor_fault
 from ._driver import HarmonicaDriver

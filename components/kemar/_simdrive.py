@@ -10,7 +10,7 @@ from types import TracebackType
 
 import can
 
-from aiogenomix.components.core._clock import Clock, RealClock
+from ..core import Clock, RealClock
 
 from ._codec import INPUT_FORWARD_LIMIT, INPUT_REVERSE_LIMIT, MotorFault
 from ._drivemodel import HarmonicaModel

@@ -15,7 +15,7 @@ import sys
 import threading
 from collections.abc import Sequence
 
-from aiogenomix.components.core._clock import RealClock, ScaledClock
+from ..core import RealClock, ScaledClock
 
 from ._simdrive import DEFAULT_NODE_ID, SimulatedHarmonica
 

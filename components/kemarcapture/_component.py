@@ -2,24 +2,19 @@
 
 from __future__ import annotations
 
-import functools
 import logging
 import math
 from typing import Any
 
-from ..capture import Capture
-from ..core import OutPort, activity
+from ..capture import Capture, HeadPositionSource
+from ..capture._port_view import PortView
+from ..core import OutPort, redeclare
 from ..kemar import BUS_ERROR, Kemar, KemarError
 from ._types import KemarPortData, MoveIndexes
 
 __all__ = ["KemarCapture"]
 
 log = logging.getLogger(__name__)
-
-def _declaration(service: Any, **changes: Any) -> dict[str, Any]:
-    """The declaration options of a service of another component, with *changes*."""
-    _kind, options = service.__genom_service__
-    return {**options, **changes}
 
 
 class KemarCapture(Capture, Kemar, name="kemarcapture", version="1.0"):
@@ -33,12 +28,11 @@ class KemarCapture(Capture, Kemar, name="kemarcapture", version="1.0"):
     with the simulated head.
     """
 
-    Port = OutPort(KemarPortData, doc="The last Port_chunks chunks of binaural audio and the head azimuth "
-                                      "at the end of each, oldest first")
+    Port: OutPort[PortView] = OutPort(KemarPortData, doc="The last Port_chunks chunks of binaural audio and the "
+                                                         "head azimuth at the end of each, oldest first")
     Indexes = OutPort(MoveIndexes, doc="Chunk index and head azimuth at the start and the end of the last "
                                        "MoveAbsolutePosition")
 
-    port_positions = True
     port_data = KemarPortData
 
     async def on_start(self) -> None:
@@ -46,6 +40,10 @@ class KemarCapture(Capture, Kemar, name="kemarcapture", version="1.0"):
         self.Indexes.publish(MoveIndexes())
         #: Chunks published with a NaN position because the drive did not answer in time.
         self.position_failures = 0
+
+    def head_position_source(self) -> HeadPositionSource:
+        """Each chunk carries the head azimuth read from the drive as it arrives."""
+        return self._read_position
 
     async def _read_position(self) -> float:
         """The head azimuth from the drive now, or NaN when the drive does not answer.
@@ -61,21 +59,17 @@ class KemarCapture(Capture, Kemar, name="kemarcapture", version="1.0"):
             log.warning("%s: head position unavailable (%s): published as NaN", self.instance, exc)
             return math.nan
 
-    async def _chunk_position(self) -> float:
-        return await self._read_position()
-
     def _current_index(self) -> int:
         window = self.window
         return window.last_index if window is not None else 0
 
-    @activity(**_declaration(Kemar.MoveAbsolutePosition, doc=(
+    @redeclare(Kemar.MoveAbsolutePosition, doc=(
         "Turn the head to an azimuth and wait until it is there; publish (chunk index, azimuth) on Indexes "
-        "at the start and on arrival.")))
-    @functools.wraps(Kemar.MoveAbsolutePosition)
-    async def MoveAbsolutePosition(self, *args: Any, **kwargs: Any) -> Any:
+        "at the start and on arrival."))
+    async def MoveAbsolutePosition(self, **inputs: Any) -> Any:
         start = MoveIndexes(startIndex=self._current_index(), startPosition=await self._read_position())
         self.Indexes.publish(start)
-        outcome = await Kemar.MoveAbsolutePosition(self, *args, **kwargs)
+        outcome = await Kemar.MoveAbsolutePosition(self, **inputs)
         self.Indexes.publish(MoveIndexes(start.startIndex, start.startPosition, self._current_index(),
                                          await self._read_position(), arrived=True))
         return outcome

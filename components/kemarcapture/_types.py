@@ -4,15 +4,18 @@ from __future__ import annotations
 
 import dataclasses
 
+from typing import TypeAlias
+
 import numpy as np
+from numpy.typing import NDArray
 
 from ..capture import PortData
-from ..core import Boolean, Double, ULong, idl_struct, sequence
+from ..core import Boolean, Double, ULong, idl_struct
 
 __all__ = ["KemarPortData", "MoveIndexes", "Positions"]
 
 #: Head positions in degrees, one per chunk, carried as a float64 numpy array.
-Positions = sequence(Double, numpy=True)
+Positions: TypeAlias = NDArray[np.float64]
 
 
 def _no_positions() -> np.ndarray:

@@ -14,7 +14,9 @@ from typing import Annotated, Any
 
 import numpy as np
 
-from ..core import Component, Double, GenomException, InPort, InPortRuntime, OutPort, String, Task, activity
+from ..core import (
+    Component, Double, GenomException, InPort, InPortRuntime, OutPort, OutPortRuntime, String, Task, activity,
+)
 from ..world import (
     ARM_JOINTS, ARM_LIMITS, HEAD_LIMITS, ROOM, TORSO_RANGE, HeadCommand, Image, JointState, LeftArmCommand,
     Odometry, PositionCommand, RightArmCommand, TorsoCommand, attach,
@@ -143,7 +145,9 @@ class Pr2(Component, name="pr2", version="1.0"):
             self.Port_head.publish(HeadCommand(here["head_pan_joint"], here.get("head_tilt_joint", 0.0), 0.0))
         if "torso_lift_joint" in here:
             self.Port_torso.publish(TorsoCommand(here["torso_lift_joint"], 0.0))
-        for side, port, command in (("l", self.Port_l_arm, LeftArmCommand), ("r", self.Port_r_arm, RightArmCommand)):
+        arms: tuple[tuple[str, OutPortRuntime[Any], type[Any]], ...] = (
+            ("l", self.Port_l_arm, LeftArmCommand), ("r", self.Port_r_arm, RightArmCommand))
+        for side, port, command in arms:
             if f"{side}_shoulder_pan_joint" in here:
                 port.publish(command(*(here[f"{side}_{j}"] for j in ARM_JOINTS), 0.0))
 

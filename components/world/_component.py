@@ -135,6 +135,7 @@ class World(Component, name="world", version="1.0"):
 
     def _apply_commands(self) -> None:
         sim = self.sim
+        assert sim is not None  # the tasks run from on_start's end
         if (twist := self._new_command(self.pr2_cmd_vel)) is not None:
             sim.drive(twist.linear.x, twist.linear.y, twist.angular.z)
         if (goal := self._new_command(self.pr2_goal)) is not None:
@@ -158,6 +159,7 @@ class World(Component, name="world", version="1.0"):
             return
         # Catch up with the clock first: a command then starts at the time it arrived, not at the
         # time of a simulation that lagged (a motion would end early on the clock).
+        assert self.sim is not None  # set before the renderer
         self.sim.advance(self.clock.now() - self._origin)
         self._apply_commands()
         self._publish_state()
@@ -168,6 +170,7 @@ class World(Component, name="world", version="1.0"):
 
     def _publish_state(self) -> None:
         sim = self.sim
+        assert sim is not None  # called from on_start once it is set, then by the physics task
         x, y, w = sim.base_pose()
         vx, vy, vw = sim.base_speed()
         self.pr2_odom.publish(Odometry(x, y, w, vx, vy, vw, Timestamp.from_seconds(self.clock.wall())))
@@ -191,6 +194,7 @@ class World(Component, name="world", version="1.0"):
             return
         # Best effort, as MORSE: a frame that took longer than a period delays the next one.
         self._next_frame = max(self._next_frame + self.frame_period, now)
+        assert self.sim is not None  # set before the renderer
         frames, ranges = await self.renderer.render(self.sim.snapshot(), tuple(CAMERA_PORTS.values()), "base_laser")
         width, height = self.camera_size
         for port, camera in CAMERA_PORTS.items():

@@ -10,9 +10,10 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .. import core
-from ..core import Double, Float, Octet, String, ULong, idl_struct, sequence
+from ..core import Double, Float, String, ULong, idl_struct
 
 __all__ = [
     "Timestamp", "Header", "Image", "Odometry", "JointState", "LaserScan", "Point", "Quaternion", "Pose",
@@ -50,7 +51,7 @@ class Image:
     height: ULong = 0
     encoding: String = "rgba8"
     step: ULong = 0
-    data: sequence(Octet, numpy=True) = dataclasses.field(default_factory=lambda: np.zeros(0, np.uint8))
+    data: NDArray[np.uint8] = dataclasses.field(default_factory=lambda: np.zeros(0, np.uint8))
 
     def pixels(self) -> np.ndarray:
         """The frame as a ``(height, width, 4)`` array of octets (a view of ``data``)."""
@@ -75,9 +76,9 @@ class JointState:
     """Joint names with their positions (rad, or m for the torso) and speeds, in the same order."""
 
     header: Header = dataclasses.field(default_factory=Header)
-    name: sequence(String) = dataclasses.field(default_factory=list)
-    position: sequence(Double, numpy=True) = dataclasses.field(default_factory=lambda: np.zeros(0))
-    velocity: sequence(Double, numpy=True) = dataclasses.field(default_factory=lambda: np.zeros(0))
+    name: list[String] = dataclasses.field(default_factory=list)
+    position: NDArray[np.float64] = dataclasses.field(default_factory=lambda: np.zeros(0))
+    velocity: NDArray[np.float64] = dataclasses.field(default_factory=lambda: np.zeros(0))
 
 
 @idl_struct("subscriber::sensor_msgs__LaserScan")
@@ -93,7 +94,7 @@ class LaserScan:
     angle_increment: Float = 0.0
     range_min: Float = 0.0
     range_max: Float = 0.0
-    ranges: sequence(Float, numpy=True) = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
+    ranges: NDArray[np.float32] = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
 
 
 @idl_struct("subscriber::geometry_msgs__Point")

@@ -38,7 +38,7 @@ def virtual_head_azimuth(host: ComponentHost) -> Callable[[], float] | None:
     world = instances.get(WORLD_INSTANCE)
     if world is None or not any(c.genom_name == "morse_kemar" for c in instances.values()):
         return None
-    return lambda: world.kemar_azimuth  # type: ignore[attr-defined, no-any-return]
+    return lambda: world.kemar_azimuth  # type: ignore[attr-defined]
 
 
 def marker_scene() -> Any:

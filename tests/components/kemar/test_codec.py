@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from aiogenomix.components.kemar import (
-    CobIds, CodecError, CommandKind, Emergency, InterpreterReply, InterpreterRequest, MotorFault, NmtCommand,
+from aiogenomix.components.kemar import CodecError
+from aiogenomix.components.kemar._codec import (
+    CobIds, CommandKind, Emergency, InterpreterReply, InterpreterRequest, MotorFault, NmtCommand,
     SdoKind, StatusRegister, decode_emcy, decode_nmt, decode_reply, decode_sdo, describe_motor_fault, encode_emcy,
     encode_execute, encode_nmt, encode_query, encode_sdo_abort, encode_sdo_download, encode_sdo_download_ack,
     encode_sdo_upload_reply, encode_sdo_upload_request, encode_set, error_code_meaning,

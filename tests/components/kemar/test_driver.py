@@ -9,8 +9,9 @@ import pytest
 
 from aiogenomix.components.kemar import (
     BusError, DriveCommandError, DriveTimeout, Emergency, HarmonicaDriver, MotorFault, NmtCommand, SdoAbortError,
-    SimulatedHarmonica, encode_set,
+    SimulatedHarmonica,
 )
+from aiogenomix.components.kemar._codec import encode_set
 
 
 @pytest.fixture

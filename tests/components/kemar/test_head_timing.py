@@ -10,9 +10,8 @@ from __future__ import annotations
 import pytest
 
 from aiogenomix.components.core import ScaledClock
-from aiogenomix.components.kemar import (
-    COUNTS_PER_DEGREE, HarmonicaDriver, HeadState, KemarHead, SimulatedHarmonica, move_duration,
-)
+from aiogenomix.components.kemar import COUNTS_PER_DEGREE, HarmonicaDriver, HeadState, KemarHead, SimulatedHarmonica
+from aiogenomix.components.kemar._profile import move_duration
 
 TIME_SCALE = 10.0
 

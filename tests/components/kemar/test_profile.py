@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from aiogenomix.components.kemar import Trajectory, move_duration, plan_jog, plan_move, plan_stop
+from aiogenomix.components.kemar._profile import Trajectory, move_duration, plan_jog, plan_move, plan_stop
 
 SPEED, ACC, DEC = 20480.0, 300000.0, 300000.0
 

@@ -11,9 +11,9 @@ import pytest
 
 from aiogenomix.components.core import ScaledClock
 from aiogenomix.components.kemar import (
-    COUNTS_PER_DEGREE, INPUT_FORWARD_LIMIT, INPUT_REVERSE_LIMIT, DriveCommandError, HarmonicaDriver, MotorFault,
-    NmtCommand, NmtState, SimulatedHarmonica,
+    COUNTS_PER_DEGREE, DriveCommandError, HarmonicaDriver, MotorFault, NmtCommand, NmtState, SimulatedHarmonica,
 )
+from aiogenomix.components.kemar._codec import INPUT_FORWARD_LIMIT, INPUT_REVERSE_LIMIT
 
 FLS = round(90 * COUNTS_PER_DEGREE)
 

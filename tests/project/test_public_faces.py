@@ -1,0 +1,56 @@
+"""The public faces: what a component author imports, what a host imports, what kemar shows."""
+
+from __future__ import annotations
+
+import pathlib
+import pydoc
+import re
+import tomllib
+
+import pytest
+
+from aiogenomix.components import core, kemar
+from aiogenomix.components.core import runtime
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize("face", [core, runtime])
+def test_public_names_say_where_they_are_imported_from(face: object) -> None:
+    for name in face.__all__:  # type: ignore[attr-defined]
+        obj = getattr(face, name)
+        module = getattr(obj, "__module__", None)
+        if isinstance(obj, type) or callable(obj) and module and module.startswith("aiogenomix."):
+            assert module == face.__name__, name  # type: ignore[attr-defined]
+
+
+def test_help_shows_the_public_paths() -> None:
+    text = pydoc.render_doc(core.OutPort, renderer=pydoc.plaintext)
+    assert "class OutPort in module aiogenomix.components.core\n" in text
+    package = pydoc.render_doc(core, renderer=pydoc.plaintext)
+    # Only the private base of the port runtimes is named by its private module.
+    named = re.findall(r"aiogenomix\.components\.core\._\w+\.(\w+)", package)
+    assert all(name.startswith("_PortRunti") for name in named)  # pydoc cuts long names short
+
+
+def test_the_author_face_and_the_runtime_are_apart() -> None:
+    assert not set(core.__all__) & set(runtime.__all__)
+    assert {"Component", "OutPort", "InPort", "function", "activity", "attribute", "redeclare", "idl_struct",
+            "Bound", "Length", "GenomException"} <= set(core.__all__)
+    assert {"RequestTracker", "ServiceSpec", "IdlType", "describe"} <= set(runtime.__all__)
+    # Code written before the split still imports the runtime's names from core.
+    assert core.RequestTracker is runtime.RequestTracker
+
+
+def test_kemar_shows_its_component_driver_and_simulated_drive_not_its_codec() -> None:
+    assert {"Kemar", "HarmonicaDriver", "SimulatedHarmonica", "KemarHead", "MotorFault"} <= set(kemar.__all__)
+    for private in ("encode_set", "decode_reply", "CobIds", "InterpreterRequest", "plan_move", "Trajectory"):
+        assert not hasattr(kemar, private), private
+
+
+def test_the_layer_contracts_name_every_private_module_of_the_core() -> None:
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    contract = next(c for c in config["tool"]["importlinter"]["contracts"] if "private modules" in c["name"])
+    private = {f"aiogenomix.components.core.{p.stem}" for p in (ROOT / "components" / "core").glob("_*.py")
+               if p.stem != "__init__"}
+    assert set(contract["forbidden_modules"]) == private
