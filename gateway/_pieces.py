@@ -86,7 +86,8 @@ class PiecesPayload(payload.Payload):
         kept = tuple(piece for piece in pieces if len(piece))
         super().__init__(kept, content_type=content_type)
         self._pieces = kept
-        self._size = sum(len(piece) for piece in kept)
+        self._nbytes = sum(len(piece) for piece in kept)
+        self._size = self._nbytes
 
     async def write(self, writer: AbstractStreamWriter) -> None:
         """Write every piece without waiting for the socket in between (aiohttp drains at the end)."""
@@ -106,15 +107,15 @@ class PiecesPayload(payload.Payload):
         # The HTTP head and the whole body in one system call: one wake-up of the reader.
         buffers = [head, *pieces]
         written = write_gathered(fd, buffers)
-        _account(writer, self._size)
-        if written == len(head) + self._size:
+        _account(writer, self._nbytes)
+        if written == len(head) + self._nbytes:
             return
         # What the socket did not take goes to the transport, which sends it as the socket
         # drains (aiohttp waits for that at the end of the reply, as for any body).
         for piece in unsent(buffers, written):
             if transport.is_closing():  # the reader went away: what aiohttp's writer raises then
                 raise ConnectionResetError("the connection closed while the reply was written")
-            transport.write(piece)  # type: ignore[attr-defined]
+            transport.write(piece)
 
     def decode(self, encoding: str = "utf-8", errors: str = "strict") -> str:
         """The body as text (for logs and tests)."""
