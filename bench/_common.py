@@ -61,6 +61,19 @@ def rss_bytes(pid: int) -> int:
     raise RuntimeError(f"no VmRSS for {pid}")
 
 
+def tree_rss_bytes(pid: int) -> int:
+    """Resident memory of process *pid* and of its children (the world's render process)."""
+    children = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        with contextlib.suppress(OSError):
+            children += [int(child) for child in (task / "children").read_text().split()]
+    total = rss_bytes(pid)
+    for child in children:
+        with contextlib.suppress(OSError, RuntimeError):  # a child that just ended
+            total += rss_bytes(child)
+    return total
+
+
 def verdict(value: float, target: float, lower_is_better: bool = True) -> str:
     """``met`` or ``MISSED`` for a figure against its target."""
     ok = value <= target if lower_is_better else value >= target

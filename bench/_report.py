@@ -179,7 +179,8 @@ def _memory(r: dict[str, Any]) -> str:
     return "\n".join([
         "## 6. Memory", "",
         "Resident size of the gateway process (the benchmark gateway: the probe component registered, nothing "
-        "loaded), then with demo and ten more components loaded (every installed one), and the cost of a session "
+        "loaded), then with demo and ten more components loaded (every installed one; the world's render process "
+        "counted in), and the cost of a session "
         f"({r['sessions']} started) and of a request nobody cleans ({r['requests']} `send`s of a function).", "",
         "| figure | value | target |", "|---|---|---|",
         f"| RSS at start | {r['rss_start_mb']:.1f} MB | ≤ {r['target_start_mb']:.0f} MB |",

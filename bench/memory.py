@@ -7,7 +7,7 @@ from typing import Any
 
 import aiohttp
 
-from ._common import Result, rss_bytes, server
+from ._common import Result, server, tree_rss_bytes
 
 #: Ten components besides demo (loaded first): every one installed.
 COMPONENTS = ["countserver", "countclient", "kemar", "capture", "kemarcapture", "bass", "basc", "pr2",
@@ -18,9 +18,9 @@ TARGET_SESSION_KB = 16.0
 
 
 async def _settled_rss(pid: int) -> int:
-    """RSS once it stops moving (allocations of the last requests settle within a few loop turns)."""
+    """RSS of the gateway and its children once it stops moving (allocations settle within a few loop turns)."""
     await asyncio.sleep(0.5)
-    return rss_bytes(pid)
+    return tree_rss_bytes(pid)
 
 
 async def run(sessions: int = 250, requests: int = 5000) -> Result:

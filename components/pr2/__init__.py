@@ -18,8 +18,8 @@ from ..core import (
     Component, Double, GenomException, InPort, InPortRuntime, OutPort, OutPortRuntime, String, Task, activity,
 )
 from ..world import (
-    ARM_JOINTS, ARM_LIMITS, HEAD_LIMITS, ROOM, TORSO_RANGE, HeadCommand, Image, JointState, LeftArmCommand,
-    Odometry, PositionCommand, RightArmCommand, TorsoCommand, attach,
+    ARM_JOINTS, HEAD_LIMITS, ROOM, TORSO_RANGE, HeadCommand, Image, JointState, LeftArmCommand,
+    Odometry, PositionCommand, RightArmCommand, TorsoCommand, arm_limits, attach,
 )
 
 __all__ = ["Pr2", "INVALID_TORSO", "INVALID_VALUE", "WIRING"]
@@ -67,15 +67,6 @@ def _clamp(value: float, lower: float | None, upper: float | None) -> float:
     if upper is not None:
         value = min(upper, value)
     return value
-
-
-def _arm_limits(side: str) -> dict[str, tuple[float | None, float | None]]:
-    limits = {}
-    for joint, (lower, upper, _) in ARM_LIMITS.items():
-        if side == "r" and joint in ("shoulder_pan_joint", "upper_arm_roll_joint"):
-            lower, upper = -upper, -lower  # type: ignore[operator]
-        limits[f"{side}_{joint}"] = (lower, upper)
-    return limits
 
 
 class Pr2(Component, name="pr2", version="1.0"):
@@ -208,10 +199,17 @@ class Pr2(Component, name="pr2", version="1.0"):
                 self.Port_gotoposition.publish(PositionCommand(odom.x, odom.y, odom.w))
             raise
 
-    def _arm(self, side: str, joints: dict[str, float], time_to_finish: float) -> dict[str, float]:
+    async def _move_arm(self, side: str, values: tuple[float, ...], time_to_finish: float) -> None:
+        """Publish the goal of arm *side* (its seven joints in order) and wait until the arm is there."""
+        joints = {f"{side}_{j}": v for j, v in zip(ARM_JOINTS, values, strict=True)}
         _finite(**joints, time_to_finish=time_to_finish)
-        limits = _arm_limits(side)
-        return {name: _clamp(value, *limits[name]) for name, value in joints.items()}
+        limits = arm_limits(side)
+        goals = {name: _clamp(value, *limits[name][:2]) for name, value in joints.items()}
+        if side == "l":
+            self.Port_l_arm.publish(LeftArmCommand(**joints, time_to_finish=time_to_finish))
+        else:
+            self.Port_r_arm.publish(RightArmCommand(**joints, time_to_finish=time_to_finish))
+        await self._move_joints(goals, JOINT_TOLERANCE, JOINT_STILL)
 
     @activity(task=PublishPort, interrupts=("move_l_arm",), throws=(INVALID_VALUE,))
     async def move_l_arm(
@@ -228,9 +226,7 @@ class Pr2(Component, name="pr2", version="1.0"):
         """Move the left arm's seven joints and wait until they are there (goals outside the limits stop at them)."""
         values = (l_shoulder_pan_joint, l_shoulder_lift_joint, l_upper_arm_roll_joint, l_elbow_flex_joint,
                   l_forearm_roll_joint, l_wrist_flex_joint, l_wrist_roll_joint)
-        goals = self._arm("l", {f"l_{j}": v for j, v in zip(ARM_JOINTS, values, strict=True)}, time_to_finish)
-        self.Port_l_arm.publish(LeftArmCommand(*values, time_to_finish))
-        await self._move_joints(goals, JOINT_TOLERANCE, JOINT_STILL)
+        await self._move_arm("l", values, time_to_finish)
 
     @activity(task=PublishPort, interrupts=("move_r_arm",), throws=(INVALID_VALUE,))
     async def move_r_arm(
@@ -247,9 +243,7 @@ class Pr2(Component, name="pr2", version="1.0"):
         """Move the right arm's seven joints and wait until they are there (goals outside the limits stop at them)."""
         values = (r_shoulder_pan_joint, r_shoulder_lift_joint, r_upper_arm_roll_joint, r_elbow_flex_joint,
                   r_forearm_roll_joint, r_wrist_flex_joint, r_wrist_roll_joint)
-        goals = self._arm("r", {f"r_{j}": v for j, v in zip(ARM_JOINTS, values, strict=True)}, time_to_finish)
-        self.Port_r_arm.publish(RightArmCommand(*values, time_to_finish))
-        await self._move_joints(goals, JOINT_TOLERANCE, JOINT_STILL)
+        await self._move_arm("r", values, time_to_finish)
 
     @activity(task=PublishPort, interrupts=("move_torso",), throws=(INVALID_TORSO, INVALID_VALUE),
               validate=controlTorso)

@@ -7,7 +7,7 @@ through its ports.  MuJoCo is imported when a world is made, not when this packa
 from ._component import CAMERA_PORTS, World, parse_size
 from ._wiring import WORLD_INSTANCE, attach, marker_scene, virtual_head_azimuth, virtual_scene
 from ._mjcf import (
-    ARM_LIMITS, HEAD_LIMITS, KEMAR_LIMIT, KEMAR_ORIGIN, OBJECTS, ROOM, SOUND_SOURCES, TORSO_RANGE,
+    arm_limits, ARM_LIMITS, HEAD_LIMITS, KEMAR_LIMIT, KEMAR_ORIGIN, OBJECTS, ROOM, SOUND_SOURCES, TORSO_RANGE,
 )
 from ._types import (
     ARM_JOINTS, Header, HeadCommand, Image, JointState, LaserScan, LeftArmCommand, Odometry, Point, Pose,
@@ -16,7 +16,7 @@ from ._types import (
 
 __all__ = [
     "World", "parse_size", "attach", "virtual_head_azimuth", "virtual_scene", "marker_scene", "WORLD_INSTANCE",
-    "CAMERA_PORTS",
+    "CAMERA_PORTS", "arm_limits",
     "KEMAR_ORIGIN", "OBJECTS", "SOUND_SOURCES", "ARM_LIMITS", "HEAD_LIMITS", "KEMAR_LIMIT", "ROOM", "TORSO_RANGE",
     "ARM_JOINTS", "Header", "HeadCommand", "Image", "JointState", "LaserScan", "LeftArmCommand", "Odometry", "Point",
     "Pose", "PoseStamped", "PositionCommand", "Quaternion", "RightArmCommand", "Timestamp", "TorsoCommand", "Twist",

@@ -14,8 +14,8 @@ from typing import Any
 
 
 from ..core import Component, InPort, InPortRuntime, LoadError, OutPort, Task
-from ._mjcf import KEMAR_CAMERAS, KEMAR_ORIGIN, PR2_CAMERAS
-from ._render import LASER, SensorRenderer
+from ._mjcf import KEMAR_CAMERAS, KEMAR_ORIGIN, PR2_CAMERAS, scene_xml
+from ._render import LASER, RenderError, SensorRenderer
 from ._sim import PR2_JOINTS, Simulation
 from ._types import (
     ARM_JOINTS, Header, HeadCommand, Image, JointState, LaserScan, LeftArmCommand, Odometry, Point, Pose,
@@ -61,6 +61,8 @@ class World(Component, name="world", version="1.0"):
 
     sim: Simulation | None = None
     renderer: SensorRenderer | None = None
+    _running = False
+    _blind = False
 
     physics = Task(period=0.02, doc="Steps the physics to the runtime clock, applies commands, publishes poses")
     sensors = Task(period=0.02, doc="Renders the cameras and sweeps the laser off the event loop, at -rate")
@@ -100,23 +102,31 @@ class World(Component, name="world", version="1.0"):
             raise LoadError(f"bad camera rate {rate_text!r}: 0.1 to 50 frames per second")
         self.frame_period = 1.0 / rate
         width, height = self.camera_size
-        # Importing MuJoCo and compiling the scene take about half a second: off the event loop.
-        # The tasks already run meanwhile; they wait for the simulation (``sim`` is None until then).
-        self.sim = await asyncio.to_thread(Simulation, width, height)
-        self.renderer = SensorRenderer(self.sim.mujoco, self.sim.model, width, height)
+        self.renderer = SensorRenderer(scene_xml(width, height), width, height, tuple(CAMERA_PORTS.values()),
+                                       "base_laser")
+        # Importing MuJoCo and compiling the scene take about half a second, here off the event loop
+        # (a thread) and in the render process at the same time.  The tasks already run meanwhile;
+        # they wait for ``_running``.
+        sim, opened = await asyncio.gather(asyncio.to_thread(Simulation, width, height), self.renderer.open(),
+                                           return_exceptions=True)  # both end before the load does
+        if isinstance(opened, RenderError):
+            raise LoadError(f"the world cannot render its cameras ({opened}); MuJoCo renders offscreen "
+                            "with MUJOCO_GL=osmesa and Debian's libosmesa6") from opened
+        if isinstance(sim, Exception):  # MuJoCo missing or refusing its settings (MUJOCO_GL...)
+            raise LoadError(f"the world cannot start MuJoCo ({type(sim).__name__}: {sim})") from sim
+        for outcome in (opened, sim):
+            if isinstance(outcome, BaseException):
+                raise outcome
+        self.sim = sim  # type: ignore[assignment]
         self._origin = self.clock.now()
         self._next_frame = 0.0
         self._seq = 0
         self._seen: dict[str, tuple[int, int]] = {}
         self._publish_state()
-        # The tasks step and render from here on: everything they use is set above.
-        try:
-            await self.renderer.open()
-        except Exception as exc:
-            raise LoadError(f"the world cannot render its cameras ({type(exc).__name__}: {exc}); "
-                            "MuJoCo renders offscreen with MUJOCO_GL=osmesa and Debian's libosmesa6") from exc
+        self._running = True  # the tasks step and render from here on: everything they use is set above
 
     async def on_stop(self) -> None:
+        self._running = False
         if self.renderer is not None:
             await self.renderer.aclose()
 
@@ -155,7 +165,7 @@ class World(Component, name="world", version="1.0"):
 
     @physics.periodic
     def _step(self) -> None:
-        if self.renderer is None:  # still starting
+        if not self._running:  # still starting, or stopping
             return
         # Catch up with the clock first: a command then starts at the time it arrived, not at the
         # time of a simulation that lagged (a motion would end early on the clock).
@@ -187,22 +197,38 @@ class World(Component, name="world", version="1.0"):
 
     @sensors.periodic
     async def _sense(self) -> None:
-        if self.renderer is None:  # still starting
+        if not self._running or self._blind:  # still starting, stopping, or no render process
             return
         now = self.clock.now() - self._origin
         if now < self._next_frame:
             return
         # Best effort, as MORSE: a frame that took longer than a period delays the next one.
         self._next_frame = max(self._next_frame + self.frame_period, now)
-        assert self.sim is not None  # set before the renderer
-        frames, ranges = await self.renderer.render(self.sim.snapshot(), tuple(CAMERA_PORTS.values()), "base_laser")
+        assert self.sim is not None and self.renderer is not None  # set before _running
+        try:
+            frames, ranges = await self.renderer.render(self.sim.snapshot())
+        except RenderError as exc:
+            await self._restart_renderer(exc)
+            return
         width, height = self.camera_size
         for port, camera in CAMERA_PORTS.items():
-            data = frames[camera].reshape(-1)
-            self.port(port).publish(Image(width, height, "rgba8", width * 4, data))  # type: ignore[union-attr]
+            # The frame is published as drawn, in memory shared with the render process, read-only.
+            self.port(port).publish(Image(width, height, "rgba8", width * 4, frames[camera]))  # type: ignore[union-attr]
         assert ranges is not None
         self.pr2_scan.publish(LaserScan(self._header("base_laser_link"), LASER["angle_min"], LASER["angle_max"],
                                         LASER["angle_increment"], LASER["range_min"], LASER["range_max"], ranges))
+
+    async def _restart_renderer(self, error: RenderError) -> None:
+        """After a failed frame, a new render process; cameras and laser stop if it cannot start either."""
+        log.error("world %s: %s; starting a new render process", self.instance, error)
+        renderer = self.renderer
+        assert renderer is not None  # set before _running
+        await renderer.aclose()
+        try:
+            await renderer.open()
+        except RenderError as exc:
+            log.error("world %s: the cameras and the laser stop: %s", self.instance, exc)
+            self._blind = True
 
     # -- wiring for the robot components -------------------------------------------------------
 

@@ -12,7 +12,7 @@ import math
 
 from ._types import ARM_JOINTS
 
-__all__ = ["scene_xml", "ARM_LIMITS", "HEAD_LIMITS", "TORSO_RANGE", "KEMAR_LIMIT", "PR2_CAMERAS",
+__all__ = ["scene_xml", "arm_limits", "ARM_LIMITS", "HEAD_LIMITS", "TORSO_RANGE", "KEMAR_LIMIT", "PR2_CAMERAS",
            "KEMAR_CAMERAS", "KEMAR_ORIGIN", "SOUND_SOURCES", "ROOM", "OBJECTS", "PR2_GEOM_GROUP", "CAMERA_HEIGHT"]
 
 #: Torso lift range (m).
@@ -31,6 +31,20 @@ ARM_LIMITS: dict[str, tuple[float | None, float | None, float]] = {
 }
 #: Joints whose range the right arm mirrors (lower, upper) -> (-upper, -lower).
 _MIRRORED = ("shoulder_pan_joint", "upper_arm_roll_joint")
+
+
+def arm_limits(side: str) -> dict[str, tuple[float | None, float | None, float]]:
+    """(lower, upper, max speed) of the joints of arm *side* (``"l"`` or ``"r"``), by their full names.
+
+    The right arm mirrors the left's shoulder pan and upper-arm roll, as on the PR2.
+    """
+    limits = {}
+    for joint, (lower, upper, speed) in ARM_LIMITS.items():
+        if side == "r" and joint in _MIRRORED:
+            lower, upper = -upper, -lower  # type: ignore[operator]
+        limits[f"{side}_{joint}"] = (lower, upper, speed)
+    return limits
+
 #: The KEMAR's head yaw limit, rad (our kemar's limit switches are at ±90°).
 KEMAR_LIMIT = math.radians(90.0)
 #: Where the KEMAR stands (x, y, m), facing +x.
@@ -110,13 +124,11 @@ def _arm(side: str) -> str:
         '<geom type="box" pos="0.08 0 0" size="0.06 0.03 0.02" material="pr2_dark"/>',
     ]
     opening = []
+    limits = arm_limits(side)
     for joint, axis, offset, geom in zip(ARM_JOINTS, axes, offsets, geoms, strict=True):
-        lower, upper, speed = ARM_LIMITS[joint]
-        if side == "r" and joint in _MIRRORED:
-            lower, upper = -upper, -lower  # type: ignore[operator]
         link = joint.replace("_joint", "_link")
         opening.append(f'<body name="{side}_{link}" pos="{offset}">'
-                       f'{_joint(f"{side}_{joint}", axis, (lower, upper, speed))}{geom}')
+                       f'{_joint(f"{side}_{joint}", axis, limits[f"{side}_{joint}"])}{geom}')
     return (f'<body name="{side}_shoulder" pos="0 {sign * 0.188} 0">'
             + "".join(opening) + "</body>" * len(opening) + "</body>")
 

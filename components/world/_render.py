@@ -1,109 +1,181 @@
-"""Camera frames and laser sweeps, computed off the event loop on a thread of their own.
+"""Camera frames and laser sweeps, computed in a render process of the world's own.
 
-OpenGL contexts belong to the thread that made them, so one worker thread owns the renderer for
-its whole life.  It draws from its own copy of the scene's data, set from a snapshot of the joint
-positions: the physics keeps stepping on the loop meanwhile, with no lock between the two.
+Rendering on a thread of the gateway's process held the interpreter's lock between MuJoCo's and
+OpenGL's calls, and the event loop waited for it (up to 60 ms stalls, other components' requests
+twice as slow).  Here a child process (:mod:`._render_worker`) owns the OpenGL context and a copy of
+the model; the world sends it the joint positions of the moment, and it draws the frames into memory
+both processes share (:mod:`._frames`), so the event loop only sends a request and publishes arrays
+over that memory.  The physics keeps stepping on the loop meanwhile, with no lock between the two.
 """
 
 from __future__ import annotations
 
 import asyncio
-import concurrent.futures
+import contextlib
 import math
+import os
+import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from . import _render_worker
+from ._frames import FramePool
 from ._mjcf import PR2_GEOM_GROUP
 
-__all__ = ["SensorRenderer", "LASER"]
+__all__ = ["SensorRenderer", "RenderError", "LASER"]
 
 #: The base laser (a Hokuyo UTM-30LX like the PR2's): 270° in 1° steps, 0.023 to 30 m.
 LASER = {"angle_min": -math.radians(135.0), "angle_max": math.radians(135.0),
          "angle_increment": math.radians(1.0), "range_min": 0.023, "range_max": 30.0}
+#: Frames of each camera that readers may hold before the world publishes copies (the newest, one
+#: being written to a client, one being drawn, and one more).
+SLOTS_PER_CAMERA = 4
+#: Seconds the render process gets to end after its input closes, before it is killed.
+CLOSE_TIMEOUT = 5.0
+
+
+def _cores() -> int:
+    """The cores this process may run on."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+class RenderError(RuntimeError):
+    """The render process could not start, or ended, or failed to draw (the message says which)."""
 
 
 class SensorRenderer:
-    """Renders named cameras and the base laser of a MuJoCo model on a dedicated thread.
+    """Renders named cameras and a laser of a MuJoCo model in a process of its own.
 
     Args:
-        mujoco: The mujoco module.
-        model: The compiled model (read-only from here).
+        xml: The model's MJCF (the render process compiles its own copy).
         width: Frame width in pixels.
         height: Frame height in pixels.
+        cameras: The cameras drawn together at each :meth:`render` (sizes the shared frames).
+        laser: The site the laser sweeps from.
     """
 
-    def __init__(self, mujoco: Any, model: Any, width: int, height: int) -> None:
-        self._mujoco = mujoco
-        self._model = model
+    def __init__(self, xml: str, width: int, height: int, cameras: tuple[str, ...], laser: str) -> None:
+        self._xml = xml
         self.width, self.height = width, height
-        self._executor = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="world-render")
-        self._renderer: Any = None
-        self._data: Any = None
-        count = int(round((LASER["angle_max"] - LASER["angle_min"]) / LASER["angle_increment"])) + 1
-        self._angles = LASER["angle_min"] + LASER["angle_increment"] * np.arange(count)
-        # The laser sees the room and the KEMAR, not the robot carrying it.
-        self._groups = np.ones(6, np.uint8)
-        self._groups[PR2_GEOM_GROUP] = 0
+        self.cameras = cameras
+        self._laser = dict(LASER, site=laser, hidden_group=PR2_GEOM_GROUP,
+                           count=int(round((LASER["angle_max"] - LASER["angle_min"]) / LASER["angle_increment"])) + 1)
+        self.pool: FramePool | None = None
+        self._process: asyncio.subprocess.Process | None = None
+        self._seq = 0
+        # Slots of requests whose reply was not read (the renderer was cancelled while waiting):
+        # the process may still draw into them, so they are given back when their reply comes.
+        self._pending: dict[int, list[int]] = {}
+
+    @property
+    def pid(self) -> int | None:
+        """The render process's id while it runs."""
+        return self._process.pid if self._process is not None and self._process.returncode is None else None
 
     async def open(self) -> None:
-        """Make the renderer on its thread (an OpenGL context: fails here, not at every frame, without one).
+        """Start the render process and make its OpenGL context (fails here, not at every frame, without one).
 
         Raises:
-            Exception: whatever MuJoCo raises when it cannot render (no OSMesa, no display...).
+            RenderError: when the process cannot start or render (no OSMesa, no display...).
         """
-        await asyncio.wrap_future(self._executor.submit(self._open))
+        if self._process is not None:
+            return
+        self.pool = FramePool(self.width * self.height * 4, SLOTS_PER_CAMERA * len(self.cameras), len(self.cameras))
+        env = dict(os.environ)
+        env.setdefault("MUJOCO_GL", "osmesa")  # no display or GPU needed
+        if env["MUJOCO_GL"] == "osmesa":
+            env.setdefault("PYOPENGL_PLATFORM", "osmesa")
+            # OSMesa's rasteriser (llvmpipe) starts a thread per core: leave one core to the gateway.
+            env.setdefault("LP_NUM_THREADS", str(max(0, _cores() - 1)))
+        fd = self.pool.fileno()
+        try:
+            # -P: the script's folder is not put on the import path (it holds modules named like others).
+            self._process = await asyncio.create_subprocess_exec(
+                sys.executable, "-P", str(Path(_render_worker.__file__)), str(fd),
+                stdin=asyncio.subprocess.PIPE, stdout=asyncio.subprocess.PIPE, pass_fds=(fd,), env=env)
+            self.pool.forget_file()
+            self._send(("open", self._xml, self.width, self.height, self._laser))
+            reply = await self._receive()
+        except OSError as exc:
+            await self.aclose()
+            raise RenderError(f"the render process cannot start ({exc})") from exc
+        except BaseException:
+            await self.aclose()
+            raise
+        if reply[0] != "ready":
+            await self.aclose()
+            raise RenderError(reply[1])
 
-    def _open(self) -> None:
-        if self._renderer is None:
-            self._renderer = self._mujoco.Renderer(self._model, self.height, self.width)
-            self._data = self._mujoco.MjData(self._model)
-
-    async def render(self, qpos: np.ndarray, cameras: tuple[str, ...], laser: str | None = None
+    async def render(self, qpos: np.ndarray, with_laser: bool = True
                      ) -> tuple[dict[str, np.ndarray], np.ndarray | None]:
-        """Frames of *cameras* (``(height, width, 4)`` RGBA octets) and the ranges of *laser*, for *qpos*."""
-        future = self._executor.submit(self._render, qpos, cameras, laser)
-        return await asyncio.wrap_future(future)
+        """Frames of the cameras and the laser's ranges for joint positions *qpos*.
 
-    def _render(self, qpos: np.ndarray, cameras: tuple[str, ...], laser: str | None
-                ) -> tuple[dict[str, np.ndarray], np.ndarray | None]:
-        mujoco, model = self._mujoco, self._model
-        self._open()
-        data = self._data
-        data.qpos[:] = qpos
-        mujoco.mj_kinematics(model, data)
-        mujoco.mj_camlight(model, data)
-        frames = {}
-        for camera in cameras:
-            self._renderer.update_scene(data, camera)
-            rgb = self._renderer.render()
-            rgba = np.empty((self.height, self.width, 4), np.uint8)
-            rgba[..., :3] = rgb
-            rgba[..., 3] = 255
-            frames[camera] = rgba
-        return frames, (self._scan(laser) if laser is not None else None)
+        Frames are read-only 1-D arrays of ``height * width * 4`` octets (RGBA, top row first),
+        valid as long as they are referenced; ranges are float32 metres, or None without the laser.
 
-    def _scan(self, site: str) -> np.ndarray:
-        mujoco, model, data = self._mujoco, self._model, self._data
-        origin = np.array(data.site(site).xpos)
-        frame = np.array(data.site(site).xmat).reshape(3, 3)
-        directions = np.stack([np.cos(self._angles), np.sin(self._angles), np.zeros_like(self._angles)], axis=1)
-        vec = (directions @ frame.T).reshape(-1)
-        count = len(self._angles)
-        geomid = np.zeros(count, np.int32)
-        dist = np.zeros(count, np.float64)
-        mujoco.mj_multiRay(model, data, origin, vec, self._groups, 1, -1, geomid, dist, None, count,
-                           LASER["range_max"])
-        ranges = np.where(geomid < 0, LASER["range_max"], np.clip(dist, LASER["range_min"], LASER["range_max"]))
-        return ranges.astype(np.float32)
+        Raises:
+            RenderError: when the process ended or failed to draw.
+        """
+        pool = self.pool
+        if pool is None or self._process is None:
+            raise RenderError("the renderer is not open")
+        self._seq += 1
+        seq = self._seq
+        slots = [pool.take(spare) for spare in range(len(self.cameras))]
+        try:
+            self._send(("render", seq, np.asarray(qpos, np.float64), list(zip(self.cameras, slots, strict=True)),
+                        with_laser))
+        except RenderError:
+            for slot in slots:
+                pool.give_back(slot)
+            raise
+        self._pending[seq] = slots
+        while True:
+            reply = await self._receive()  # cancelled here: the slots stay pending until the reply
+            if reply[1] == seq:
+                break
+            for slot in self._pending.pop(reply[1], ()):
+                pool.give_back(slot)
+        del self._pending[seq]
+        if reply[0] != "frames":
+            for slot in slots:
+                pool.give_back(slot)
+            raise RenderError(f"the render process failed to draw: {reply[2]}")
+        frames = {camera: pool.publish(slot) for camera, slot in zip(self.cameras, slots, strict=True)}
+        return frames, reply[2]
+
+    def _send(self, message: Any) -> None:
+        assert self._process is not None and self._process.stdin is not None
+        if self._process.stdin.is_closing():
+            raise RenderError(f"the render process has ended (exit code {self._process.returncode})")
+        self._process.stdin.write(_render_worker.pack_message(message))
+
+    async def _receive(self) -> Any:
+        assert self._process is not None and self._process.stdout is not None
+        try:
+            (length,) = _render_worker.HEADER.unpack(await self._process.stdout.readexactly(_render_worker.HEADER.size))
+            return _render_worker.unpack_message(await self._process.stdout.readexactly(length))
+        except asyncio.IncompleteReadError:
+            code = await self._process.wait()
+            raise RenderError(f"the render process has ended (exit code {code}); "
+                              "its messages, if any, are on the gateway's standard error") from None
 
     async def aclose(self) -> None:
-        """Free the renderer on its own thread, then end the thread."""
-        future = self._executor.submit(self._close)
-        await asyncio.wrap_future(future)
-        self._executor.shutdown(wait=True)
-
-    def _close(self) -> None:
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        """End the render process (its input closes; killed if it does not end in time)."""
+        process, self._process = self._process, None
+        if process is not None:
+            if process.stdin is not None:
+                process.stdin.close()
+                with contextlib.suppress(ConnectionError):
+                    await process.stdin.wait_closed()
+            try:
+                await asyncio.wait_for(process.wait(), CLOSE_TIMEOUT)
+            except TimeoutError:
+                process.kill()
+                await process.wait()
+        if self.pool is not None:
+            self.pool.close()

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ._mjcf import ARM_LIMITS, HEAD_LIMITS, KEMAR_LIMIT, TORSO_RANGE, scene_xml
+from ._mjcf import HEAD_LIMITS, KEMAR_LIMIT, TORSO_RANGE, arm_limits, scene_xml
 from ._mujoco import import_mujoco
 from ._servo import JointServo, base_velocity, wrap_angle
 from ._types import ARM_JOINTS
@@ -40,10 +40,7 @@ def _servos() -> dict[str, JointServo]:
     servos = {"torso_lift_joint": JointServo(*TORSO_RANGE, TORSO_MAX_SPEED)}
     servos.update({name: JointServo(*limits) for name, limits in HEAD_LIMITS.items()})
     for side in "lr":
-        for joint, (lower, upper, speed) in ARM_LIMITS.items():
-            if side == "r" and joint in ("shoulder_pan_joint", "upper_arm_roll_joint"):
-                lower, upper = -upper, -lower  # type: ignore[operator]
-            servos[f"{side}_{joint}"] = JointServo(lower, upper, speed)
+        servos.update({name: JointServo(*limits) for name, limits in arm_limits(side).items()})
     return servos
 
 
