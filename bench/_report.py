@@ -29,6 +29,16 @@ def _figure(results: dict[str, Any], label: str) -> str:
     return f"{found['ms_per_call']:.2f} ms" if found else "?"
 
 
+def _wake(results: dict[str, Any]) -> str:
+    """What a pause before a read costs the plain-socket floor itself (section 1's fresh and back-to-back floors)."""
+    window = results.get("port_read", {}).get("windows", {}).get("500", {})
+    if "floor_fresh" not in window:
+        return "see section 1's floors"
+    return (f"the floor itself takes {window['floor_fresh']['median']:.2f} ms for the 500 ms window's bytes after a "
+            f"pause against {window['floor']['median']:.2f} ms back to back, and the gateway, whose code path is "
+            "longer, pays that more, with its simulated capture running between the reads")
+
+
 def _analysis(results: dict[str, Any]) -> str:
     """Where the time goes: the profile's table, and what it and the figures above say."""
     from .profile import render as profile_table
@@ -62,9 +72,8 @@ def _analysis(results: dict[str, Any]) -> str:
         f"the write {f('write a large body')}, of which the `writev` "
         f"{f('the gathered write (writev: the kernel' + chr(39) + 's copy)')}: the kernel's copy of the bytes, "
         f"what the floor pays too. `/version` takes {f('the /version handler')} in its handler: the rest of a "
-        "request is aiohttp's fixed cost. Each fresh read also pays waking both processes after a pause (the "
-        "floor pays that too: compare its fresh and back-to-back medians in section 1) and cold caches in a "
-        "process whose simulated capture ran meanwhile.",
+        f"request is aiohttp's fixed cost. Each fresh read also pays waking both processes after a pause: "
+        f"{_wake(results)}.",
         "* **Small windows (500 and 1000 ms).** The floor moves 0.18–0.87 MB in a few tenths of a millisecond; "
         "the request's fixed cost in aiohttp (parsing, routing, middlewares, response head) is of the same size, "
         "so their ratio is that fixed cost over the floor, and it moves from block to block with the machine's "
