@@ -16,7 +16,7 @@ import sys
 import time
 from typing import Any
 
-from . import fanout, load, memory, port_read, profile, service, soak, world
+from . import fanout, load, memory, port_read, profile, remote, service, soak, world
 from ._common import ROOT
 from ._report import render
 
@@ -28,6 +28,8 @@ BENCHMARKS = {
     "soak": (soak.run, {"seconds": 120.0}, {"seconds": 5.0}),
     "memory": (memory.run, {"sessions": 250, "requests": 5000}, {"sessions": 100, "requests": 1000}),
     "world": (world.run, {"seconds": 5.0, "calls": 2000, "rounds": 5}, {"seconds": 2.0, "calls": 300, "rounds": 1}),
+    "remote": (remote.run, {"calls": 2000, "reads": 200, "seconds": 60.0},
+               {"calls": 300, "reads": 40, "blocks": 4, "seconds": 4.0}),
     "profile": (profile.run, {"reads": 100}, {"reads": 10}),
 }
 

@@ -51,6 +51,18 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
                              "this machine's names (repeatable; '*' for any)")
     parser.add_argument("--allow-origin", action="append", default=[], metavar="ORIGIN",
                         help="a web origin (scheme://host:port) whose pages may use the gateway (repeatable)")
+    remote = parser.add_argument_group("remote components", "components that run in other processes or on "
+                                       "other hosts (aiogenomix-component), found on Zenoh")
+    remote.add_argument("--zenoh", action="store_true",
+                        help="also load components offered on Zenoh (off: every component runs in this process)")
+    remote.add_argument("--zenoh-connect", action="append", default=[], metavar="ENDPOINT",
+                        help="a Zenoh endpoint to connect to, e.g. tcp/192.168.1.10:7447 (repeatable; implies "
+                             "--zenoh; with any endpoint, multicast scouting is off)")
+    remote.add_argument("--zenoh-listen", action="append", default=[], metavar="ENDPOINT",
+                        help="a Zenoh endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable; implies --zenoh)")
+    remote.add_argument("--zenoh-timeout", type=_at_least(float, 0.1), default=defaults.zenoh_timeout,
+                        metavar="SECONDS", help="time a component host has to answer before the gateway answers "
+                                                "::genom::remote_io (default %(default)s)")
     limits = parser.add_argument_group("limits", "what one client can hold or send")
     limits.add_argument("--header-timeout", type=_at_least(float, 0.001), default=defaults.header_timeout,
                         metavar="SECONDS", help="time a client has to send a request's line and headers, "
@@ -73,6 +85,8 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
         components=args.components.split(",") if args.components else None, preload=args.load,
         header_timeout=args.header_timeout, max_url_bytes=args.max_url_bytes, session_idle=args.session_idle,
         max_sessions=args.max_sessions, max_instances=args.max_instances,
+        zenoh=args.zenoh or bool(args.zenoh_connect or args.zenoh_listen), zenoh_connect=args.zenoh_connect,
+        zenoh_listen=args.zenoh_listen, zenoh_timeout=args.zenoh_timeout,
     )
 
 
@@ -102,12 +116,16 @@ def main(argv: list[str] | None = None) -> int:
     try:
         config = parse_args(argv)
         print("aiogenomix gateway starting", file=sys.stderr, flush=True)
+        from ._errors import ZenohSessionError
         from ._run import ListenError, run
 
         try:
             run(config)
         except ListenError as exc:
             print(f"aiogenomix gateway: {exc}; {_listen_hint(exc)}", file=sys.stderr, flush=True)
+            return 1
+        except ZenohSessionError as exc:
+            print(f"aiogenomix gateway: {exc}", file=sys.stderr, flush=True)
             return 1
     except StopSignal as stop:
         print(f"aiogenomix gateway stopping on {stop}", file=sys.stderr, flush=True)

@@ -70,6 +70,8 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
         host.add_unload_listener(lambda name: sessions.broadcast(format_event("unload", orjson.dumps(name))))
         host.add_unload_listener(app[UNLOADS].notice)
         try:
+            if app[CONFIG].zenoh:
+                await _find_remote_components(app)
             for item in app[CONFIG].preload:
                 name, _, args = item.partition(":")
                 await host.load(name, args.split())
@@ -83,3 +85,17 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
         yield  # the shutdown step (_shutdown) stops the components, within a bounded time
 
     return lifetime
+
+
+async def _find_remote_components(app: web.Application) -> None:
+    """Let ``load`` find the components other processes offer on Zenoh (imported only when asked for)."""
+    from .remote import RemoteTimeouts, ZenohDirectory, ZenohEndpoints
+
+    config, host = app[CONFIG], app[HOST]
+    timeouts = RemoteTimeouts(control=config.zenoh_timeout,
+                              send=2 * config.zenoh_timeout + config.function_grace)
+    directory = await ZenohDirectory.open(ZenohEndpoints(connect=config.zenoh_connect, listen=config.zenoh_listen),
+                                          timeouts)
+    host.finder = directory
+    # The host closes its shared resources last, after unloading the proxies that use the session.
+    host.shared("zenoh", lambda: directory)

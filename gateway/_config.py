@@ -36,6 +36,12 @@ class GatewayConfig:
         session_idle: Seconds after which a session that nobody listens to is forgotten.
         max_sessions: How many sessions may exist at once (429 for a new one beyond).
         max_instances: How many component instances may be loaded at once (429 beyond).
+        zenoh: Also load components that other processes offer on Zenoh (``aiogenomix-component``).
+        zenoh_connect: Zenoh endpoints to connect to (``tcp/HOST:PORT``); with any endpoint given,
+            multicast scouting is off: the gateway talks to these and to whoever connects to it.
+        zenoh_listen: Zenoh endpoints to listen on.
+        zenoh_timeout: Seconds a component host has to answer a query (a send gets twice that plus
+            ``function_grace``) before the gateway answers ``::genom::remote_io``.
     """
 
     host: str = "127.0.0.1"
@@ -57,6 +63,10 @@ class GatewayConfig:
     session_idle: float = 600.0
     max_sessions: int = 256
     max_instances: int = 64
+    zenoh: bool = False
+    zenoh_connect: list[str] = dataclasses.field(default_factory=list)
+    zenoh_listen: list[str] = dataclasses.field(default_factory=list)
+    zenoh_timeout: float = 5.0
 
     def host_settings(self) -> dict[str, Any]:
         """The settings handed to the components."""

@@ -6,7 +6,9 @@
     ├── NoSuchSession (LookupError)   404
     ├── BadQuery (ValueError)         400  malformed query parameters or input JSON
     ├── LoadForbidden                 403  a load by path (only registered components load)
-    └── TooManySessions               429  the session cap is reached
+    ├── TooManySessions               429  the session cap is reached
+    ├── RemoteRefusal                 the error of a component in another process, as answered there
+    └── RemoteUnreachable             504  ::genom::remote_io: another process did not answer in time
 
 Errors of the component runtime map as: unknown module/service/port/request
 404, bad input 400, too many activities 429, a killed component or a running
@@ -32,7 +34,8 @@ from ..components.core import (
 from ._replies import json_reply
 
 __all__ = [
-    "GatewayError", "NoSuchSession", "BadQuery", "LoadForbidden", "TooManySessions", "error_middleware", "error_body",
+    "GatewayError", "NoSuchSession", "BadQuery", "LoadForbidden", "TooManySessions", "RemoteRefusal",
+    "RemoteUnreachable", "ZenohSessionError", "error_middleware", "error_body",
 ]
 
 log = logging.getLogger(__name__)
@@ -58,6 +61,27 @@ class TooManySessions(GatewayError):
     """A new session would pass the cap on sessions."""
 
 
+class RemoteRefusal(GatewayError):
+    """A component of another process refused: its genomix error, answered as the gateway there answers it.
+
+    Args:
+        status: The HTTP status of the error.
+        body: The genomix error body (``ex``, ``detail``, ``message``).
+    """
+
+    def __init__(self, status: int, body: dict[str, Any]) -> None:
+        super().__init__(body.get("message", body.get("ex", "")))
+        self.status, self.body = status, body
+
+
+class RemoteUnreachable(GatewayError):
+    """A component of another process did not answer in time (its process died, or the network is cut)."""
+
+
+class ZenohSessionError(GatewayError):
+    """The Zenoh session cannot be opened (a malformed endpoint, an address that cannot be listened on)."""
+
+
 _LOOKUPS: dict[type[Exception], str] = {
     NoSuchModule: "::genomix::no_such_module",
     NoSuchService: "::genom::no_such_service",
@@ -71,6 +95,10 @@ def error_body(exc: Exception) -> tuple[int, dict[str, Any]]:
     """The HTTP status and JSON body that report *exc*."""
     # Messages may quote the client's text: never let it make the reply itself unwritable.
     message = (str(exc) or type(exc).__name__).encode("utf-8", "backslashreplace").decode()
+    if isinstance(exc, RemoteRefusal):
+        return exc.status, exc.body
+    if isinstance(exc, RemoteUnreachable):
+        return 504, {"ex": "::genom::remote_io", "detail": {"what": message}, "message": message}
     for klass, ex in _LOOKUPS.items():
         if isinstance(exc, klass):
             return 404, {"ex": ex, "message": message}

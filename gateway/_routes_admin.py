@@ -32,8 +32,10 @@ async def index(request: web.Request) -> web.Response:
     return json_reply({
         "server": f"aiogenomix {SERVER_VERSION}",
         "genomix": GENOMIX_PROTOCOL_VERSION,
-        "loaded": {name: type(c).genom_name for name, c in host.instances.items()},
+        "loaded": {name: c.genom_name for name, c in host.instances.items()},
         "available": _allowed(request),
+        # Components that other processes offer on Zenoh (gateway --zenoh), loadable as the others.
+        "offered": host.finder.offered() if host.finder is not None else [],
         "sessions": len(request.app[SESSIONS]),
         "simulated": request.app[CONFIG].simulated_parts(),
         "features": FEATURES,

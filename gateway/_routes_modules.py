@@ -12,7 +12,7 @@ from typing import Any
 
 from aiohttp import web
 
-from ..components.core import Component, describe
+from ..components.core import Component
 from ._errors import BadQuery
 from ._input import parse_input
 from ._keys import HOST, SESSIONS, SHUTDOWN
@@ -34,7 +34,7 @@ def _component(request: web.Request) -> Component:
 @routes.get("/module/{module}/info")
 async def info(request: web.Request) -> web.Response:
     """The description of the module's services, exceptions, ports and tasks."""
-    return json_reply(describe(_component(request)))
+    return json_reply(_component(request).description())
 
 
 @routes.get("/module/{module}/send/{service}")
@@ -53,7 +53,8 @@ async def send(request: web.Request) -> web.Response:
 @routes.get("/module/{module}/status/{rqst}")
 async def status(request: web.Request) -> web.Response:
     """The status object of a request."""
-    return json_reply(_component(request).requests.get(request.match_info["rqst"]).status_object())
+    found = await _component(request).request(request.match_info["rqst"])
+    return json_reply(found.status_object())
 
 
 @routes.get("/module/{module}/wait/{rqst}")
@@ -63,7 +64,7 @@ async def wait(request: web.Request) -> web.Response:
     At shutdown the components stop first, so the reply is the request's final
     status; a request that still runs then gets a 503 ``::genomix::shutting_down``.
     """
-    found = _component(request).requests.get(request.match_info["rqst"])
+    found = await _component(request).request(request.match_info["rqst"])
     try:
         timeout = float(request.query.get("timeout", MAX_WAIT))
     except ValueError:
@@ -98,5 +99,5 @@ async def abort(request: web.Request) -> web.Response:
 @routes.get("/module/{module}/clean/{rqst}")
 async def clean(request: web.Request) -> web.Response:
     """Forget an ended request, freeing its id."""
-    _component(request).requests.clean(request.match_info["rqst"])
+    await _component(request).clean(request.match_info["rqst"])
     return text_reply("")

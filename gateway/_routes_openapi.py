@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from aiohttp import web
 
-from ..components.core import describe
 from ._keys import HOST
 from ._openapi import openapi_document
 from ._replies import SERVER_VERSION, json_reply
@@ -17,5 +16,5 @@ routes = web.RouteTableDef()
 @routes.get("/openapi.json")
 async def openapi(request: web.Request) -> web.Response:
     """The endpoints, and one path per service of every loaded module (it changes with ``load``/``unload``)."""
-    infos = {name: describe(component) for name, component in request.app[HOST].instances.items()}
+    infos = {name: component.description() for name, component in request.app[HOST].instances.items()}
     return json_reply(openapi_document(infos, f"{request.scheme}://{request.host}", SERVER_VERSION))

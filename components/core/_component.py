@@ -170,6 +170,12 @@ class Component:
             runtime = self._task_runtimes[name] = TaskRuntime(self._tasks[name], self)
         return runtime
 
+    def description(self) -> dict[str, Any]:
+        """The ``/module/M/info`` description of the instance (see :func:`describe`)."""
+        from ._describe import describe
+
+        return describe(self)
+
     def port(self, name: str) -> OutPortRuntime[Any] | InPortRuntime[Any]:
         """The runtime of a port.
 
@@ -406,6 +412,23 @@ class Component:
         await self.interrupt(request, by="abort")
         return request
 
+    async def request(self, request_id: str) -> Request:
+        """The request *request_id* (awaitable: a proxy of a remote component may have to ask for it).
+
+        Raises:
+            NoSuchRequest: when there is none.
+        """
+        return self.requests.get(request_id)
+
+    async def clean(self, request_id: str) -> None:
+        """Forget the ended request *request_id*, freeing its id.
+
+        Raises:
+            NoSuchRequest: when there is none.
+            RequestRunning: when it has not ended.
+        """
+        self.requests.clean(request_id)
+
     def _genom_state(self) -> GenomState:
         """The data of the ``genom_state`` port, computed when it is read."""
         activities: list[dict[str, Any]] = [{"id": r.number, "name": r.service.name} for r in self.requests.running()
@@ -432,8 +455,12 @@ class Component:
             await self.interrupt(request, by="abort_activity")
 
     @function(throws=(no_such_inport, no_such_outport))
-    def connect_port(self, local: Annotated[str, Bound(128)], remote: Annotated[str, Bound(128)]) -> None:
-        """Connect the in port ``local`` to the out port ``remote`` ("component/port[/element]")."""
+    async def connect_port(self, local: Annotated[str, Bound(128)], remote: Annotated[str, Bound(128)]) -> None:
+        """Connect the in port ``local`` to the out port ``remote`` ("component/port[/element]").
+
+        The out port may belong to a component of another process when the host finds
+        remote components (``aiogenomix-component --zenoh-...``).
+        """
         spec = self._ports.get(local)
         if spec is None or spec.direction != "in":
             raise no_such_inport()
@@ -441,7 +468,7 @@ class Component:
         if len(parts) < 2:
             raise no_such_outport()
         try:
-            peer = self.host.get(parts[0])
+            peer = await self.host.peer(parts[0])
             target = peer.port(parts[1])
         except (LookupError, InputError):
             raise no_such_outport() from None

@@ -13,14 +13,14 @@ import contextvars
 import importlib.metadata
 import logging
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
 from ._clock import Clock, RealClock
 from ._component import Component
 from ._exceptions import ComponentError, NoSuchModule
 from ._requests import Request
 
-__all__ = ["ComponentHost", "LoadError", "TooManyInstances"]
+__all__ = ["ComponentHost", "LoadError", "TooManyInstances", "RemoteFinder"]
 
 log = logging.getLogger(__name__)
 
@@ -38,6 +38,20 @@ class LoadError(ComponentError, ValueError):
 
 class TooManyInstances(ComponentError):
     """The host already runs as many instances as it may."""
+
+
+class RemoteFinder(Protocol):
+    """Finds components that run in other processes and gives a local proxy of them.
+
+    A host with a finder (``host.finder``) loads a component advertised elsewhere as
+    its proxy, which the gateway serves like any instance (see ``aiogenomix.gateway.remote``).
+    """
+
+    async def find(self, host: ComponentHost, name: str, argv: list[str]) -> Component | None:
+        """A started proxy of the remote instance *name*, or None when no process offers it."""
+
+    def offered(self) -> list[str]:
+        """The instances other processes offer now, as far as this finder knows."""
 
 
 class ComponentHost:
@@ -65,6 +79,8 @@ class ComponentHost:
         self._unload_listeners: list[Callable[[str], None]] = []
         self._background: set[asyncio.Task[Any]] = set()
         self._lock = asyncio.Lock()
+        #: Where components of other processes are found (None: this process only).
+        self.finder: RemoteFinder | None = None
 
     @staticmethod
     def _entry_points() -> dict[str, Callable[..., Component]]:
@@ -76,8 +92,9 @@ class ComponentHost:
     # -- what can be loaded ----------------------------------------------------------------
 
     def available(self) -> list[str]:
-        """The names of the loadable components."""
-        return sorted(self._factories)
+        """The names of the loadable components (with a finder, those other processes offer too)."""
+        offered = self.finder.offered() if self.finder is not None else []
+        return sorted({*self._factories, *offered})
 
     def register(self, name: str, factory: Callable[..., Component]) -> None:
         """Make a component class loadable under *name*."""
@@ -91,6 +108,8 @@ class ComponentHost:
         """
         factory = self._factories.get(name)
         if factory is None:
+            if self.finder is not None and name in self.finder.offered():
+                raise NoSuchModule(f"{name} runs in another process, which did not answer: load it again")
             raise NoSuchModule(f"no component {name!r} (available: {', '.join(self.available())})")
         return factory.load() if isinstance(factory, _LazyFactory) else factory  # type: ignore[return-value]
 
@@ -128,6 +147,19 @@ class ComponentHost:
             LoadError: for bad arguments (an option the component does not list in its usage).
             TooManyInstances: when ``max_instances`` instances are loaded already.
         """
+        nested = _LOADING.get() == (self, asyncio.current_task())
+        if self.finder is not None and name not in self._instances:
+            # A component that another process offers runs there, not here: it is what the user
+            # started that process for (and a name unknown here may be known there).
+            async with contextlib.nullcontext() if nested else self._lock:
+                existing = self._instances.get(name)
+                if existing is not None:
+                    return existing
+                proxy = await self.finder.find(self, name, list(argv or []))
+                if proxy is not None:
+                    self._instances[name] = proxy
+                    log.info("loaded %s from another process", name)
+                    return proxy
         # The first load imports the component's package (scipy, sound and CAN libraries):
         # up to seconds of work that must not stall the gateway's event loop.
         await asyncio.to_thread(self.component_class, name)
@@ -140,7 +172,6 @@ class ComponentHost:
             instance = args[at + 1]
             del args[at:at + 2]
         _check_options(self.component_class(name), args)
-        nested = _LOADING.get() == (self, asyncio.current_task())
         async with contextlib.nullcontext() if nested else self._lock:
             existing = self._instances.get(instance)
             if existing is not None:
@@ -160,6 +191,22 @@ class ComponentHost:
             self._instances[instance] = component
             log.info("loaded %s as %s", name, instance)
             return component
+
+    async def peer(self, instance: str) -> Component:
+        """The instance *instance*, loaded here or, with a finder, the proxy of one in another process.
+
+        Raises:
+            NoSuchModule: when neither this host nor another process runs it.
+        """
+        if instance in self._instances or self.finder is None:
+            return self.get(instance)
+        async with self._lock:
+            if instance not in self._instances:
+                proxy = await self.finder.find(self, instance, [])
+                if proxy is None:
+                    raise NoSuchModule(f"no module {instance!r} is loaded here or offered by another process")
+                self._instances[instance] = proxy
+        return self._instances[instance]
 
     async def unload(self, instance: str) -> None:
         """Stop and forget an instance, then tell the unload listeners.

@@ -237,6 +237,14 @@ class OutPortRuntime(_PortRuntime, Generic[T]):
         """The element names of a multiple port."""
         return list(self._elements)
 
+    def read_as(self, kind: IdlType, name: str | None = None) -> Any:
+        """The latest value as a reader of type *kind* holds it (an in port connected here).
+
+        The data of a port of this process is that value already; a port mirrored
+        from another process holds encoded data, which it decodes.
+        """
+        return self.read(name)
+
     def encoded(self, name: str | None = None) -> Any:
         """The latest value as JSON-ready data."""
         return self.type.encode(self.read(name))
@@ -309,7 +317,8 @@ class InPortRuntime(_PortRuntime, Generic[T]):
         """The latest data of the connected out port (None while unconnected)."""
         if self.remote is None:
             return None
-        return self.remote.read(self.element)
+        value: T = self.remote.read_as(self.type, self.element)
+        return value
 
     def encoded(self, name: str | None = None) -> Any:
         """The latest data as JSON-ready data."""

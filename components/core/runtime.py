@@ -8,7 +8,7 @@ from ._describe import describe
 from ._exceptions import (
     ComponentError, InputError, NoSuchModule, NoSuchPort, NoSuchRequest, NoSuchService, RequestRunning,
 )
-from ._host import TooManyInstances
+from ._host import RemoteFinder, TooManyInstances
 from ._ports import ComputedOutPortRuntime, PortSpec
 from ._public import show_as_public
 from ._requests import Request, RequestTracker
@@ -20,7 +20,7 @@ from ._types import (
 
 __all__ = [
     # Describing and hosting components
-    "describe", "TooManyInstances", "Request", "RequestTracker", "TaskRuntime",
+    "describe", "TooManyInstances", "RemoteFinder", "Request", "RequestTracker", "TaskRuntime",
     # What the runtime reads from declarations
     "ServiceSpec", "ParamSpec", "NO_DEFAULT", "ServiceDecorator", "PortSpec", "ComputedOutPortRuntime",
     # IDL type objects: description, decoding and encoding of data

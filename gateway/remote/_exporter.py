@@ -1,0 +1,303 @@
+"""The host side: one component instance offered on Zenoh (queries, publications, a liveliness token).
+
+The component runs on the ordinary runtime; this only translates.  Requests go through the same
+``Component`` methods the gateway's routes call, and a refusal is answered with the genomix error
+the gateway would answer (:func:`~aiogenomix.gateway._errors.error_body`), so the gateway in front
+of it only relays.  Each out port's publications leave once, whoever reads them: a delta of the
+new items for numbered data (the audio window), the data itself otherwise.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from collections.abc import Callable
+from typing import Any
+
+import orjson
+import zenoh
+
+from ...components.core import Chunked, Component, Incremental, OutPortRuntime
+from ...components.core.runtime import ComponentError, ComputedOutPortRuntime, Request
+from .._errors import error_body
+from ._wire import (
+    alive_key, arrays_of, encode_message, error_reply, events_key, info_key, ok_reply, port_key, request_key,
+    snapshot_key,
+)
+
+__all__ = ["ComponentExporter", "PortEncoder"]
+
+log = logging.getLogger(__name__)
+
+#: Seconds between two publications of a computed port (its data is made when read, on each change).
+COMPUTED_PERIOD = 0.05
+
+
+class PortEncoder:
+    """Turns the publications of one out port into port messages (see ``_wire``), remembering what was sent.
+
+    Args:
+        port: The out port.
+    """
+
+    def __init__(self, port: OutPortRuntime[Any]) -> None:
+        self.port = port
+        #: The port version the last messages carried.
+        self.version = port.version
+        self._sent: int | None = None
+        self._counts: dict[str, int] | None = None
+
+    def _struct(self, value: Any, since: int | None) -> tuple[Any, int]:
+        if isinstance(value, Chunked):
+            data, lost = value.chunked(since)
+        elif since is None:
+            data, lost = value, 0
+        else:
+            data, lost = value.since(since)
+        return self.port.type.encode(data), lost
+
+    def _count_members(self, value: Any, whole: Any) -> dict[str, int]:
+        """The members of numbered data that count an array's elements (``nbframes``), by array number.
+
+        They are the members a read of no item gives as 0 while the whole read gives its array's
+        length: the gateway sets them for each ``since=`` read it answers.
+        """
+        if self._counts is not None or not isinstance(whole, dict):
+            return self._counts or {}
+        empty, _ = self._struct(value, value.index)
+        full: list[Any] = []
+        none: list[Any] = []
+        arrays_of(whole, full)
+        arrays_of(empty, none)
+        counts: dict[str, int] = {}
+        if not any(len(a) for a in full):
+            return counts  # nothing to tell the members apart by yet
+        for member, number in whole.items():
+            if isinstance(number, bool) or not isinstance(number, int):
+                continue
+            for at, (array, nothing) in enumerate(zip(full, none, strict=True)):
+                if len(array) and number == len(array) and empty.get(member) == len(nothing) == 0:
+                    counts[member] = at
+                    break
+        self._counts = counts
+        return counts
+
+    def base(self) -> bytes:
+        """The whole data now (a numbered window with its items marked)."""
+        if self.port.spec.multiple:
+            raise ValueError("a multiple port has no single base: its elements are sent one by one")
+        value = self.port.read()
+        if not isinstance(value, Incremental):
+            data = self.port.type.encode(value)
+            return encode_message(self.port.name, data, data, kind="value")
+        whole, _ = self._struct(value, None)
+        held, lost = self._struct(value, 0)
+        found: list[Any] = []
+        arrays_of(held, found)
+        return encode_message(self.port.name, whole, whole, kind="base", index=value.index,
+                              items=max(0, value.index - lost), held=[len(a) for a in found],
+                              counts=self._count_members(value, whole))
+
+    def messages(self) -> list[bytes]:
+        """The messages of the publications since the last call (one per element of a multiple port)."""
+        port = self.port
+        self.version = port.version
+        if port.spec.multiple:
+            out = []
+            for element in port.elements():
+                data = port.type.encode(port.read(element))
+                out.append(encode_message(port.name, data, data, kind="value", element=element))
+            return out
+        value = port.read()
+        if not isinstance(value, Incremental):
+            data = port.type.encode(value)
+            return [encode_message(port.name, data, data, kind="value")]
+        if self._sent is None or value.index < self._sent:
+            # The first message, or a new acquisition numbering from 1 again: the whole window.
+            self._sent = value.index
+            return [self.base()]
+        prev, self._sent = self._sent, value.index
+        whole, _ = self._struct(value, None)
+        delta, lost = self._struct(value, prev)
+        return [encode_message(port.name, whole, delta, kind="delta", index=value.index, prev=prev + lost,
+                               counts=self._count_members(value, whole))]
+
+
+class ComponentExporter:
+    """Offers one component instance on a Zenoh session until :meth:`close`.
+
+    Args:
+        session: The open Zenoh session.
+        component: The started instance.
+        loop: The event loop the component runs on.
+    """
+
+    def __init__(self, session: zenoh.Session, component: Component, loop: asyncio.AbstractEventLoop) -> None:
+        self.session = session
+        self.component = component
+        self.loop = loop
+        self.instance = component.instance
+        self._declared: list[Any] = []
+        self._tasks: set[asyncio.Task[Any]] = set()
+        self._pending_events: list[bytes] = []
+        self._events = session.declare_publisher(events_key(self.instance),
+                                                 congestion_control=zenoh.CongestionControl.BLOCK,
+                                                 reliability=zenoh.Reliability.RELIABLE, express=True)
+        self._declared.append(self._events)
+        self._declared.append(session.declare_queryable(info_key(self.instance), self._on_query(self._info)))
+        self._declared.append(session.declare_queryable(request_key(self.instance, "*"),
+                                                        self._on_query(self._request)))
+        self._declared.append(session.declare_queryable(snapshot_key(self.instance, "*"),
+                                                        self._on_query(self._snapshot)))
+        self._declared.append(session.declare_subscriber(request_key(self.instance, "clean"), self._on_clean))
+        self._encoders: dict[str, PortEncoder] = {}
+        self._publishers: dict[str, Any] = {}
+        for name, spec in type(component).ports().items():
+            if spec.direction != "out":
+                continue
+            port = component.port(name)
+            assert isinstance(port, OutPortRuntime)
+            encoder = self._encoders[name] = PortEncoder(port)
+            # Reliable and blocking: a dropped delta would be a gap (a loss).  Express like the replies and
+            # events: nothing is held back in a batch, so all leave in the order they are made.
+            publisher = self._publishers[name] = session.declare_publisher(
+                port_key(self.instance, name), congestion_control=zenoh.CongestionControl.BLOCK,
+                reliability=zenoh.Reliability.RELIABLE, express=True)
+            self._declared.append(publisher)
+            task = loop.create_task(self._pump(encoder, publisher), name=f"zenoh {self.instance}/{name}")
+            self._tasks.add(task)
+        component.host.add_request_listener(self._on_request)
+        # Last: the gateway that sees the token finds everything above declared.
+        self._token = session.liveliness().declare_token(alive_key(self.instance))
+
+    # -- queries ----------------------------------------------------------------------------
+
+    def _on_query(self, handler: Callable[[zenoh.Query], Any]) -> Callable[[zenoh.Query], None]:
+        def on_query(query: zenoh.Query) -> None:
+            # On a Zenoh thread: the component is touched on its loop only.
+            self.loop.call_soon_threadsafe(self._start, handler, query)
+
+        return on_query
+
+    def _start(self, handler: Callable[[zenoh.Query], Any], query: zenoh.Query) -> None:
+        task = self.loop.create_task(self._answer(handler, query))
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    async def _answer(self, handler: Callable[[zenoh.Query], Any], query: zenoh.Query) -> None:
+        try:
+            try:
+                answer = await handler(query)
+            except Exception as exc:
+                status, error = error_body(exc)
+                if status >= 500:
+                    log.exception("%s: query %s failed", self.instance, query.key_expr)
+                answer = error_reply(status, error)
+            # What the component published before answering reaches the gateway before the answer.
+            self._flush_ports()
+            # A multiple port's snapshot is one reply per element.
+            for body in answer if isinstance(answer, list) else [answer]:
+                query.reply(query.key_expr, body, express=True)
+        except zenoh.ZError:
+            pass  # the querier gave up (timeout): nobody to answer
+        finally:
+            query.drop()  # type: ignore[no-untyped-call]
+
+    @staticmethod
+    def _payload(query: zenoh.Query) -> dict[str, Any]:
+        raw = query.payload.to_bytes() if query.payload is not None else b"null"
+        payload = orjson.loads(raw) if raw else None
+        return payload if isinstance(payload, dict) else {}
+
+    async def _info(self, query: zenoh.Query) -> bytes:
+        return ok_reply(self.component.description())
+
+    async def _request(self, query: zenoh.Query) -> bytes:
+        operation = str(query.key_expr).rsplit("/", 1)[-1]
+        payload = self._payload(query)
+        component = self.component
+        if operation == "send":
+            request = await component.send(payload.get("service", ""), payload.get("input"),
+                                           session=payload.get("session"), oneway=bool(payload.get("oneway")))
+            return ok_reply(request.status_object())
+        request_id = str(payload.get("id", ""))
+        if operation == "status":
+            return ok_reply((await component.request(request_id)).status_object())
+        if operation == "abort":
+            return ok_reply((await component.abort(request_id)).status_object())
+        if operation == "clean":
+            await component.clean(request_id)
+            return ok_reply(None)
+        return error_reply(404, {"ex": "::genomix::http", "message": f"no request operation {operation!r}"})
+
+    async def _snapshot(self, query: zenoh.Query) -> list[bytes]:
+        name = str(query.key_expr).rsplit("/", 1)[-1]
+        encoder = self._encoders.get(name)
+        if encoder is None:
+            return [error_reply(404, {"ex": "::genom::no_such_outport", "message": f"no out port {name!r}"})]
+        if encoder.port.spec.multiple:
+            return PortEncoder(encoder.port).messages()
+        return [encoder.base()]
+
+    def _on_clean(self, sample: zenoh.Sample) -> None:
+        body = sample.payload.to_bytes()
+        self.loop.call_soon_threadsafe(self._clean_published, body)
+
+    def _clean_published(self, body: bytes) -> None:
+        """A clean the gateway answered itself (it saw the request end): nothing to report back."""
+        try:
+            self.component.requests.clean(str(orjson.loads(body).get("id", "")))
+        except (ComponentError, ValueError) as exc:
+            log.debug("%s: published clean not applied: %s", self.instance, exc)
+
+    # -- publications -----------------------------------------------------------------------
+
+    def _on_request(self, request: Request) -> None:
+        if request.instance != self.instance or request.oneway:
+            return
+        event = orjson.dumps({"status": request.status_object(), "session": request.session})
+        if not self._pending_events:
+            # Published at the end of this loop turn: the reply to a send that ended its request at
+            # once goes first (the caller waits on it), its event after.
+            self.loop.call_soon(self._publish_events)
+        self._pending_events.append(event)
+
+    def _publish_events(self) -> None:
+        # A request's end comes after what it published: a read once it is done sees its last data.
+        self._flush_ports()
+        events, self._pending_events = self._pending_events, []
+        for event in events:
+            self._events.put(event)
+
+    def _flush_ports(self) -> None:
+        """Publish now the ports that changed since their last message (not the computed ones: see _pump)."""
+        for name, encoder in self._encoders.items():
+            if encoder.port.version != encoder.version and not isinstance(encoder.port, ComputedOutPortRuntime):
+                for message in encoder.messages():
+                    self._publishers[name].put(message)
+
+    async def _pump(self, encoder: PortEncoder, publisher: Any) -> None:
+        port = encoder.port
+        # A computed port (genom_state) changes with every request: it is sent at most every
+        # COMPUTED_PERIOD, its last state always, so that requests do not pay for it one by one.
+        pause = COMPUTED_PERIOD if isinstance(port, ComputedOutPortRuntime) else 0.0
+        while True:
+            await port.wait_published(encoder.version)
+            if pause:
+                await asyncio.sleep(pause)
+            if port.version != encoder.version:  # not flushed before a reply meanwhile
+                for message in encoder.messages():
+                    publisher.put(message)
+
+    async def close(self) -> None:
+        """Withdraw the instance: the token first (the gateway hears it is gone), then the rest."""
+        with contextlib.suppress(zenoh.ZError):
+            self._token.undeclare()  # type: ignore[no-untyped-call]
+        tasks = list(self._tasks)
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+        for declared in self._declared:
+            with contextlib.suppress(zenoh.ZError):
+                declared.undeclare()

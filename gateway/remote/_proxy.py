@@ -1,0 +1,316 @@
+"""The proxy of a component that runs in another process: a ``Component`` the routes serve unchanged.
+
+Its description, requests and ports are the remote instance's: ``send``, ``abort``, ``clean`` and
+unknown request ids are queries to the host process (bounded in time); request events and port data
+arrive as publications and keep a local copy current, from which ``status``, ``wait``, the listen
+stream, ``read`` and ``watch`` are answered as for a local instance.  When the host process goes
+away, :meth:`RemoteComponent.lost` ends the pending requests once with ``::genom::remote_io`` and
+unloads the proxy (the listen stream says ``unload``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import dataclasses
+import logging
+from typing import TYPE_CHECKING, Any
+
+import orjson
+import zenoh
+
+from ...components.core import Component, ComponentHost
+from ...components.core.runtime import NoSuchPort, NoSuchRequest, RequestRunning
+from .._errors import RemoteUnreachable
+from ._mirror import MirroredOutPort
+from ._session import ask, ask_all
+from ._wire import decode_message, events_key, info_key, port_key, request_key, snapshot_key
+
+if TYPE_CHECKING:
+    from ...components.core import InPortRuntime, OutPortRuntime
+
+__all__ = ["RemoteComponent", "RemoteRequest", "RemoteTimeouts", "REMOTE_IO"]
+
+log = logging.getLogger(__name__)
+
+#: The exception that ends the requests of a component whose process is gone.
+REMOTE_IO = "::genom::remote_io"
+
+
+@dataclasses.dataclass
+class RemoteTimeouts:
+    """How long the gateway waits for a component host before answering ``::genom::remote_io``.
+
+    Attributes:
+        control: Seconds for a description, status, abort or clean.
+        send: Seconds for a send (a function may take up to the host's function grace to end).
+    """
+
+    control: float = 5.0
+    send: float = 10.0
+
+
+@dataclasses.dataclass(eq=False)
+class RemoteRequest:
+    """The gateway's copy of a request of a remote instance (the fields the routes and sessions use)."""
+
+    number: int
+    instance: str
+    session: str | None = None
+    oneway: bool = False
+    status: str = "sent"
+    output: dict[str, Any] | None = None
+    exception: dict[str, Any] | None = None
+    ended: asyncio.Event = dataclasses.field(default_factory=asyncio.Event)
+
+    @property
+    def id(self) -> str:
+        """The wire id, ``"<instance>::<n>"``."""
+        return f"{self.instance}::{self.number}"
+
+    @property
+    def running(self) -> bool:
+        """Whether the request has not ended yet."""
+        return self.status == "sent"
+
+    def status_object(self) -> dict[str, Any]:
+        """The JSON status object (also the data of the ``request`` event)."""
+        status: dict[str, Any] = {"id": self.id, "status": self.status}
+        if self.status == "done":
+            status["output"] = self.output or {}
+        elif self.status == "error":
+            status["exception"] = self.exception
+        return status
+
+    def take(self, status: dict[str, Any]) -> bool:
+        """Take a status object from the host; return whether it ended the request now (never undone)."""
+        if not self.running or status.get("status") not in ("done", "error"):
+            return False
+        self.status = status["status"]
+        self.output = status.get("output")
+        self.exception = status.get("exception")
+        self.ended.set()
+        return True
+
+
+class RemoteComponent(Component, name="remote"):
+    """A component instance of another process, as this host serves it.
+
+    Args:
+        host: This process's host.
+        instance: The remote instance name.
+        session: The Zenoh session.
+        description: The remote ``/info``.
+        timeouts: The query bounds.
+    """
+
+    def __init__(self, host: ComponentHost, instance: str, session: zenoh.Session, description: dict[str, Any],
+                 timeouts: RemoteTimeouts | None = None) -> None:
+        super().__init__(host, instance, [])
+        self.session = session
+        self.timeouts = timeouts or RemoteTimeouts()
+        self._description = description
+        # Exceptions ids and state ports carry the remote component's name, as on its own host.
+        self.genom_name = description.get("component", instance)  # type: ignore[misc]
+        self.version = description.get("version", "")  # type: ignore[misc]
+        self._loop = asyncio.get_running_loop()
+        self._remote: dict[int, RemoteRequest] = {}
+        self._mirrors = {port["name"]: MirroredOutPort(port, self)
+                         for port in description.get("ports", []) if port.get("dir") == "out"}
+        self._in_ports = {port["name"] for port in description.get("ports", []) if port.get("dir") == "in"}
+        self._subscribers: list[Any] = []
+        self._background: set[asyncio.Task[Any]] = set()
+        self._gone = False
+
+    # -- what the routes use ------------------------------------------------------------------
+
+    def description(self) -> dict[str, Any]:
+        """The remote instance's ``/info``."""
+        return self._description
+
+    def port(self, name: str) -> OutPortRuntime[Any] | InPortRuntime[Any]:
+        """The mirrored out port *name*.
+
+        Raises:
+            NoSuchPort: for a port the remote instance does not have, or an in port (whose data
+                is the out port it reads: read that one).
+        """
+        mirror = self._mirrors.get(name)
+        if mirror is not None:
+            return mirror
+        if name in self._in_ports:
+            raise NoSuchPort(f"{name} is an in port of {self.instance}, which runs in another process: "
+                             f"read the out port it is connected to")
+        raise NoSuchPort(f"{self.instance} has no port {name!r} (ports: {', '.join(self._mirrors)})")
+
+    async def send(self, name: str, raw_input: Any = None, *, session: str | None = None,
+                   oneway: bool = False) -> Any:
+        """Send the request to the remote instance; return its copy (its status as the host replied)."""
+        self._refuse_if_gone()
+        status = await ask(self.session, request_key(self.instance, "send"),
+                           {"service": name, "input": raw_input, "session": session, "oneway": oneway},
+                           timeout=self.timeouts.send)
+        number = self.requests.parse_id(status["id"])
+        if oneway:
+            # Nobody tracks a oneway request: the host forgets it when it ends.
+            request = RemoteRequest(number, self.instance, session, True)
+            request.take(status)
+            return request
+        request, new = self._track(number, session)
+        # Each change is announced once, by whichever of the reply and the host's event comes first.
+        if request.take(status) or (new and request.running):
+            self.host.announce_request(request)  # type: ignore[arg-type]
+        return request
+
+    async def request(self, request_id: str) -> Any:
+        """The copy of request *request_id*; asked from the host when this gateway has none."""
+        number = self.requests.parse_id(request_id)
+        known = self._remote.get(number)
+        if known is not None:
+            return known
+        self._refuse_if_gone()
+        status = await ask(self.session, request_key(self.instance, "status"), {"id": str(number)},
+                           timeout=self.timeouts.control)
+        request, _ = self._track(number, None)
+        request.take(status)
+        return request
+
+    async def abort(self, request_id: str) -> Any:
+        """Abort the request on the host; return its copy, ended."""
+        number = self.requests.parse_id(request_id)
+        self._refuse_if_gone()
+        status = await ask(self.session, request_key(self.instance, "abort"), {"id": str(number)},
+                           timeout=self.timeouts.control)
+        request, _ = self._track(number, None)
+        if request.take(status):
+            self.host.announce_request(request)  # type: ignore[arg-type]
+        return request
+
+    async def clean(self, request_id: str) -> None:
+        """Clean the request on the host, then forget the copy.
+
+        A request this gateway saw end cannot be refused: the clean is published to the host
+        without waiting for an answer (one round trip less per blocking call; the host takes
+        it before any later query of this gateway, which travels after it on the same link).
+
+        Raises:
+            RequestRunning: for a request that has not ended.
+        """
+        number = self.requests.parse_id(request_id)
+        self._refuse_if_gone()
+        known = self._remote.get(number)
+        if known is not None and known.running:
+            raise RequestRunning(f"request {known.id} is still running: abort it or wait for it to end")
+        if known is not None:
+            self._cleans.put(orjson.dumps({"id": str(number)}))
+        else:
+            await ask(self.session, request_key(self.instance, "clean"), {"id": str(number)},
+                      timeout=self.timeouts.control)
+        self._remote.pop(number, None)
+
+    def _track(self, number: int, session: str | None) -> tuple[RemoteRequest, bool]:
+        """The copy of request *number*, and whether it was made now."""
+        request = self._remote.get(number)
+        if request is not None:
+            return request, False
+        request = self._remote[number] = RemoteRequest(number, self.instance, session)
+        return request, True
+
+    def _refuse_if_gone(self) -> None:
+        if self._gone:
+            raise RemoteUnreachable(f"{self.instance} is gone: its process no longer answers")
+
+    # -- lifetime -------------------------------------------------------------------------------
+
+    async def start(self) -> None:
+        """Follow the instance's events and ports, then take each port's data as it is now."""
+        if self._started:
+            return
+        self._started = True
+        self._cleans = self.session.declare_publisher(request_key(self.instance, "clean"), express=True,
+                                                      congestion_control=zenoh.CongestionControl.BLOCK,
+                                                      reliability=zenoh.Reliability.RELIABLE)
+        self._subscribers.append(self._cleans)
+        self._subscribers.append(self.session.declare_subscriber(events_key(self.instance), self._on_event))
+        self._subscribers.append(self.session.declare_subscriber(port_key(self.instance, "*"), self._on_port))
+        await asyncio.gather(*(self._fetch(name) for name in self._mirrors))
+
+    async def _fetch(self, name: str) -> None:
+        """Take the whole data of port *name* from the host (at start, and after a message went missing)."""
+        for body in await ask_all(self.session, snapshot_key(self.instance, name), timeout=self.timeouts.control):
+            with contextlib.suppress(ValueError):
+                header, whole, delta = decode_message(body)
+                mirror = self._mirrors[name]
+                # Publications that came while this was asked are newer: a base never goes back in time.
+                if header.get("kind") != "base" or mirror.version == 0 or header["index"] >= mirror.read().index:
+                    mirror.apply(header, whole, delta)
+
+    def _on_event(self, sample: zenoh.Sample) -> None:
+        body = sample.payload.to_bytes()
+        self._loop.call_soon_threadsafe(self._take_event, body)
+
+    def _take_event(self, body: bytes) -> None:
+        event = orjson.loads(body)
+        status = event["status"]
+        try:
+            number = self.requests.parse_id(status["id"])
+        except NoSuchRequest:
+            return
+        request = self._remote.get(number)
+        if request is None or (not request.running and status["status"] == "sent"):
+            # A request this gateway has not seen yet (its send reply may come after this event),
+            # or a new request under a number cleaned elsewhere.
+            request = self._remote[number] = RemoteRequest(number, self.instance, event.get("session"))
+            if status["status"] == "sent":
+                self.host.announce_request(request)  # type: ignore[arg-type]
+        if request.take(status):
+            self.host.announce_request(request)  # type: ignore[arg-type]
+
+    def _on_port(self, sample: zenoh.Sample) -> None:
+        name = str(sample.key_expr).rsplit("/", 1)[-1]
+        body = sample.payload.to_bytes()
+        self._loop.call_soon_threadsafe(self._take_port, name, body)
+
+    def _take_port(self, name: str, body: bytes) -> None:
+        mirror = self._mirrors.get(name)
+        if mirror is None or self._gone:
+            return
+        header, whole, delta = decode_message(body)
+        if not mirror.apply(header, whole, delta):
+            task = self._loop.create_task(self._fetch(name), name=f"refetch {self.instance}/{name}")
+            self._background.add(task)
+            task.add_done_callback(self._background.discard)
+
+    def lost(self, why: str) -> None:
+        """The host process is gone: end every pending request once with ``::genom::remote_io``, then unload."""
+        if self._gone:
+            return
+        self._gone = True
+        for request in list(self._remote.values()):
+            if request.take({"status": "error", "exception": {"ex": REMOTE_IO, "detail": {"what": why}}}):
+                self.host.announce_request(request)  # type: ignore[arg-type]
+        self.host.unload_soon(self.instance)
+
+    async def stop(self) -> None:
+        """Stop following the instance (it keeps running in its process); pending copies end with remote_io."""
+        if not self._started:
+            return
+        self._started = False
+        if not self._gone:
+            self._gone = True
+            for request in list(self._remote.values()):
+                if request.take({"status": "error", "exception": {
+                        "ex": REMOTE_IO, "detail": {"what": f"{self.instance} was unloaded from this gateway"}}}):
+                    self.host.announce_request(request)  # type: ignore[arg-type]
+        for subscriber in self._subscribers:
+            with contextlib.suppress(zenoh.ZError):
+                subscriber.undeclare()
+        for task in list(self._background):
+            task.cancel()
+        await asyncio.gather(*self._background, return_exceptions=True)
+
+
+async def describe_remote(session: zenoh.Session, instance: str, timeout: float) -> dict[str, Any]:
+    """The ``/info`` of the remote instance *instance*."""
+    result: dict[str, Any] = await ask(session, info_key(instance), None, timeout=timeout)
+    return result

@@ -1,0 +1,50 @@
+"""The KEMAR head in its own component host (its virtual CAN bus and simulated drive with it)."""
+
+from __future__ import annotations
+
+import json
+
+import aiohttp
+import pytest
+
+from aiogenomix.clients import Interrupted, aconnect
+
+from ._processes import Process, free_port, start_component_host, start_gateway
+
+
+async def test_homing_and_moves_of_a_remote_head(started: list[Process]) -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    started.append(await start_component_host(["kemar"], listen=endpoint, extra=["--time-scale", "50"]))
+    gateway, url = await start_gateway([endpoint])
+    started.append(gateway)
+    async with aconnect(url, timeout=30) as client:
+        kemar = await client.load("kemar")
+        with pytest.raises(kemar.NOT_HOMED):  # the component's own exception class, generated from /info
+            await kemar.MoveAbsolutePosition(10)
+        await kemar.Homing()
+        await kemar.MoveAbsolutePosition(30)
+        state = await kemar.currentState()
+        assert state.position == pytest.approx(30, abs=0.1)
+        assert state.maxLeft == pytest.approx(90, abs=0.5) and state.maxRight == pytest.approx(-90, abs=0.5)
+        await kemar.MoveRelativePosition(-50)
+        assert (await kemar.currentState()).position == pytest.approx(-20, abs=0.1)
+
+        first = await kemar.MoveAbsolutePosition(80, ack=True)
+        await kemar.MoveAbsolutePosition(-10)
+        with pytest.raises(Interrupted) as interrupted:
+            await first.result()
+        assert interrupted.value.by == "MoveAbsolutePosition"
+        assert (await kemar.currentState()).position == pytest.approx(-10, abs=0.1)
+
+    # The head's state can be watched as it moves, publication by publication.
+    async with aiohttp.ClientSession(base_url=url) as http:
+        move = await http.get("/module/kemar/send/MoveAbsolutePosition", params={"input": json.dumps({"target": 45})})
+        assert (await move.json())["status"] == "sent"
+        positions = []
+        async with http.get("/module/kemar/watch/currentState") as stream:
+            async for line in stream.content:
+                if line.startswith(b"data: "):
+                    positions.append(json.loads(line[6:])["currentState"]["position"])
+                    if positions[-1] == pytest.approx(45, abs=0.1):
+                        break
+        assert len(positions) > 1 and positions == sorted(positions)
