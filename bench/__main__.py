@@ -16,12 +16,12 @@ import sys
 import time
 from typing import Any
 
-from . import fanout, load, memory, port_read, remote, service, soak, world
+from . import fanout, load, memory, port_read, profile, remote, service, soak, world
 from ._common import ROOT
 from ._report import render
 
 BENCHMARKS = {
-    "port_read": (port_read.run, {"reads": 50, "block": 10}, {"reads": 9, "block": 3}),
+    "port_read": (port_read.run, {"reads": 50, "block": 10}, {"reads": 9, "block": 3, "windows": (500, 4000)}),
     "service": (service.run, {"calls": 2000}, {"calls": 300}),
     "fanout": (fanout.run, {"seconds": 10.0}, {"seconds": 2.0}),
     "load": (load.run, {"seconds": 30.0}, {"seconds": 3.0, "rounds": 3}),
@@ -30,6 +30,7 @@ BENCHMARKS = {
     "world": (world.run, {"seconds": 5.0, "calls": 2000, "rounds": 5}, {"seconds": 2.0, "calls": 300, "rounds": 1}),
     "remote": (remote.run, {"calls": 2000, "reads": 200, "seconds": 60.0},
                {"calls": 300, "reads": 40, "blocks": 4, "seconds": 4.0}),
+    "profile": (profile.run, {"reads": 100}, {"reads": 10}),
 }
 
 
@@ -39,6 +40,8 @@ async def _one(name: str, quick: bool) -> Any:
     started = time.monotonic()
     result = await runner(**(short if quick else full))
     print(f"bench: {name} took {time.monotonic() - started:.1f} s", file=sys.stderr, flush=True)
+    result["measured"] = {"date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+                          "python": platform.python_version(), "quick": quick}
     print(json.dumps(result, indent=1, default=float), flush=True)
     return result
 

@@ -15,8 +15,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 @contextlib.asynccontextmanager
-async def server(kind: str, pythonpath: str | None = None) -> AsyncIterator[tuple[int, int]]:
-    """Start ``bench._server KIND`` in its own process; yield ``(port, pid)``.
+async def server(kind: str, pythonpath: str | None = None, args: Sequence[str] = ()) -> AsyncIterator[tuple[int, int]]:
+    """Start ``bench._server KIND [ARGS]`` in its own process; yield ``(port, pid)``.
 
     *pythonpath* comes first on the server's import path (another checkout's
     ``aiogenomix``, to measure it beside this one).
@@ -25,7 +25,7 @@ async def server(kind: str, pythonpath: str | None = None) -> AsyncIterator[tupl
     if pythonpath:
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [pythonpath, os.environ.get("PYTHONPATH")])))
     process = await asyncio.create_subprocess_exec(
-        sys.executable, "-m", "bench._server", kind, cwd=ROOT, env=env,
+        sys.executable, "-m", "bench._server", kind, *args, cwd=ROOT, env=env,
         stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.DEVNULL,
     )
     try:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 HEAD = """# Benchmarks
@@ -12,56 +13,82 @@ process with simulated components at real time; clients are Python (asyncio). Ev
 does in the same run, because these machines are shared and noisy. `bench/results/latest.json` holds
 everything. A target that is missed says **MISSED**.
 
+This page is written by the benchmarks; do not edit it. A section can be measured again on its own:
+`./run bench --only port_read` (or `memory`, `load`, `profile`, ... several at once), which keeps the other
+sections' figures from `bench/results/latest.json` (each section says when it was measured);
+`./run bench --render` rewrites the page from that file. `./run bench --quick` checks that every benchmark
+works, in under a minute (its figures are not for the record). `AIOGENOMIX_BENCH_BASELINE=DIR` also measures
+another checkout's gateway (`DIR/aiogenomix/gateway` ... as links) beside this one, in the same blocks.
+
 """
 
 
-ANALYSIS = """## Where the time goes (profiles behind the figures above)
+def _figure(results: dict[str, Any], label: str) -> str:
+    """A profiled function's ms per call, as text ("?" when the profile was not run)."""
+    found = results.get("profile", {}).get("functions", {}).get(label)
+    return f"{found['ms_per_call']:.2f} ms" if found else "?"
 
-Profiles: the benchmark gateway under cProfile (`python -m bench._server gateway --profile FILE`, stats
-written on SIGTERM) while a raw reader reads kemarcapture's Port for 4 s, per read; cProfile slows Python
-code about twofold, so the Python figures are upper bounds and what matters is their share.
 
-* **How a port read works now.** Each captured chunk is a read-only array wrapped in a `Chunk` that keeps its
-  JSON text once made (`components/core/_chunked.py`); a publication holds references to its chunks. A read
-  encodes the small struct with orjson, leaving a mark where each sample array goes, and splices in the
-  chunks' texts (`gateway/_pieces.py`); the binary form lists the chunks' memory. The body is the struct's
-  first bytes (sent with the HTTP head) and the rest joined once; the last whole-port body of each port is
-  kept, so readers of the same publication share it. Byte for byte what orjson gives for the joined arrays
-  (`tests/gateway/test_port_pieces.py`), and a window that turns over during a reply does not tear it.
-* **Back-to-back reads of the 4000 ms window (most share a publication's body).** Per read, the gateway's
-  Python work is the request: aiohttp parsing (0.06 ms), routing, the access-check, auth and error
-  middlewares and the handler (0.5 ms in all under the profiler; the handler itself 0.33 ms, of which 0.2 ms
-  is the one read in ~15 that builds a new body). The rest is `socket.send` copying 3.46 MB into the kernel
-  (1.5 ms/read under the profiler) — what the floor pays too. So the ratio is the request's fixed cost over
-  the floor, and on this shared machine it moves from block to block (see the spreads): other sessions'
-  test suites and simulators ran during this run (orjson needed far longer to parse the same reply than in
-  isolation, 14 ms).
-* **Each read a new publication.** The new chunk's JSON text (0.44 ms/read under the profiler, both
-  channels), the splice (json_pieces, 1.1 ms with it) and above all the join into one new 3.46 MB buffer:
-  2.1 ms/read under the profiler, where the same join into reused memory takes 0.15 ms. malloc maps a fresh
-  region for each new body (glibc's mmap threshold follows the size of the last freed body, and each body
-  is a little larger or smaller), so every one of its ~850 pages faults on first write, and the previous
-  body is unmapped when it is replaced. Binary: 1.3 ms of body building, of which the 1.41 MB join is
-  0.56 ms. Writing the chunks one by one instead of joining them was measured worse (one `send` per
-  piece: 325 system calls, each waking the reader); Python 3.12's `transport.writelines` sends a list of
-  buffers with one `sendmsg` and no copy (aiohttp uses it from Python 3.12.9), which removes the join; on
-  3.11 the remaining lever is malloc's thresholds (`mallopt`), not tried here.
-* **Small windows (500 and 1000 ms).** The floor moves 0.18–0.87 MB in 0.3–0.5 ms; the request's fixed cost
-  in the gateway (parsing, middlewares, handler, response head: 0.29 ms/read under the profiler for the
-  500 ms window) is of the same size, so 1.5× is out of reach for HTTP whatever the body costs; the
-  dedicated socket, which has no HTTP layer, stays near its floor.
-* **Dedicated sockets** write each reply from one buffer of their own (2014) or the snapshot's chunks
-  (2015); what remains over the floor is the request line and a loop turn.
-* **Load (target 0.7 of bare aiohttp).** Both servers spend most of a request in aiohttp (parsing, routing,
-  writing the response); the gateway adds its middlewares (access checks parse the peer address with
-  `ipaddress` on every request, token check, error translation), session lookup, input decoding, request
-  creation and the status reply. Those are the send path and the middlewares other work is changing now;
-  this run's rounds are in the table, with their spread.
-* **Memory.** At start the gateway imports only what serving needs (components are imported when first
-  loaded); the figure with every component loaded is dominated by the simulators (MuJoCo for `world`,
-  `pr2` and `morse_kemar`). A session costs about a kilobyte and sessions are bounded (`--max-sessions`);
-  an uncleaned request a few hundred bytes until its session ends.
-"""
+def _wake(results: dict[str, Any]) -> str:
+    """What a pause before a read costs the plain-socket floor itself (section 1's fresh and back-to-back floors)."""
+    window = results.get("port_read", {}).get("windows", {}).get("500", {})
+    if "floor_fresh" not in window:
+        return "see section 1's floors"
+    return (f"the floor itself takes {window['floor_fresh']['median']:.2f} ms for the 500 ms window's bytes after a "
+            f"pause against {window['floor']['median']:.2f} ms back to back, and the gateway, whose code path is "
+            "longer, pays that more, with its simulated capture running between the reads")
+
+
+def _analysis(results: dict[str, Any]) -> str:
+    """Where the time goes: the profile's table, and what it and the figures above say."""
+    from .profile import render as profile_table
+
+    load = results.get("load", {})
+    cpu = (f"{load['gateway_cpu_us_per_request']:.0f} µs of CPU per request against "
+           f"{load['bare_cpu_us_per_request']:.0f} µs for bare aiohttp (ratio "
+           f"{load['bare_cpu_us_per_request'] / load['gateway_cpu_us_per_request']:.2f})"
+           if "gateway_cpu_us_per_request" in load else "its CPU per request (run `--only load`)")
+    f = functools.partial(_figure, results)
+    lines = ["## Where the time goes (profiles behind the figures above)", ""]
+    if "profile" in results:
+        lines.append(_dated(profile_table(results["profile"]), results["profile"].get("measured")))
+    lines += [
+        "* **How a port read works.** Each captured chunk is a read-only array wrapped in a `Chunk` that keeps its "
+        "JSON text once made, its size and its bytes (`components/core/_chunked.py`); a publication holds "
+        "references to its chunks. A read encodes the small struct with orjson, leaving a mark where each sample "
+        "array goes, and splices in the chunks' texts (`gateway/_pieces.py`); the binary form lists the chunks' "
+        "memory. Nothing is joined: when the connection has nothing queued, the HTTP head and every piece go to "
+        "the socket in one `writev` (`gateway/_gather.py`), and what the socket does not take goes to the "
+        "transport. The last whole-port body of each port is kept, so readers of one publication share it. The "
+        "bytes are those orjson gives for the joined arrays (`tests/gateway/test_port_pieces.py`), and a window "
+        "that turns over during a reply does not tear it.",
+        "* **A read of a new publication** (the profile above): the request in aiohttp "
+        f"({f('aiohttp: handle a request (all below, and the reply)')} per request under the profiler, all "
+        f"requests together), of which the middlewares, route and handler {f('middlewares, route and handler')}; "
+        f"the read handler {f('the read handler')}: the publication's struct "
+        f"{f('the publication' + chr(39) + 's struct with chunked arrays')}, a JSON body "
+        f"{f('build a JSON body (splice the chunks' + chr(39) + ' texts)')} (a new chunk's text is made once, by "
+        f"its first reader), a binary one {f('build a binary body (list the chunks' + chr(39) + ' memory)')}; then "
+        f"the write {f('write a large body')}, of which the `writev` "
+        f"{f('the gathered write (writev: the kernel' + chr(39) + 's copy)')}: the kernel's copy of the bytes, "
+        f"what the floor pays too. `/version` takes {f('the /version handler')} in its handler: the rest of a "
+        f"request is aiohttp's fixed cost. Each fresh read also pays waking both processes after a pause: "
+        f"{_wake(results)}.",
+        "* **Small windows (500 and 1000 ms).** The floor moves 0.18–0.87 MB in a few tenths of a millisecond; "
+        "the request's fixed cost in aiohttp (parsing, routing, middlewares, response head) is of the same size, "
+        "so their ratio is that fixed cost over the floor, and it moves from block to block with the machine's "
+        "load (see the spreads). The dedicated socket, which has no HTTP layer, stays near its floor.",
+        f"* **Load (50 clients).** The gateway spends {cpu}. Both servers spend most of a request in aiohttp; "
+        "the gateway adds its middlewares (access checks, now one dictionary look-up for a Host seen before; "
+        "error translation), the component runtime's request (input decoding, request creation and end, the "
+        "status object) and its reply. The throughput ratio also depends on how the two cores are shared with "
+        "wrk and the rest of the machine: the CPU ratio is the steadier figure.",
+        "* **Memory.** At start the gateway imports only what serving needs (components are imported when first "
+        "loaded); the figure with every component loaded is dominated by the simulators (MuJoCo for `world`, "
+        "`pr2` and `morse_kemar`). A session costs about a kilobyte and sessions are bounded (`--max-sessions`); "
+        "an uncleaned request a few hundred bytes until its session ends.",
+        ""]
+    return "\n".join(lines)
 
 
 def _ms(value: float) -> str:
@@ -70,30 +97,27 @@ def _ms(value: float) -> str:
 
 def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     """The whole Markdown page."""
+    from .remote import render as remote_section
+    from .world import render as world_section
+
     facts = {k: v for k, v in machine.items() if k != "quick"}
     out = [HEAD.format(quick=" (quick runs)" if machine.get("quick") else "", **facts)]
-    if "port_read" in results:
-        out.append(_port_read(results["port_read"]))
-    if "service" in results:
-        out.append(_service(results["service"]))
-    if "fanout" in results:
-        out.append(_fanout(results["fanout"]))
-    if "load" in results:
-        out.append(_load(results["load"]))
-    if "soak" in results:
-        out.append(_soak(results["soak"]))
-    if "memory" in results:
-        out.append(_memory(results["memory"]))
-    if "world" in results:
-        from .world import render as world_section
-
-        out.append(world_section(results["world"]))
-    if "remote" in results:
-        from .remote import render as remote_section
-
-        out.append(remote_section(results["remote"]))
-    out.append(ANALYSIS)
+    sections = [("port_read", _port_read), ("service", _service), ("fanout", _fanout), ("load", _load),
+                ("soak", _soak), ("memory", _memory), ("world", world_section), ("remote", remote_section)]
+    for name, section in sections:
+        if name in results:
+            out.append(_dated(section(results[name]), results[name].get("measured")))
+    out.append(_analysis(results))
     return "\n".join(out)
+
+
+def _dated(text: str, measured: dict[str, Any] | None) -> str:
+    """*text* with the date of its measurement under its title (sections can be measured on their own)."""
+    if not measured:
+        return text
+    title, _, rest = text.partition("\n")
+    quick = ", a quick run" if measured.get("quick") else ""
+    return f"{title}\n\n*Measured {measured['date']}, Python {measured['python']}{quick}.*\n{rest}"
 
 
 _LABELS = {
@@ -220,7 +244,11 @@ def _load(r: dict[str, Any]) -> str:
         f"| bare aiohttp | {r['bare_requests_per_s']:.0f} |", "",
         f"Ratio {r['ratio']:.2f}, median of alternating rounds (rounds: {', '.join(f'{x:.2f}' for x in r['ratios'])}; "
         f"spread {min(r['ratios']):.2f}–{max(r['ratios']):.2f}; target ≥ "
-        f"{r['target_ratio']}), {r['errors']} errors in {r['gateway_requests']} requests: **{r['verdict']}**.", ""])
+        f"{r['target_ratio']}), {r['errors']} errors in {r['gateway_requests']} requests: **{r['verdict']}**.",
+        *([] if "gateway_cpu_us_per_request" not in r else [
+            "", f"CPU time per request (from /proc, the server's own, whatever else the machine runs): gateway "
+            f"{r['gateway_cpu_us_per_request']:.0f} µs, bare aiohttp {r['bare_cpu_us_per_request']:.0f} µs "
+            f"(ratio {r['bare_cpu_us_per_request'] / r['gateway_cpu_us_per_request']:.2f})."]), ""])
 
 
 def _soak(r: dict[str, Any]) -> str:

@@ -14,7 +14,7 @@ import statistics
 
 import aiohttp
 
-from ._common import Result, server
+from ._common import Result, cpu_seconds, server
 
 CONNECTIONS = 50
 #: The gateway's throughput as a share of bare aiohttp's on the same handler shape.
@@ -41,14 +41,16 @@ async def run(seconds: float = 30.0, rounds: int = 5) -> Result:
     """Throughput of ``send`` of a function (its reply is already ``done``) vs a bare handler."""
     if shutil.which("wrk") is None:
         return {"skipped": "wrk is not installed (./run bench installs it)"}
-    async with server("gateway") as (gateway_port, _), server("aiohttp") as (bare_port, _):
+    async with server("gateway") as (gateway_port, gateway_pid), server("aiohttp") as (bare_port, bare_pid):
         async with aiohttp.ClientSession() as http:
             await http.get(f"http://127.0.0.1:{gateway_port}/load/demo")
         gateway_runs, bare_runs = [], []
         for _ in range(rounds):
-            gateway_runs.append(await _wrk(f"http://127.0.0.1:{gateway_port}/module/demo/send/GetSpeed",
-                                           seconds / rounds))
-            bare_runs.append(await _wrk(f"http://127.0.0.1:{bare_port}/module/demo/send/GetSpeed", seconds / rounds))
+            for runs, port, pid in ((gateway_runs, gateway_port, gateway_pid), (bare_runs, bare_port, bare_pid)):
+                used = cpu_seconds(pid)
+                runs.append(await _wrk(f"http://127.0.0.1:{port}/module/demo/send/GetSpeed", seconds / rounds))
+                # CPU time per request: what the server itself spends, whatever else the machine runs.
+                runs[-1]["cpu_us_per_request"] = 1e6 * (cpu_seconds(pid) - used) / max(1, runs[-1]["requests"])
     ratios = [g["requests_per_s"] / b["requests_per_s"] for g, b in zip(gateway_runs, bare_runs, strict=True)]
     errors = sum(run["errors"] for run in gateway_runs)
     ratio = statistics.median(ratios)
@@ -57,5 +59,7 @@ async def run(seconds: float = 30.0, rounds: int = 5) -> Result:
         "bare_requests_per_s": statistics.median(r["requests_per_s"] for r in bare_runs),
         "gateway_requests": sum(r["requests"] for r in gateway_runs),
         "errors": errors, "ratios": ratios, "ratio": ratio, "target_ratio": TARGET,
+        "gateway_cpu_us_per_request": statistics.median(r["cpu_us_per_request"] for r in gateway_runs),
+        "bare_cpu_us_per_request": statistics.median(r["cpu_us_per_request"] for r in bare_runs),
         "verdict": "met" if ratio >= TARGET and errors == 0 else "MISSED",
     }

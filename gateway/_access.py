@@ -16,7 +16,8 @@ nor ``Sec-Fetch-Site``, so these checks cost them nothing:
   with no ``Origin`` (an image, a link, a form) is refused too, except a
   navigation to the read-only pages ``/`` and ``/console``.
 
-Every reply says ``X-Content-Type-Options: nosniff``; the console page gets a
+Every reply says ``X-Content-Type-Options: nosniff`` (in the headers every reply
+starts from, ``_replies.SERVER_HEADER``); the console page gets a
 Content-Security-Policy that lets only its own script and style run.
 """
 
@@ -34,8 +35,10 @@ from aiohttp.typedefs import Middleware
 
 from ._replies import json_reply
 
-__all__ = ["AccessPolicy", "access_middleware", "security_headers", "console_policy"]
+__all__ = ["AccessPolicy", "access_middleware", "console_policy"]
 
+#: How many distinct Host headers the policy remembers its verdict on.
+_REMEMBERED_HOSTS = 256
 #: Pages a link from another site may open: they show, they do not act.
 _NAVIGABLE = frozenset({"/", "/console"})
 
@@ -71,13 +74,23 @@ class AccessPolicy:
         machine = {socket.gethostname().lower(), socket.getfqdn().lower()}
         self.hosts = {"localhost", *machine, *(h.lower() for h in allowed_hosts)}
         self.origins = {o.rstrip("/") for o in allowed_origins}
+        # Host header -> verdict.  A client sends the same Host on every request, and parsing
+        # it as an IP address was a tenth of the gateway's time under load; the cache is
+        # bounded because the header is the client's to choose.
+        self._verdicts: dict[str, bool] = {}
 
     def host_allowed(self, host: str | None) -> bool:
         """Whether a request naming *host* may be answered (no Host at all: an HTTP/1.0 program)."""
         if not host:
             return True
-        name = _hostname(host)
-        return "*" in self.hosts or _is_ip(name) or name in self.hosts or name.endswith(".localhost")
+        verdict = self._verdicts.get(host)
+        if verdict is None:
+            name = _hostname(host)
+            verdict = "*" in self.hosts or _is_ip(name) or name in self.hosts or name.endswith(".localhost")
+            if len(self._verdicts) >= _REMEMBERED_HOSTS:
+                self._verdicts.clear()
+            self._verdicts[host] = verdict
+        return verdict
 
     def origin_allowed(self, origin: str) -> bool:
         """Whether pages of *origin* (other than the gateway's own) may use the gateway."""
@@ -89,13 +102,17 @@ def access_middleware(policy: AccessPolicy) -> Middleware:
 
     @web.middleware
     async def check_access(request: web.Request, handler: Handler) -> web.StreamResponse:
-        if not policy.host_allowed(request.headers.get("Host")):
-            return _forbidden(f"this gateway does not answer to the name {_shown(request.headers['Host'])} "
+        headers = request.headers
+        if not policy.host_allowed(headers.get("Host")):
+            return _forbidden(f"this gateway does not answer to the name {_shown(headers['Host'])} "
                               "(its operator can allow it with --allowed-host)")
-        origin = request.headers.get("Origin")
-        site = request.headers.get("Sec-Fetch-Site", "")
-        own = f"{request.scheme}://{request.host}"
-        if origin is not None and origin != own:
+        origin = headers.get("Origin")
+        if origin is None:
+            # A program (no Origin), or a browser request it may not have made from another site.
+            if request.path not in _NAVIGABLE and headers.get("Sec-Fetch-Site", "") in ("cross-site", "same-site"):
+                return _forbidden("a request from another web site may not use this gateway")
+            return await handler(request)
+        if origin != f"{request.scheme}://{request.host}":
             if not policy.origin_allowed(origin):
                 return _forbidden(f"pages from {_shown(origin)} may not use this gateway "
                                   "(its operator can allow them with --allow-origin)")
@@ -103,8 +120,6 @@ def access_middleware(policy: AccessPolicy) -> Middleware:
             response.headers["Access-Control-Allow-Origin"] = origin
             response.headers["Vary"] = "Origin"
             return response
-        if origin is None and site in ("cross-site", "same-site") and request.path not in _NAVIGABLE:
-            return _forbidden("a request from another web site may not use this gateway")
         return await handler(request)
 
     return check_access
@@ -117,11 +132,6 @@ def _shown(header: str) -> str:
 
 def _forbidden(message: str) -> web.Response:
     return json_reply({"ex": "::genomix::forbidden", "message": message}, status=403)
-
-
-async def security_headers(request: web.Request, response: web.StreamResponse) -> None:
-    """``on_response_prepare``: no content sniffing on any reply (an error page is never run as a script)."""
-    response.headers.setdefault("X-Content-Type-Options", "nosniff")
 
 
 def console_policy(page: bytes) -> str:

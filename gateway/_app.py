@@ -11,7 +11,7 @@ from aiohttp.typedefs import Middleware
 
 from ..components.core import ComponentHost, ScaledClock
 from . import _routes_admin, _routes_modules, _routes_openapi, _routes_ports, _routes_sessions
-from ._access import AccessPolicy, access_middleware, security_headers
+from ._access import AccessPolicy, access_middleware
 from ._auth import AUTH_PATH, LOGIN_PATH, TokenCheck, auth_without_token, login_without_token
 from ._config import GatewayConfig
 from ._errors import error_middleware
@@ -42,7 +42,6 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     # Browsers are checked first: a refused page learns nothing, not even whether a token is needed.
     middlewares.insert(0, access_middleware(AccessPolicy(config.allowed_hosts, config.allowed_origins)))
     app = web.Application(middlewares=middlewares)
-    app.on_response_prepare.append(security_headers)
     app[CONFIG] = config
     app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)
     app[SHUTDOWN] = Shutdown()

@@ -18,16 +18,19 @@ from aiohttp import payload
 from aiohttp.abc import AbstractStreamWriter
 
 from ..components.core import ChunkedArray
+from ._gather import Buffer, direct_socket, unsent, write_gathered
 
-__all__ = ["json_pieces", "PiecesPayload"]
+__all__ = ["json_pieces", "PiecesPayload", "body_of", "JOINED_UP_TO"]
+
+#: Bodies up to this size are joined and go out in one write with the HTTP head:
+#: copying a few kilobytes costs less than a gathered write's second system call.
+JOINED_UP_TO = 1 << 16
 
 _OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 # orjson never writes a raw NUL byte (it escapes control characters in strings),
 # so a NUL in its output can only be a mark left by _mark.
 _MARK = b"\x00"
 _FRAGMENT = orjson.Fragment(_MARK)
-
-Buffer = bytes | memoryview
 
 
 def json_pieces(obj: Any) -> list[bytes]:
@@ -55,38 +58,100 @@ def json_pieces(obj: Any) -> list[bytes]:
     return pieces
 
 
-class PiecesPayload(payload.Payload):
-    """A reply body in two immutable parts: a small head, written with the HTTP head, and the rest.
+def body_of(pieces: Sequence[Buffer], content_type: str) -> bytes | PiecesPayload:
+    """The reply body of *pieces*: one joined ``bytes`` when small, else the pieces as they are."""
+    if sum(len(piece) for piece in pieces) <= JOINED_UP_TO:
+        return b"".join(pieces)
+    return PiecesPayload(pieces, content_type)
 
-    aiohttp joins the HTTP head with the first write of the body (one send for a small
-    reply).  For a body of megabytes that join would copy the whole body once more, so the
-    body is split: its first piece (a few hundred bytes) goes with the HTTP head, and the
-    rest, already one buffer, goes to the socket as it is.
+
+class PiecesPayload(payload.Payload):
+    """A reply body of immutable pieces, written in order and never joined.
+
+    When the connection has nothing queued, the HTTP head and every piece go
+    straight to the socket in one gathered write (:mod:`._gather`), and what the
+    socket does not take goes to the transport, which sends it as the socket
+    drains: nothing is copied on the way but by the kernel (and, on Python 3.11,
+    by the transport for what it queues).  Otherwise the pieces go through
+    aiohttp's writer, after what it holds.
 
     Args:
-        head: The first bytes of the body.
-        rest: The remaining bytes (empty for a small body).
+        pieces: The body's pieces, in order: bytes, or byte-format memoryviews of
+            data that never changes (a reply may still be written when the port
+            has moved on).
         content_type: The body's media type.
     """
 
-    def __init__(self, head: bytes, rest: bytes, content_type: str) -> None:
-        super().__init__(head, content_type=content_type)
-        self._head, self._rest = head, rest
-        self._size = len(head) + len(rest)
-
-    @classmethod
-    def of(cls, pieces: Sequence[Buffer], content_type: str) -> PiecesPayload:
-        """The payload of *pieces*: the first as the head, the others joined (one copy, none may change after)."""
-        head = bytes(pieces[0])
-        return cls(head, b"".join(pieces[1:]), content_type)
+    def __init__(self, pieces: Sequence[Buffer], content_type: str) -> None:
+        kept = tuple(piece for piece in pieces if len(piece))
+        super().__init__(kept, content_type=content_type)
+        self._pieces = kept
+        self._nbytes = sum(len(piece) for piece in kept)
+        self._size = self._nbytes
 
     async def write(self, writer: AbstractStreamWriter) -> None:
-        """Write both parts without waiting for the socket in between (aiohttp drains at the end)."""
-        # aiohttp's StreamWriter takes drain=; the abstract writer it is typed as does not say so.
-        await writer.write(self._head, drain=False)  # type: ignore[call-arg]
-        if self._rest:
-            await writer.write(self._rest, drain=False)  # type: ignore[call-arg]
+        """Write every piece without waiting for the socket in between (aiohttp drains at the end)."""
+        pieces = self._pieces
+        if not pieces:
+            return
+        transport = getattr(writer, "transport", None)
+        fd = direct_socket(transport) if _plain(writer) else None
+        head = _take_http_head(writer) if fd is not None else None
+        if fd is None or head is None or transport is None:
+            # The transport has bytes queued (a pipelined reply before this one) or is not a
+            # plain socket: everything goes through aiohttp's writer, as any body.
+            for piece in pieces:
+                # aiohttp's StreamWriter takes drain=; the abstract writer it is typed as does not say so.
+                await writer.write(piece, drain=False)  # type: ignore[call-arg]
+            return
+        # The HTTP head and the whole body in one system call: one wake-up of the reader.
+        buffers = [head, *pieces]
+        written = write_gathered(fd, buffers)
+        _account(writer, self._nbytes)
+        if written == len(head) + self._nbytes:
+            return
+        # What the socket did not take goes to the transport, which sends it as the socket
+        # drains (aiohttp waits for that at the end of the reply, as for any body).
+        for piece in unsent(buffers, written):
+            if transport.is_closing():  # the reader went away: what aiohttp's writer raises then
+                raise ConnectionResetError("the connection closed while the reply was written")
+            transport.write(piece)
 
     def decode(self, encoding: str = "utf-8", errors: str = "strict") -> str:
         """The body as text (for logs and tests)."""
-        return (self._head + self._rest).decode(encoding, errors)
+        return b"".join(self._pieces).decode(encoding, errors)
+
+
+def _plain(writer: AbstractStreamWriter) -> bool:
+    # Bytes written beside aiohttp's writer must be the body as it is: no chunked framing,
+    # no compression (the port routes ask for neither; a Content-Length excludes chunks).
+    return not getattr(writer, "chunked", True) and getattr(writer, "_compress", None) is None
+
+
+def _take_http_head(writer: AbstractStreamWriter) -> bytes | None:
+    """The HTTP head aiohttp holds until the body's first write, taken to go out with the body.
+
+    aiohttp (3.12 and later) keeps the serialised head in its writer and joins it with
+    the first body write.  Taken here, it goes out in the same ``writev`` as the body.
+    None when this aiohttp does not hold it (it was sent already, or is kept otherwise):
+    the body then goes through the writer, which sends the head first.
+    """
+    head = getattr(writer, "_headers_buf", None)
+    if not isinstance(head, bytes) or getattr(writer, "_headers_written", True):
+        return None
+    writer._headers_buf = None  # type: ignore[attr-defined]
+    writer._headers_written = True  # type: ignore[attr-defined]
+    writer.output_size += len(head)  # as aiohttp counts a head it writes
+    return head
+
+
+def _account(writer: AbstractStreamWriter, sent: int) -> None:
+    """Tell aiohttp's writer about body bytes written beside it (what it counts of a body it writes)."""
+    if sent <= 0:
+        return
+    writer.output_size += sent
+    if writer.length is not None:
+        writer.length -= sent
+    notify = getattr(writer, "on_body_write", None)
+    if notify is not None:
+        notify(sent, writer.output_size)

@@ -14,8 +14,10 @@ _OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 
 #: This gateway's own version.
 SERVER_VERSION = importlib.metadata.version("aiogenomix")
-#: Every reply names the server (set here rather than in a middleware: it is on the hot path).
-SERVER_HEADER = {"Server": f"aiogenomix/{SERVER_VERSION}"}
+#: The headers of every reply: the server's name, and no content sniffing (an error page is never
+#: run as a script).  Every reply the gateway makes starts from these: set here rather than in a
+#: middleware or a response signal, which would cost every request a call more.
+SERVER_HEADER = {"Server": f"aiogenomix/{SERVER_VERSION}", "X-Content-Type-Options": "nosniff"}
 _JSON = {"Content-Type": "application/json", **SERVER_HEADER}
 _TEXT = {"Content-Type": "text/plain; charset=utf-8", **SERVER_HEADER}
 

@@ -25,7 +25,7 @@ from ..components.core import Chunked, Incremental, OutPortRuntime
 from ._binary import CONTENT_TYPE, encode_binary
 from ._errors import BadQuery
 from ._keys import CONFIG, HOST, SHUTDOWN, UNLOADS, WATCH_FRAMES, WatchFrames
-from ._pieces import PiecesPayload, json_pieces
+from ._pieces import PiecesPayload, body_of, json_pieces
 from ._replies import SERVER_HEADER, dumps
 from ._sse import PING, EventStream, format_event
 
@@ -76,8 +76,10 @@ def _require_incremental(port: Any, value: Any) -> Incremental:
 
 # The last whole-port reply of each chunked port: readers of the same publication share
 # one body (a 20 Hz audio port read by several clients, or polled faster than it turns over).
-_LAST_READ: weakref.WeakKeyDictionary[Any, tuple[Any, tuple[bool, str | None], PiecesPayload]] = \
+_LAST_READ: weakref.WeakKeyDictionary[Any, tuple[Any, tuple[bool, str | None], bytes | PiecesPayload]] = \
     weakref.WeakKeyDictionary()
+_HEADERS = {binary: {"Content-Type": CONTENT_TYPE if binary else "application/json", **SERVER_HEADER}
+            for binary in (False, True)}
 
 
 @functools.lru_cache(maxsize=256)
@@ -86,11 +88,11 @@ def _is_chunked(kind: type) -> bool:
     return issubclass(kind, Chunked)
 
 
-def _body(name: str, port: Any, value: Any, binary: bool, extra: dict[str, Any]) -> PiecesPayload:
+def _body(name: str, port: Any, value: Any, binary: bool, extra: dict[str, Any]) -> bytes | PiecesPayload:
     data = None if value is None else port.type.encode(value)
     if binary:
-        return PiecesPayload.of(encode_binary(name, data, **extra), CONTENT_TYPE)
-    return PiecesPayload.of(json_pieces({name: data, **extra}), "application/json")
+        return body_of(encode_binary(name, data, **extra), CONTENT_TYPE)
+    return body_of(json_pieces({name: data, **extra}), "application/json")
 
 
 @routes.get("/module/{module}/read/{port}")
@@ -121,7 +123,7 @@ async def read(request: web.Request) -> web.StreamResponse:
         if since is not None:
             value, extra["lost"] = value.since(since)
         body = _body(name, port, value, binary, extra)
-    return web.Response(body=body, headers=SERVER_HEADER)
+    return web.Response(body=body, headers=_HEADERS[binary])
 
 
 def _watch_frame(frames: WatchFrames, name: str, port: OutPortRuntime[Any], element: str | None, delivered: int,

@@ -83,9 +83,9 @@ class PortView:
         left, right, lost = state.chunks_since(since)
         positions = state.positions_since(since)
         extra: dict[str, Any] = {} if positions is None else {"positions": positions}
-        frames = sum(len(chunk) for chunk in left)
-        return self._make(transfer_rate=self.transfer_rate, nbframes=frames, index=state.last_index, ts=self.ts,
-                          left=ChunkedArray(left, np.int32), right=ChunkedArray(right, np.int32), **extra), lost
+        left_array = ChunkedArray(left, np.int32)
+        return self._make(transfer_rate=self.transfer_rate, nbframes=left_array.size, index=state.last_index,
+                          ts=self.ts, left=left_array, right=ChunkedArray(right, np.int32), **extra), lost
 
     def since(self, index: int) -> tuple[PortData, int]:
         """The chunks after *index* as a port struct, and how many of those the window no longer held."""

@@ -40,13 +40,16 @@ class Chunk:
         ValueError: for a writable, non-contiguous or multi-dimensional array.
     """
 
-    __slots__ = ("array", "_json")
+    __slots__ = ("array", "size", "_json", "_bytes")
 
     def __init__(self, array: npt.NDArray[Any]) -> None:
         if array.ndim != 1 or array.flags.writeable or not array.flags.c_contiguous:
             raise ValueError("a chunk is a read-only contiguous 1-D array")
         self.array = array
+        #: The number of elements (an attribute: a read sums those of every chunk of a window).
+        self.size = int(array.shape[0])
         self._json: bytes | None = None
+        self._bytes: memoryview | None = None
 
     @property
     def json(self) -> bytes:
@@ -57,8 +60,15 @@ class Chunk:
             self._json = orjson.dumps(self.array, option=_NUMPY)[1:-1]
         return self._json
 
+    @property
+    def bytes(self) -> memoryview:
+        """The elements' memory, as bytes (a view, made once)."""
+        if self._bytes is None:
+            self._bytes = memoryview(self.array).cast("B")
+        return self._bytes
+
     def __len__(self) -> int:
-        return int(self.array.shape[0])
+        return self.size
 
 
 class ChunkedArray:
@@ -75,7 +85,7 @@ class ChunkedArray:
         self.chunks = tuple(chunks)
         self.dtype = np.dtype(dtype)
         #: The number of elements.
-        self.size = sum(len(chunk) for chunk in self.chunks)
+        self.size = sum([chunk.size for chunk in self.chunks])
 
     @property
     def nbytes(self) -> int:
@@ -86,7 +96,7 @@ class ChunkedArray:
         """The JSON array, in pieces to be written in order (``[``, chunks and commas, ``]``)."""
         pieces = [b"["]
         for chunk in self.chunks:
-            if len(chunk):
+            if chunk.size:
                 if len(pieces) > 1:
                     pieces.append(b",")
                 pieces.append(chunk.json)
@@ -95,7 +105,7 @@ class ChunkedArray:
 
     def buffers(self) -> list[memoryview]:
         """The raw bytes of the chunks, in order, without copying them."""
-        return [memoryview(chunk.array).cast("B") for chunk in self.chunks if len(chunk)]
+        return [chunk.bytes for chunk in self.chunks if chunk.size]
 
     def numpy(self) -> npt.NDArray[Any]:
         """The elements joined into one new array."""

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import asyncio
+
 import aiohttp
 import pytest
 
 from aiogenomix.gateway import GatewayConfig
+from aiogenomix.gateway._access import AccessPolicy
 
 from ..conftest import TEST_TIME_SCALE
 
@@ -85,3 +88,36 @@ async def test_odd_header_bytes_are_refused_readably(demo: aiohttp.ClientSession
     for headers in ({"Origin": "\x80"}, {"Host": "h\xe9llo"}):
         async with demo.get("/", headers=headers) as reply:
             assert reply.status == 403 and (await reply.json())["message"]
+
+
+def test_host_verdicts_are_remembered_and_a_flood_of_names_stays_bounded() -> None:
+    policy = AccessPolicy(allowed_hosts=["robot.lab"])
+    for _ in range(2):  # the second time from the remembered verdicts
+        assert policy.host_allowed("127.0.0.1:8080") and policy.host_allowed("[::1]:8080")
+        assert policy.host_allowed("Robot.Lab:80") and policy.host_allowed("a.localhost")
+        assert not policy.host_allowed("attacker.example:8080") and not policy.host_allowed("127.0.0.1.evil")
+    for i in range(3000):  # names chosen by a client: each refused, none kept for ever
+        assert not policy.host_allowed(f"attacker-{i}.example")
+    assert len(policy._verdicts) <= 256
+    assert policy.host_allowed("127.0.0.1:8080") and not policy.host_allowed("attacker-1.example")
+
+
+async def test_every_kind_of_reply_forbids_content_sniffing(demo: aiohttp.ClientSession, gateway: str) -> None:
+    # The header comes with the headers every reply starts from: each way of replying is checked.
+    paths = ["/", "/version", "/console/login", "/module/demo/info", "/module/demo/read/Mobile",
+             "/module/demo/read/Mobile?format=binary", "/module/demo/send/GetSpeed", "/module/demo/status/99",
+             "/module/demo/read/Mobile?format=xml", "/no/such/thing", "/openapi.json"]
+    for path in paths:
+        async with demo.get(path) as reply:
+            assert reply.headers.get("X-Content-Type-Options") == "nosniff", path
+    async with demo.post("/version") as reply:
+        assert reply.status == 405 and reply.headers.get("X-Content-Type-Options") == "nosniff"
+    async with demo.get("/session/listen", params={"s": "sniff"}) as stream:
+        assert stream.headers.get("X-Content-Type-Options") == "nosniff"
+    host, port = gateway.removeprefix("http://").rstrip("/").split(":")
+    reader, writer = await asyncio.open_connection(host, int(port))
+    writer.write(b"GET /version HTTP/1.1\r\nHost: \x01bad\r\nBroken header\r\n\r\n")  # refused by the HTTP layer
+    head = await reader.readuntil(b"\r\n\r\n")
+    writer.close()
+    await writer.wait_closed()
+    assert b" 400 " in head.split(b"\r\n")[0] and b"X-Content-Type-Options: nosniff" in head

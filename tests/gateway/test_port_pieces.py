@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import math
 import socket
+import struct
 from collections.abc import AsyncIterator
 from typing import Any
 
@@ -27,6 +28,7 @@ from aiogenomix.components.core import (
 from aiogenomix.components.kemarcapture import KemarPortData
 from aiogenomix.gateway import GatewayConfig, serve
 from aiogenomix.gateway._binary import encode_binary
+from aiogenomix.gateway._gather import direct_socket, write_gathered
 from aiogenomix.gateway._pieces import PiecesPayload, json_pieces
 
 NUMPY = orjson.OPT_SERIALIZE_NUMPY
@@ -66,7 +68,7 @@ def test_binary_of_chunked_arrays_is_the_binary_of_the_joined_arrays() -> None:
 
 
 def test_a_payload_is_its_pieces() -> None:
-    payload = PiecesPayload.of([b"ab", memoryview(b"cd"), b"e"], "application/json")
+    payload = PiecesPayload([b"ab", memoryview(b"cd"), b"", b"e"], "application/json")
     assert payload.size == 5 and payload.decode() == "abcde"
 
 
@@ -170,3 +172,83 @@ async def test_a_window_turning_over_during_the_reply_is_not_torn(served: tuple[
     body = await get(url, "/module/windowed/read/Port" + query, rcvbuf=4096, after_first_bytes=turn_over)
     assert body == (expected_binary(view) if form == "binary" else expected_json(view))
     assert held.last_index == 104
+
+
+async def test_a_large_reply_goes_to_the_socket_unjoined(served: tuple[Windowed, str],
+                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    from aiogenomix.gateway import _pieces
+
+    gathered: list[int] = []
+
+    def counted(fd: int, buffers: Any) -> int:
+        written = write_gathered(fd, buffers)
+        gathered.append(written)
+        return written
+
+    monkeypatch.setattr(_pieces, "write_gathered", counted)
+    component, url = served
+    view = PortView(window(40, 2205, 40, seed=3), 44100, 0.0, KemarPortData)
+    component.Port.publish(view)
+    assert await get(url, "/module/windowed/read/Port") == expected_json(view)
+    assert await get(url, "/module/windowed/read/Port?format=binary") == expected_binary(view)
+    assert len(gathered) == 2 and all(gathered)  # both went (mostly) straight to the socket
+
+
+async def test_pipelined_reads_of_a_slow_reader_come_back_whole_and_in_order(
+        served: tuple[Windowed, str], monkeypatch: pytest.MonkeyPatch) -> None:
+    # A reply that starts while the one before it is still queued in the transport goes
+    # through aiohttp's writer, after it; the bytes must still be exact, in order.
+    from aiogenomix.gateway import _pieces
+
+    sockets: list[int | None] = []
+
+    def seen(transport: Any) -> int | None:
+        sockets.append(direct_socket(transport))
+        return sockets[-1]
+
+    monkeypatch.setattr(_pieces, "direct_socket", seen)
+    component, url = served
+    view = PortView(window(32, 20_000, 40, seed=4), 44100, 0.0, KemarPortData)
+    component.Port.publish(view)
+    host, port = url.removeprefix("http://").split(":")
+    sock = socket.socket()
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)  # set before connecting, as the window is agreed
+    sock.setblocking(False)
+    await asyncio.get_running_loop().sock_connect(sock, (host, int(port)))
+    reader, writer = await asyncio.open_connection(sock=sock, limit=1 << 24)
+    forms = ["", "?format=binary", "", "?format=binary"]
+    writer.write(b"".join(f"GET /module/windowed/read/Port{q} HTTP/1.1\r\nHost: {host}\r\n\r\n".encode()
+                          for q in forms))
+    try:
+        for query in forms:
+            head = await reader.readuntil(b"\r\n\r\n")
+            assert head.startswith(b"HTTP/1.1 200"), head
+            length = int(next(line.split(b":")[1] for line in head.split(b"\r\n")
+                              if line.lower().startswith(b"content-length")))
+            body = await reader.readexactly(length)
+            assert body == (expected_binary(view) if query else expected_json(view))
+        assert len(sockets) == 4 and None in sockets  # some replies found the one before still queued
+    finally:
+        writer.close()
+        await writer.wait_closed()
+
+
+async def test_a_reader_that_leaves_mid_reply_costs_the_gateway_nothing(
+        served: tuple[Windowed, str], caplog: pytest.LogCaptureFixture) -> None:
+    component, url = served
+    view = PortView(window(32, 20_000, 40, seed=5), 44100, 0.0, KemarPortData)
+    component.Port.publish(view)
+    host, port = url.removeprefix("http://").split(":")
+    for query in ("", "?format=binary"):
+        sock = socket.socket()
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        sock.setblocking(False)
+        loop = asyncio.get_running_loop()
+        await loop.sock_connect(sock, (host, int(port)))
+        await loop.sock_sendall(sock, f"GET /module/windowed/read/Port{query} HTTP/1.1\r\nHost: {host}\r\n\r\n"
+                                .encode())
+        assert (await loop.sock_recv(sock, 1024)).startswith(b"HTTP/1.1 200")
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))  # close with a reset
+        sock.close()  # with most of the reply unsent
+    assert await get(url, "/module/windowed/read/Port") == expected_json(view)
+    assert not [r for r in caplog.records if r.levelname in ("ERROR", "WARNING", "CRITICAL")]

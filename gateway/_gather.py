@@ -1,0 +1,86 @@
+"""Gathered writes: many buffers straight to a connection's socket with one ``writev``, never joined.
+
+A port read of the audio window is a few hundred immutable buffers (the
+chunks' JSON texts or their samples).  Joining them into one body costs a copy
+into freshly mapped memory on every new publication, and writing them one by
+one costs a system call each (and a wake-up of the reader each).  asyncio's
+socket transport has no gathered write before Python 3.12, and aiohttp does
+not use the one of 3.12 and 3.13 before their fixed releases.  So, when the
+transport has nothing queued, the buffers go to its socket with ``writev``:
+the kernel takes what its send buffer holds (on loopback, usually all of it)
+in one call, in order; whatever it does not take is handed back to the
+transport, which sends it as it sends everything else.
+
+Writing beside the transport is safe only when the transport holds no bytes
+of its own (they would go out after ours) and when it writes the socket as it
+is (not through TLS): :func:`direct_socket` checks both.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+from collections.abc import Sequence
+
+__all__ = ["Buffer", "direct_socket", "write_gathered", "unsent"]
+
+#: A piece of a reply: bytes, or a byte-format (``"B"``) memoryview of immutable data.
+Buffer = bytes | memoryview
+
+# writev takes at most this many buffers per call (1024 on Linux).
+_IOV_MAX = os.sysconf("SC_IOV_MAX") if hasattr(os, "sysconf") else 16
+
+
+def direct_socket(transport: asyncio.BaseTransport | None) -> int | None:
+    """The file descriptor to write *transport*'s next bytes to, or None when only the transport may write.
+
+    Args:
+        transport: The connection's transport.
+
+    Returns:
+        The socket's descriptor when the transport is open, has no bytes queued and
+        is not TLS; else None.
+    """
+    if (not hasattr(os, "writev") or not isinstance(transport, asyncio.WriteTransport) or transport.is_closing()
+            or transport.get_write_buffer_size() or transport.get_extra_info("sslcontext") is not None):
+        return None
+    sock = transport.get_extra_info("socket")
+    return None if sock is None else sock.fileno()
+
+
+def write_gathered(fd: int, buffers: Sequence[Buffer]) -> int:
+    """Write *buffers* in order to the non-blocking socket *fd*, as far as it takes them now.
+
+    Args:
+        fd: A non-blocking stream socket (from :func:`direct_socket`).
+        buffers: The pieces, each of ``len()`` bytes.
+
+    Returns:
+        How many bytes went out (0 when the socket takes nothing now or fails: the
+        transport then writes everything, and reports a failure its own way).
+    """
+    if len(buffers) <= _IOV_MAX:  # the usual case: one call, no sizes to add up
+        try:
+            return os.writev(fd, buffers)
+        except OSError:  # full (EAGAIN), or a reset: the transport's next write sees the same
+            return 0
+    written = 0
+    for start in range(0, len(buffers), _IOV_MAX):
+        batch = buffers[start:start + _IOV_MAX]
+        count = write_gathered(fd, batch)
+        written += count
+        if count < sum(len(piece) for piece in batch):
+            return written
+    return written
+
+
+def unsent(buffers: Sequence[Buffer], written: int) -> list[Buffer]:
+    """The part of *buffers* after their first *written* bytes (a cut piece as a view, not a copy)."""
+    for index, piece in enumerate(buffers):
+        if written < len(piece):
+            rest = list(buffers[index:])
+            if written:
+                rest[0] = memoryview(piece)[written:]
+            return rest
+        written -= len(piece)
+    return []
