@@ -15,7 +15,7 @@ from ._access import AccessPolicy, access_middleware
 from ._auth import AUTH_PATH, LOGIN_PATH, TokenCheck, auth_without_token, login_without_token
 from ._config import GatewayConfig
 from ._errors import error_middleware
-from ._keys import CONFIG, HOST, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, Shutdown, WatchFrames
+from ._keys import CONFIG, HOST, LAST_READS, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, LastReads, Shutdown, WatchFrames
 from ._sessions import SessionStore
 from ._shutdown import shut_down
 from ._sse import format_event
@@ -46,6 +46,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)
     app[SHUTDOWN] = Shutdown()
     app[WATCH_FRAMES] = WatchFrames()
+    app[LAST_READS] = LastReads()
     owns_host = host is None
     app[HOST] = host or ComponentHost(clock=ScaledClock(config.time_scale), settings=config.host_settings(),
                                       function_grace=config.function_grace, max_instances=config.max_instances)

@@ -10,10 +10,12 @@ from aiohttp import web
 
 from ..components.core import ComponentHost, OutPortRuntime
 from ._config import GatewayConfig
+from ._pieces import PiecesPayload
 from ._sessions import SessionStore
 from ._unloads import Unloads
 
-__all__ = ["CONFIG", "HOST", "SESSIONS", "SHUTDOWN", "UNLOADS", "WATCH_FRAMES", "Shutdown", "WatchFrames"]
+__all__ = ["CONFIG", "HOST", "LAST_READS", "SESSIONS", "SHUTDOWN", "UNLOADS", "WATCH_FRAMES", "LastReads", "Shutdown",
+           "WatchFrames"]
 
 CONFIG = web.AppKey("config", GatewayConfig)
 HOST = web.AppKey("host", ComponentHost)
@@ -56,3 +58,15 @@ class WatchFrames(weakref.WeakKeyDictionary[OutPortRuntime[Any], tuple[tuple[Any
 
 
 WATCH_FRAMES = web.AppKey("watch_frames", WatchFrames)
+
+
+class LastReads(weakref.WeakKeyDictionary[OutPortRuntime[Any],
+                                          tuple[Any, tuple[bool, str | None], "bytes | PiecesPayload"]]):
+    """The last whole-port reply body of each chunked port, with the publication and the read's form.
+
+    Readers of the same publication share one body (a 20 Hz audio port read by several
+    clients, or polled faster than it turns over).  Held by the app, as :class:`WatchFrames`.
+    """
+
+
+LAST_READS = web.AppKey("last_reads", LastReads)

@@ -15,7 +15,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
-import weakref
 from typing import Any
 
 import orjson
@@ -24,7 +23,7 @@ from aiohttp import web
 from ..components.core import Chunked, Incremental, OutPortRuntime
 from ._binary import CONTENT_TYPE, encode_binary
 from ._errors import BadQuery
-from ._keys import CONFIG, HOST, SHUTDOWN, UNLOADS, WATCH_FRAMES, WatchFrames
+from ._keys import CONFIG, HOST, LAST_READS, SHUTDOWN, UNLOADS, WATCH_FRAMES, WatchFrames
 from ._pieces import PiecesPayload, body_of, json_pieces
 from ._replies import SERVER_HEADER, dumps
 from ._sse import PING, EventStream, format_event
@@ -74,10 +73,6 @@ def _require_incremental(port: Any, value: Any) -> Incremental:
     return value
 
 
-# The last whole-port reply of each chunked port: readers of the same publication share
-# one body (a 20 Hz audio port read by several clients, or polled faster than it turns over).
-_LAST_READ: weakref.WeakKeyDictionary[Any, tuple[Any, tuple[bool, str | None], bytes | PiecesPayload]] = \
-    weakref.WeakKeyDictionary()
 _HEADERS = {binary: {"Content-Type": CONTENT_TYPE if binary else "application/json", **SERVER_HEADER}
             for binary in (False, True)}
 
@@ -110,14 +105,15 @@ async def read(request: web.Request) -> web.StreamResponse:
         # once per chunk.  The data is immutable, so the reply holds this publication alone
         # however long it takes to write.
         key = (binary, element)
-        cached = _LAST_READ.get(port) if since is None else None
+        last_reads = request.app[LAST_READS]
+        cached = last_reads.get(port) if since is None else None
         if cached is not None and cached[0] is value and cached[1] == key:
             body = cached[2]
         else:
             chunked, lost = value.chunked(since)
             body = _body(name, port, chunked, binary, {} if since is None else {"lost": lost})
             if since is None:
-                _LAST_READ[port] = (value, key, body)
+                last_reads[port] = (value, key, body)
     else:
         extra: dict[str, Any] = {}
         if since is not None:

@@ -63,14 +63,15 @@ class Basc(Component, name="basc", version="1.0"):
         self.Blocks.publish(BlockReport())
 
     def _audio(self) -> AudioSnapshot:
-        snapshot = self.Audio.read()
-        if isinstance(snapshot, AudioPortData):
-            # bass in another process: its port arrives as the struct, not as the snapshot object.
-            snapshot = AudioSnapshot.from_data(snapshot)
-        if not isinstance(snapshot, AudioSnapshot) or not snapshot.chunks:
-            raise e_noData(what="the Audio port is not connected to bass/Audio" if snapshot is None
+        # bass in this process publishes its snapshot object (a view of the port struct); bass in
+        # another process arrives as the struct itself, from which the snapshot is rebuilt.
+        published: object = self.Audio.read()
+        if isinstance(published, AudioPortData):
+            published = AudioSnapshot.from_data(published)
+        if not isinstance(published, AudioSnapshot) or not published.chunks:
+            raise e_noData(what="the Audio port is not connected to bass/Audio" if published is None
                            else "bass is not acquiring (send Acquire first)")
-        return snapshot
+        return published
 
     @activity(task=read, interrupts=("GetBlocks",), throws=(e_noData,))
     async def GetBlocks(
