@@ -29,6 +29,10 @@ __all__ = ["AsyncClient", "AsyncModule", "aconnect", "component_name"]
 #: Seconds allowed to start the session and attach its stream (calls have their own timeout).
 _OPEN_TIMEOUT = 30.0
 
+#: Seconds at least allowed for the reply to a send, which names the request: cut short by a call's
+#: own (possibly tiny) timeout, it would leave a request running on the robot that no one can abort.
+_SEND_REPLY_TIMEOUT = 10.0
+
 
 def component_name(name: str) -> str:
     """The component to load for *name*: a plugin path ``/x/y/demo.so`` becomes ``demo``.
@@ -283,8 +287,11 @@ class AsyncClient:
         if options.oneway:
             params["oneway"] = "1"
         epoch = self._tracker.epoch
+        # The call's timeout bounds the wait for the end; the send's reply gets at least
+        # _SEND_REPLY_TIMEOUT, so that a RequestTimeout always carries a request that can be aborted.
+        send_timeout = None if timeout is None else max(timeout, _SEND_REPLY_TIMEOUT)
         reply = parse_status(await gateway.get_json(f"/module/{instance}/send/{spec.name}", params,
-                                                    timeout=timeout, module=instance, service=spec.name))
+                                                    timeout=send_timeout, module=instance, service=spec.name))
         if options.oneway:
             return None
         handle = AsyncRequest(reply["id"], instance, spec, abort=self._abort, epoch=epoch)

@@ -231,8 +231,14 @@ class RemoteComponent(Component, name="remote"):
                                                       congestion_control=zenoh.CongestionControl.BLOCK,
                                                       reliability=zenoh.Reliability.RELIABLE)
         self._subscribers.append(self._cleans)
-        self._subscribers.append(self.session.declare_subscriber(events_key(self.instance), self._on_event))
-        self._subscribers.append(self.session.declare_subscriber(port_key(self.instance, "*"), self._on_port))
+        # Both on Zenoh's receiving thread (indirect=False), not each on a thread of its own (the
+        # default): the loop then takes events and port messages in the order the host sent them, so
+        # a request's end never overtakes its last publication (a read after it would see older data).
+        # The callbacks only hand the payload to the loop: they never hold that thread up.
+        self._subscribers.append(self.session.declare_subscriber(
+            events_key(self.instance), zenoh.handlers.Callback(self._on_event, indirect=False)))
+        self._subscribers.append(self.session.declare_subscriber(
+            port_key(self.instance, "*"), zenoh.handlers.Callback(self._on_port, indirect=False)))
         await asyncio.gather(*(self._fetch(name) for name in self._mirrors))
 
     async def _fetch(self, name: str) -> None:

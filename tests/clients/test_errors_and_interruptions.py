@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import asyncio
+from typing import Any
+
 import pytest
 from aiogenomix.clients import (
     ClientClosed,
@@ -92,6 +95,33 @@ async def test_client_default_timeout_applies(gateway_url: str) -> None:
             await demo.GotoPosition(1)
         await caught.value.request.abort(timeout=30)
         assert await demo.GotoPosition(demo.__info__["services"][0]["parameters"][0]["default"], timeout=None) is None
+
+
+async def test_a_send_reply_slower_than_the_timeout_still_gives_the_request(gateway_url: str,
+                                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    # A loaded gateway takes longer than the call's timeout to reply to the send: the call still
+    # times out, with the request the gateway started, which can be aborted (not left running unseen).
+    async with aconnect(gateway_url, timeout=0.01) as client:
+        demo = await client.load("demo", timeout=30)
+        gateway = client._gateway
+        assert gateway is not None
+        reply = gateway.get
+
+        async def slow_reply(path: str, *args: Any, timeout: float | None = None, **kwargs: Any) -> Any:
+            try:  # under the timeout as the real reply is
+                async with asyncio.timeout(timeout):
+                    await asyncio.sleep(0.05 if "/send/" in path else 0)  # the gateway's delay, not a wait of the test
+                    return await reply(path, *args, timeout=timeout, **kwargs)
+            except TimeoutError:
+                raise RequestTimeout(f"GET {path} got no reply within {timeout} s") from None
+
+        monkeypatch.setattr(gateway, "get", slow_reply)
+        with pytest.raises(RequestTimeout) as caught:
+            await demo.GotoPosition(1)
+        request = caught.value.request
+        assert request is not None and not request.done
+        await request.abort(timeout=30)
+        assert request.status == "error"
 
 
 async def test_gateway_errors_map_to_the_tree(gateway_url: str) -> None:

@@ -69,7 +69,10 @@ async def test_asking_more_than_the_port_holds_returns_what_it_holds(bass: Bass)
     n, loss, nfr, left, right = await client.read(10**9, 0)
     assert n == 4 * FPC and len(left) == len(right) == n and loss == nfr - n
     n, loss, again, _, _ = await client.read(10**6, nfr)
-    assert loss == 0 and again == nfr + n          # only what came since
+    # Only what came since, the frames no longer held counted as lost: none unless all 4 chunks
+    # were replaced between the reads (20 ms of real time, which a loaded machine can take).
+    assert again == nfr + loss + n and n <= 4 * FPC
+    assert loss == 0 or n == 4 * FPC
     await client.close()
 
 

@@ -22,8 +22,15 @@ from .test_capture_binaural import interaural_delay
 
 @pytest.fixture
 async def rig() -> AsyncIterator[ComponentHost]:
-    """A host with the simulated KEMAR drive on a virtual CAN bus."""
-    async with ComponentHost(clock=ScaledClock(TIME_SCALE), settings={"can": "virtual", "audio_socket_port": 0},
+    """A host with the simulated KEMAR drive on a virtual CAN bus.
+
+    The drive's replies are allowed 5 s of real time, not the 0.5 s of a real bus: the simulated
+    drive answers from a thread of this process, which shares the interpreter with the audio
+    rendering, and a loaded machine held a reply back past 0.5 s (BUS_TIMEOUT). Nothing here
+    waits for a time-out: the tests of time-outs are in tests/components/kemar.
+    """
+    async with ComponentHost(clock=ScaledClock(TIME_SCALE),
+                             settings={"can": "virtual", "can_timeout": 5.0, "audio_socket_port": 0},
                              factories={"kemarcapture": KemarCapture, "capture": Capture, "kemar": Kemar}) as host:
         yield host
 
