@@ -35,7 +35,7 @@ from aiohttp.typedefs import Middleware
 
 from ._replies import json_reply
 
-__all__ = ["AccessPolicy", "access_middleware", "console_policy"]
+__all__ = ["AccessPolicy", "access_middleware", "access_refusal", "allow_origin", "console_policy"]
 
 #: How many distinct Host headers the policy remembers its verdict on.
 _REMEMBERED_HOSTS = 256
@@ -97,30 +97,48 @@ class AccessPolicy:
         return "*" in self.origins or origin in self.origins
 
 
+def access_refusal(policy: AccessPolicy, request: web.BaseRequest) -> tuple[web.Response | None, str | None]:
+    """Apply *policy* to *request*: ``(refusal, None)``, or ``(None, origin)`` to answer.
+
+    *origin* is the other-site origin the reply must carry the CORS headers for
+    (None for a program, or a page of the gateway's own origin).
+    """
+    headers = request.headers
+    if not policy.host_allowed(headers.get("Host")):
+        return _forbidden(f"this gateway does not answer to the name {_shown(headers['Host'])} "
+                          "(its operator can allow it with --allowed-host)"), None
+    origin = headers.get("Origin")
+    if origin is None:
+        # A program (no Origin), or a browser request it may not have made from another site.
+        if request.path not in _NAVIGABLE and headers.get("Sec-Fetch-Site", "") in ("cross-site", "same-site"):
+            return _forbidden("a request from another web site may not use this gateway"), None
+        return None, None
+    if origin != f"{request.scheme}://{request.host}":
+        if not policy.origin_allowed(origin):
+            return _forbidden(f"pages from {_shown(origin)} may not use this gateway "
+                              "(its operator can allow them with --allow-origin)"), None
+        return None, origin
+    return None, None
+
+
+def allow_origin(response: web.StreamResponse, origin: str) -> None:
+    """Let pages of *origin* (allowed by the policy) read *response*."""
+    response.headers["Access-Control-Allow-Origin"] = origin
+    response.headers["Vary"] = "Origin"
+
+
 def access_middleware(policy: AccessPolicy) -> Middleware:
-    """The middleware that applies *policy* before anything else runs."""
+    """The middleware that applies *policy* before anything else runs (the gateway's own is ``_guard``)."""
 
     @web.middleware
     async def check_access(request: web.Request, handler: Handler) -> web.StreamResponse:
-        headers = request.headers
-        if not policy.host_allowed(headers.get("Host")):
-            return _forbidden(f"this gateway does not answer to the name {_shown(headers['Host'])} "
-                              "(its operator can allow it with --allowed-host)")
-        origin = headers.get("Origin")
-        if origin is None:
-            # A program (no Origin), or a browser request it may not have made from another site.
-            if request.path not in _NAVIGABLE and headers.get("Sec-Fetch-Site", "") in ("cross-site", "same-site"):
-                return _forbidden("a request from another web site may not use this gateway")
-            return await handler(request)
-        if origin != f"{request.scheme}://{request.host}":
-            if not policy.origin_allowed(origin):
-                return _forbidden(f"pages from {_shown(origin)} may not use this gateway "
-                                  "(its operator can allow them with --allow-origin)")
-            response = await handler(request)
-            response.headers["Access-Control-Allow-Origin"] = origin
-            response.headers["Vary"] = "Origin"
-            return response
-        return await handler(request)
+        refusal, origin = access_refusal(policy, request)
+        if refusal is not None:
+            return refusal
+        response = await handler(request)
+        if origin is not None:
+            allow_origin(response, origin)
+        return response
 
     return check_access
 

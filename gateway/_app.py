@@ -11,10 +11,10 @@ from aiohttp.typedefs import Middleware
 
 from ..components.core import ComponentHost, ScaledClock
 from . import _routes_admin, _routes_modules, _routes_openapi, _routes_ports, _routes_sessions
-from ._access import AccessPolicy, access_middleware
+from ._access import AccessPolicy
 from ._auth import AUTH_PATH, LOGIN_PATH, TokenCheck, auth_without_token, login_without_token
 from ._config import GatewayConfig
-from ._errors import error_middleware
+from ._guard import guard_middleware
 from ._keys import CONFIG, HOST, LAST_READS, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, LastReads, Shutdown, WatchFrames
 from ._sessions import SessionStore
 from ._shutdown import shut_down
@@ -36,11 +36,11 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
         An aiohttp application; run it with ``web.run_app`` or an ``AppRunner``.
     """
     config = config or GatewayConfig()
-    middlewares: list[Middleware] = [error_middleware]
-    if config.token:
-        middlewares.insert(0, TokenCheck(config.token).middleware)
-    # Browsers are checked first: a refused page learns nothing, not even whether a token is needed.
-    middlewares.insert(0, access_middleware(AccessPolicy(config.allowed_hosts, config.allowed_origins)))
+    # One middleware for access, token and errors (their order is explained in _guard).
+    middlewares: list[Middleware] = [
+        guard_middleware(AccessPolicy(config.allowed_hosts, config.allowed_origins),
+                         TokenCheck(config.token) if config.token else None),
+    ]
     app = web.Application(middlewares=middlewares)
     app[CONFIG] = config
     app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)

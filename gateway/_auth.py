@@ -44,28 +44,36 @@ class TokenCheck:
         # A fresh credential per run: a cookie never outlives the gateway that issued it.
         self._cookie = secrets.token_urlsafe(32).encode()
 
-    def _has_header(self, request: web.Request) -> bool:
+    def _has_header(self, request: web.BaseRequest) -> bool:
         # Header bytes that are not UTF-8 arrive as surrogate escapes: compare the bytes as sent.
         given = request.headers.get("Authorization", "").encode("utf-8", "surrogateescape")
         return hmac.compare_digest(given, self._expected)
 
-    def _has_cookie(self, request: web.Request) -> bool:
+    def _has_cookie(self, request: web.BaseRequest) -> bool:
         given = request.cookies.get(COOKIE, "").encode("utf-8", "surrogateescape")
         return bool(given) and hmac.compare_digest(given, self._cookie)
 
-    @web.middleware
-    async def middleware(self, request: web.Request, handler: Handler) -> web.StreamResponse:
-        """Refuse (401) a request without the token, the console page aside."""
-        if request.path in _OPEN_PATHS:
-            return await handler(request)
-        if request.path == AUTH_PATH:
+    def screen(self, request: web.BaseRequest) -> web.Response | None:
+        """The reply that stops *request* here (401, or the console's login and auth answers); None lets it on."""
+        path = request.path
+        if path in _OPEN_PATHS:
+            return None
+        if path == AUTH_PATH:
             return json_reply({"authorized": self._has_header(request) or self._has_cookie(request)})
-        if request.path == LOGIN_PATH:
+        if path == LOGIN_PATH:
             if not self._has_header(request):
                 return _unauthorized()
             return self._login()
         if not (self._has_header(request) or self._has_cookie(request)):
             return _unauthorized()
+        return None
+
+    @web.middleware
+    async def middleware(self, request: web.Request, handler: Handler) -> web.StreamResponse:
+        """Refuse (401) a request without the token, the console page aside (the gateway's own is ``_guard``)."""
+        reply = self.screen(request)
+        if reply is not None:
+            return reply
         return await handler(request)
 
     def _login(self) -> web.Response:

@@ -35,7 +35,7 @@ from ._replies import json_reply
 
 __all__ = [
     "GatewayError", "NoSuchSession", "BadQuery", "LoadForbidden", "TooManySessions", "RemoteRefusal",
-    "RemoteUnreachable", "ZenohSessionError", "error_middleware", "error_body",
+    "RemoteUnreachable", "ZenohSessionError", "error_middleware", "error_reply", "error_body",
 ]
 
 log = logging.getLogger(__name__)
@@ -133,21 +133,26 @@ def error_body(exc: Exception) -> tuple[int, dict[str, Any]]:
                  "message": "internal error (see the gateway log)"}
 
 
-@web.middleware
-async def error_middleware(request: web.Request,
-                           handler: Callable[[web.Request], Awaitable[web.StreamResponse]]) -> web.StreamResponse:
-    """Turn every exception of a handler into a JSON error reply."""
-    try:
-        return await handler(request)
-    except web.HTTPException as exc:
+def error_reply(request: web.BaseRequest, exc: Exception) -> web.Response:
+    """The JSON reply to the exception *exc* a handler raised (an HTTP exception below 400 is raised again)."""
+    if isinstance(exc, web.HTTPException):
         if exc.status < 400:
-            raise
+            raise exc
         reply = json_reply({"ex": "::genomix::http", "message": exc.reason}, status=exc.status)
         if "Allow" in exc.headers:
             reply.headers["Allow"] = exc.headers["Allow"]
         return reply
+    status, body = error_body(exc)
+    if status >= 500:
+        log.exception("%s %s failed", request.method, request.path_qs, exc_info=exc)
+    return json_reply(body, status=status)
+
+
+@web.middleware
+async def error_middleware(request: web.Request,
+                           handler: Callable[[web.Request], Awaitable[web.StreamResponse]]) -> web.StreamResponse:
+    """Turn every exception of a handler into a JSON error reply (the gateway's own middleware is ``_guard``)."""
+    try:
+        return await handler(request)
     except Exception as exc:
-        status, body = error_body(exc)
-        if status >= 500:
-            log.exception("%s %s failed", request.method, request.path_qs)
-        return json_reply(body, status=status)
+        return error_reply(request, exc)

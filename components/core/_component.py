@@ -230,6 +230,9 @@ class Component:
 
     def decode_inputs(self, spec: ServiceSpec, raw: Any) -> dict[str, Any]:
         """Decode request inputs; inputs not given take the host-dependent defaults first."""
+        if raw is None and not spec.inputs:
+            # A service without parameters sent without input (most sends): nothing to decode or default.
+            return {}
         return spec.decode_inputs(raw, self.service_defaults(self.host).get(spec.name))
 
     async def send(self, name: str, raw_input: Any = None, *, session: str | None = None,
@@ -262,8 +265,9 @@ class Component:
         if refusal is not None:
             self._settle_error(request, refusal)
             return request
+        # Only a service that interrupts others looks at the running requests (most interrupt none).
         victims = [r for r in self.requests.running()
-                   if r is not request and r.service.name in spec.interrupts]
+                   if r is not request and r.service.name in spec.interrupts] if spec.interrupts else []
         for victim in victims:
             self._signal_interrupt(victim, by=spec.name)
         if not victims and spec.kind != "activity" and not spec.is_async:

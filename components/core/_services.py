@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import functools
 import inspect
 import typing
 from collections.abc import Callable, Mapping, Sequence
@@ -99,6 +100,11 @@ class ServiceSpec:
     #: Whether the method is a coroutine function (plain ones run inline).
     is_async: bool = False
 
+    @functools.cached_property
+    def _inputs_by_name(self) -> dict[str, ParamSpec]:
+        # Made once per service rather than on every request (cached_property writes past frozen).
+        return {p.name: p for p in self.inputs}
+
     @property
     def parameters(self) -> list[ParamSpec]:
         """Inputs then outputs, with an output that is also an input listed once as ``inout``."""
@@ -123,7 +129,7 @@ class ServiceSpec:
                 raw = {self.inputs[0].name: raw}
             else:
                 raise InputError("input", "expected a JSON object of the service's parameters")
-        known = {p.name: p for p in self.inputs}
+        known = self._inputs_by_name
         for key in raw:
             if key not in known:
                 names = ", ".join(known) or "none"
