@@ -396,6 +396,10 @@ class KemarHead:
         expected = move_duration(counts - start, self.to_counts(speed), config.acceleration, config.deceleration)
         deadline = self.clock.now() + 2 * expected + 1.0
         while True:
+            # The deadline is held against when the drive was asked, not when its answer came:
+            # a reply that waited behind a stall of this process says "moving" about a time
+            # before the deadline, and must not end a move that went as it should.
+            asked = self.clock.now()
             status, state = await self._poll()
             await self._check_fault(status)
             if not status.motor_on:
@@ -407,7 +411,7 @@ class KemarHead:
                 raise MotionStopped(
                     f"the head was stopped by {cause} at {state.position:.2f} deg, before {target:.2f} deg"
                 )
-            if self.clock.now() > deadline:
+            if asked > deadline:
                 await drive.execute("ST")
                 raise MotionTimeout(f"the move to {target:.2f} deg did not end within {2 * expected + 1:.1f} s")
             await self.clock.sleep(config.poll_period)
