@@ -18,7 +18,7 @@ from typing import Any, Literal
 from ._exceptions import NoSuchRequest, RequestRunning
 from ._services import ServiceSpec
 
-__all__ = ["Request", "RequestTracker", "Status"]
+__all__ = ["Request", "RequestStatus", "RequestTracker", "Status"]
 
 Status = Literal["sent", "done", "error"]
 
@@ -26,8 +26,42 @@ Status = Literal["sent", "done", "error"]
 _MAX_ID_DIGITS = 18
 
 
+class RequestStatus:
+    """What a request shows on the wire: its id, whether it runs, its status object.
+
+    Shared by :class:`Request` and the gateway's copy of a request that runs in
+    another process, so that both answer ``status`` and ``request`` events alike.
+    Subclasses hold ``number``, ``instance``, ``status``, ``output`` and ``exception``.
+    """
+
+    number: int
+    instance: str
+    status: str
+    output: dict[str, Any] | None
+    exception: dict[str, Any] | None
+
+    @property
+    def id(self) -> str:
+        """The wire id, ``"<instance>::<n>"``."""
+        return f"{self.instance}::{self.number}"
+
+    @property
+    def running(self) -> bool:
+        """Whether the request has not ended yet."""
+        return self.status == "sent"
+
+    def status_object(self) -> dict[str, Any]:
+        """The JSON status object (also the data of the ``request`` event)."""
+        status: dict[str, Any] = {"id": self.id, "status": self.status}
+        if self.status == "done":
+            status["output"] = self.output or {}
+        elif self.status == "error":
+            status["exception"] = self.exception
+        return status
+
+
 @dataclasses.dataclass(eq=False)
-class Request:
+class Request(RequestStatus):
     """One call of a service.
 
     Attributes:
@@ -54,24 +88,6 @@ class Request:
     interrupted_by: str | None = None
     ended: asyncio.Event = dataclasses.field(default_factory=asyncio.Event)
 
-    @property
-    def id(self) -> str:
-        """The wire id, ``"<instance>::<n>"``."""
-        return f"{self.instance}::{self.number}"
-
-    @property
-    def running(self) -> bool:
-        """Whether the request has not ended yet."""
-        return self.status == "sent"
-
-    def status_object(self) -> dict[str, Any]:
-        """The JSON status object (also the data of the ``request`` event)."""
-        status: dict[str, Any] = {"id": self.id, "status": self.status}
-        if self.status == "done":
-            status["output"] = self.output or {}
-        elif self.status == "error":
-            status["exception"] = self.exception
-        return status
 
 
 class RequestTracker:

@@ -11,7 +11,7 @@ from ._exceptions import (
 from ._host import RemoteFinder, TooManyInstances
 from ._ports import ComputedOutPortRuntime, PortSpec
 from ._public import show_as_public
-from ._requests import Request, RequestTracker
+from ._requests import Request, RequestStatus, RequestTracker
 from ._services import NO_DEFAULT, ParamSpec, ServiceDecorator, ServiceSpec
 from ._tasks import TaskRuntime
 from ._types import (
@@ -20,7 +20,7 @@ from ._types import (
 
 __all__ = [
     # Describing and hosting components
-    "describe", "TooManyInstances", "RemoteFinder", "Request", "RequestTracker", "TaskRuntime",
+    "describe", "TooManyInstances", "RemoteFinder", "Request", "RequestStatus", "RequestTracker", "TaskRuntime",
     # What the runtime reads from declarations
     "ServiceSpec", "ParamSpec", "NO_DEFAULT", "ServiceDecorator", "PortSpec", "ComputedOutPortRuntime",
     # IDL type objects: description, decoding and encoding of data

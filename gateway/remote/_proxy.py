@@ -20,7 +20,7 @@ import orjson
 import zenoh
 
 from ...components.core import Component, ComponentHost
-from ...components.core.runtime import NoSuchPort, NoSuchRequest, RequestRunning
+from ...components.core.runtime import NoSuchPort, NoSuchRequest, RequestRunning, RequestStatus
 from .._errors import RemoteUnreachable
 from ._mirror import MirroredOutPort
 from ._session import ask, ask_all
@@ -51,7 +51,7 @@ class RemoteTimeouts:
 
 
 @dataclasses.dataclass(eq=False)
-class RemoteRequest:
+class RemoteRequest(RequestStatus):
     """The gateway's copy of a request of a remote instance (the fields the routes and sessions use)."""
 
     number: int
@@ -62,25 +62,6 @@ class RemoteRequest:
     output: dict[str, Any] | None = None
     exception: dict[str, Any] | None = None
     ended: asyncio.Event = dataclasses.field(default_factory=asyncio.Event)
-
-    @property
-    def id(self) -> str:
-        """The wire id, ``"<instance>::<n>"``."""
-        return f"{self.instance}::{self.number}"
-
-    @property
-    def running(self) -> bool:
-        """Whether the request has not ended yet."""
-        return self.status == "sent"
-
-    def status_object(self) -> dict[str, Any]:
-        """The JSON status object (also the data of the ``request`` event)."""
-        status: dict[str, Any] = {"id": self.id, "status": self.status}
-        if self.status == "done":
-            status["output"] = self.output or {}
-        elif self.status == "error":
-            status["exception"] = self.exception
-        return status
 
     def take(self, status: dict[str, Any]) -> bool:
         """Take a status object from the host; return whether it ended the request now (never undone)."""
