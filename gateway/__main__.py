@@ -11,6 +11,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ._config import GatewayConfig
+from ._rig_arguments import add_rig_arguments
 from ._signals import StopSignal, ignore_stop_signals, raise_on_stop_signals
 
 if TYPE_CHECKING:
@@ -29,18 +30,7 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
     parser.add_argument("--host", default=defaults.host, help="address to bind (default %(default)s)")
     parser.add_argument("--port", type=int, default=defaults.port,
                         help="HTTP port, 0 for a free one (default %(default)s)")
-    parser.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error"])
-    parser.add_argument("--can", default=defaults.can,
-                        help="KEMAR bus: 'virtual' (simulated drive) or INTERFACE:CHANNEL, e.g. socketcan:can0")
-    parser.add_argument("--audio-device", default=defaults.audio_device,
-                        help="default capture device: sim, sim:SCENE.json, hw:1,0, file:PATH.wav (default %(default)s)")
-    parser.add_argument("--audio-socket-port", type=int, default=defaults.audio_socket_port,
-                        help="port of the dedicated audio socket, 0 for a free one (default %(default)s)")
-    parser.add_argument("--audio-files", action="append", default=[], metavar="DIR",
-                        help="a directory clients may name WAV (file:PATH) and scene (sim:PATH) files from "
-                             "(repeatable; default: none, files are refused)")
-    parser.add_argument("--time-scale", type=float, default=defaults.time_scale,
-                        help="runtime seconds per real second, for faster simulations (default %(default)s)")
+    add_rig_arguments(parser, defaults)
     parser.add_argument("--load", action="append", default=[], metavar="NAME[:ARGS]",
                         help="load a component at start (repeatable), e.g. demo or demo:-i demo2")
     parser.add_argument("--components", help="comma-separated allow-list of loadable components")

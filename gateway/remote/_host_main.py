@@ -21,6 +21,7 @@ from ...components.core import ComponentHost, ScaledClock
 from ...components.core.runtime import ComponentError
 from .._config import GatewayConfig
 from .._errors import ZenohSessionError
+from .._rig_arguments import add_rig_arguments
 
 __all__ = ["main", "parse_args"]
 
@@ -42,19 +43,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--zenoh-listen", action="append", default=[], metavar="ENDPOINT",
                         help="a Zenoh endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable); with any "
                              "endpoint given, multicast scouting is off")
-    parser.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error"])
-    parser.add_argument("--can", default=defaults.can,
-                        help="KEMAR bus: 'virtual' (simulated drive) or INTERFACE:CHANNEL, e.g. socketcan:can0")
-    parser.add_argument("--audio-device", default=defaults.audio_device,
-                        help="default capture device: sim, sim:SCENE.json, hw:1,0, file:PATH.wav (default %(default)s)")
+    add_rig_arguments(parser, defaults)
     parser.add_argument("--audio-socket-host", default=defaults.host,
                         help="address of the dedicated audio socket (default %(default)s)")
-    parser.add_argument("--audio-socket-port", type=int, default=defaults.audio_socket_port,
-                        help="port of the dedicated audio socket, 0 for a free one (default %(default)s)")
-    parser.add_argument("--audio-files", action="append", default=[], metavar="DIR",
-                        help="a directory from which WAV and scene files may be named (repeatable)")
-    parser.add_argument("--time-scale", type=float, default=defaults.time_scale,
-                        help="runtime seconds per real second (default %(default)s)")
     parser.add_argument("--token", default=None,
                         help="token of the dedicated audio socket (the gateway checks its own HTTP token)")
     return parser.parse_args(argv)
