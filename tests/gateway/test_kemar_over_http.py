@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import AsyncIterator
+from typing import Any
 
 import aiohttp
 import pytest
@@ -22,24 +23,28 @@ async def rig() -> AsyncIterator[tuple[ComponentHost, str]]:
             yield host, url
 
 
+async def homed_head_moves_and_reports_its_state(kemar: Any) -> None:
+    """Home a loaded ``kemar`` (generated client), then move it and check what it reports."""
+    await kemar.Homing()
+    await kemar.MoveAbsolutePosition(30)
+    state = await kemar.currentState()
+    assert state.position == pytest.approx(30, abs=0.1)
+    assert state.maxLeft == pytest.approx(90, abs=0.5) and state.maxRight == pytest.approx(-90, abs=0.5)
+    await kemar.MoveRelativePosition(-50)
+    assert (await kemar.currentState()).position == pytest.approx(-20, abs=0.1)
+
+    first = await kemar.MoveAbsolutePosition(80, ack=True)
+    await kemar.MoveAbsolutePosition(-10)
+    with pytest.raises(Interrupted) as interrupted:
+        await first.result()
+    assert interrupted.value.by == "MoveAbsolutePosition"
+    assert (await kemar.currentState()).position == pytest.approx(-10, abs=0.1)
+
+
 async def test_head_moves_and_reports_its_state(rig: tuple[ComponentHost, str]) -> None:
     _, url = rig
     async with aconnect(url, timeout=30) as client:
-        kemar = await client.load("kemar")
-        await kemar.Homing()
-        await kemar.MoveAbsolutePosition(30)
-        state = await kemar.currentState()
-        assert state.position == pytest.approx(30, abs=0.1)
-        assert state.maxLeft == pytest.approx(90, abs=0.5) and state.maxRight == pytest.approx(-90, abs=0.5)
-        await kemar.MoveRelativePosition(-50)
-        assert (await kemar.currentState()).position == pytest.approx(-20, abs=0.1)
-
-        first = await kemar.MoveAbsolutePosition(80, ack=True)
-        await kemar.MoveAbsolutePosition(-10)
-        with pytest.raises(Interrupted) as interrupted:
-            await first.result()
-        assert interrupted.value.by == "MoveAbsolutePosition"
-        assert (await kemar.currentState()).position == pytest.approx(-10, abs=0.1)
+        await homed_head_moves_and_reports_its_state(await client.load("kemar"))
 
 
 async def test_faults_end_requests_clearly_and_nothing_else_is_disturbed(rig: tuple[ComponentHost, str]) -> None:

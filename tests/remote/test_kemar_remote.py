@@ -7,7 +7,8 @@ import json
 import aiohttp
 import pytest
 
-from aiogenomix.clients import Interrupted, aconnect
+from aiogenomix.clients import aconnect
+from tests.gateway.test_kemar_over_http import homed_head_moves_and_reports_its_state
 
 from ._processes import Process, free_port, start_component_host, start_gateway
 
@@ -21,20 +22,7 @@ async def test_homing_and_moves_of_a_remote_head(started: list[Process]) -> None
         kemar = await client.load("kemar")
         with pytest.raises(kemar.NOT_HOMED):  # the component's own exception class, generated from /info
             await kemar.MoveAbsolutePosition(10)
-        await kemar.Homing()
-        await kemar.MoveAbsolutePosition(30)
-        state = await kemar.currentState()
-        assert state.position == pytest.approx(30, abs=0.1)
-        assert state.maxLeft == pytest.approx(90, abs=0.5) and state.maxRight == pytest.approx(-90, abs=0.5)
-        await kemar.MoveRelativePosition(-50)
-        assert (await kemar.currentState()).position == pytest.approx(-20, abs=0.1)
-
-        first = await kemar.MoveAbsolutePosition(80, ack=True)
-        await kemar.MoveAbsolutePosition(-10)
-        with pytest.raises(Interrupted) as interrupted:
-            await first.result()
-        assert interrupted.value.by == "MoveAbsolutePosition"
-        assert (await kemar.currentState()).position == pytest.approx(-10, abs=0.1)
+        await homed_head_moves_and_reports_its_state(kemar)
 
     # The head's state can be watched as it moves, publication by publication.
     async with aiohttp.ClientSession(base_url=url) as http:
