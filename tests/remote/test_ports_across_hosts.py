@@ -11,13 +11,22 @@ from aiogenomix.clients import Interrupted, RemoteError, aconnect
 from ._processes import Process, free_port, start_component_host, start_gateway
 
 
-async def test_countclient_in_one_host_fed_by_countserver_in_another(started: list[Process]) -> None:
-    server_endpoint = f"tcp/127.0.0.1:{free_port()}"
-    client_endpoint = f"tcp/127.0.0.1:{free_port()}"
-    started.append(await start_component_host(["countserver"], listen=server_endpoint))
-    started.append(await start_component_host(["countclient"], listen=client_endpoint, connect=[server_endpoint]))
-    gateway, url = await start_gateway([server_endpoint, client_endpoint])
+async def reader_and_writer_hosts(started: list[Process], *, writer: str, reader: str) -> str:
+    """Component *writer* in one host, *reader* in another that connects to it, and a gateway of both.
+
+    Returns the gateway's URL.
+    """
+    writer_endpoint = f"tcp/127.0.0.1:{free_port()}"
+    reader_endpoint = f"tcp/127.0.0.1:{free_port()}"
+    started.append(await start_component_host([writer], listen=writer_endpoint))
+    started.append(await start_component_host([reader], listen=reader_endpoint, connect=[writer_endpoint]))
+    gateway, url = await start_gateway([writer_endpoint, reader_endpoint])
     started.append(gateway)
+    return url
+
+
+async def test_countclient_in_one_host_fed_by_countserver_in_another(started: list[Process]) -> None:
+    url = await reader_and_writer_hosts(started, writer="countserver", reader="countclient")
     async with aconnect(url) as client:
         countserver = await client.load("countserver")
         countclient = await client.load("countclient")
@@ -43,12 +52,7 @@ async def test_countclient_in_one_host_fed_by_countserver_in_another(started: li
 
 
 async def test_basc_in_one_host_reads_blocks_of_bass_in_another(started: list[Process]) -> None:
-    bass_endpoint = f"tcp/127.0.0.1:{free_port()}"
-    basc_endpoint = f"tcp/127.0.0.1:{free_port()}"
-    started.append(await start_component_host(["bass"], listen=bass_endpoint))
-    started.append(await start_component_host(["basc"], listen=basc_endpoint, connect=[bass_endpoint]))
-    gateway, url = await start_gateway([bass_endpoint, basc_endpoint])
-    started.append(gateway)
+    url = await reader_and_writer_hosts(started, writer="bass", reader="basc")
     async with aconnect(url) as client:
         bass = await client.load("bass")
         basc = await client.load("basc")
