@@ -73,6 +73,8 @@ class Request(RequestStatus):
         status: ``sent``, then ``done`` or ``error``.
         output: The outputs once ``done``.
         exception: ``{"ex": ..., "detail": ...}`` once ``error``.
+        serial: How many requests the tracker made before this one: it tells apart two requests
+            that held the same number one after the other (a copy kept in another process needs it).
     """
 
     number: int
@@ -87,7 +89,7 @@ class Request(RequestStatus):
     task: asyncio.Task[None] | None = None
     interrupted_by: str | None = None
     ended: asyncio.Event = dataclasses.field(default_factory=asyncio.Event)
-
+    serial: int = 0
 
 
 class RequestTracker:
@@ -112,6 +114,7 @@ class RequestTracker:
         # the smallest free number is found without scanning the requests.
         self._next = 0
         self._free: list[int] = []
+        self._made = 0
 
     def create(self, service: ServiceSpec, inputs: dict[str, Any], session: str | None, oneway: bool) -> Request:
         """Register a new request with the smallest free number."""
@@ -119,7 +122,8 @@ class RequestTracker:
             number = heapq.heappop(self._free)
         else:
             number, self._next = self._next, self._next + 1
-        request = Request(number, self.instance, service, inputs, session, oneway)
+        request = Request(number, self.instance, service, inputs, session, oneway, serial=self._made)
+        self._made += 1
         self._requests[number] = request
         self._running[number] = request
         return request

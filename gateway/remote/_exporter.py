@@ -220,12 +220,12 @@ class ComponentExporter:
         if operation == "send":
             request = await component.send(payload.get("service", ""), payload.get("input"),
                                            session=payload.get("session"), oneway=bool(payload.get("oneway")))
-            return ok_reply(request.status_object())
+            return ok_reply(_status_with_serial(request))
         request_id = str(payload.get("id", ""))
         if operation == "status":
-            return ok_reply((await component.request(request_id)).status_object())
+            return ok_reply(_status_with_serial(await component.request(request_id)))
         if operation == "abort":
-            return ok_reply((await component.abort(request_id)).status_object())
+            return ok_reply(_status_with_serial(await component.abort(request_id)))
         if operation == "clean":
             await component.clean(request_id)
             return ok_reply(None)
@@ -256,7 +256,7 @@ class ComponentExporter:
     def _on_request(self, request: Request) -> None:
         if request.instance != self.instance or request.oneway:
             return
-        event = orjson.dumps({"status": request.status_object(), "session": request.session})
+        event = orjson.dumps({"status": _status_with_serial(request), "session": request.session})
         if not self._pending_events:
             # Published at the end of this loop turn: the reply to a send that ended its request at
             # once goes first (the caller waits on it), its event after.
@@ -301,3 +301,14 @@ class ComponentExporter:
         for declared in self._declared:
             with contextlib.suppress(zenoh.ZError):
                 declared.undeclare()
+
+
+def _status_with_serial(request: Request) -> dict[str, Any]:
+    """The status object plus the request's serial, which tells the gateway's copies of one number apart.
+
+    Numbers are reused after a clean, and events travel after replies: without the serial, a late
+    event of a cleaned request would look like news of the next request under its number.
+    """
+    status = request.status_object()
+    status["serial"] = request.serial
+    return status

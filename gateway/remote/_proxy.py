@@ -58,6 +58,7 @@ class RemoteRequest(RequestStatus):
     instance: str
     session: str | None = None
     oneway: bool = False
+    serial: int = -1
     status: str = "sent"
     output: dict[str, Any] | None = None
     exception: dict[str, Any] | None = None
@@ -96,6 +97,8 @@ class RemoteComponent(Component, name="remote"):
         self.version = description.get("version", "")  # type: ignore[misc]
         self._loop = asyncio.get_running_loop()
         self._remote: dict[int, RemoteRequest] = {}
+        # The serial of the copy last cleaned under each number: late news of it is not news.
+        self._cleaned: dict[int, int] = {}
         self._mirrors = {port["name"]: MirroredOutPort(port, self)
                          for port in description.get("ports", []) if port.get("dir") == "out"}
         self._in_ports = {port["name"] for port in description.get("ports", []) if port.get("dir") == "in"}
@@ -134,10 +137,10 @@ class RemoteComponent(Component, name="remote"):
         number = self.requests.parse_id(status["id"])
         if oneway:
             # Nobody tracks a oneway request: the host forgets it when it ends.
-            request = RemoteRequest(number, self.instance, session, True)
+            request = RemoteRequest(number, self.instance, session, True, status["serial"])
             request.take(status)
             return request
-        request, new = self._track(number, session)
+        request, new = self._track(number, status["serial"], session)
         # Each change is announced once, by whichever of the reply and the host's event comes first.
         if request.take(status) or (new and request.running):
             self.host.announce_request(request)  # type: ignore[arg-type]
@@ -152,7 +155,7 @@ class RemoteComponent(Component, name="remote"):
         self._refuse_if_gone()
         status = await ask(self.session, request_key(self.instance, "status"), {"id": str(number)},
                            timeout=self.timeouts.control)
-        request, _ = self._track(number, None)
+        request, _ = self._track(number, status["serial"], None)
         request.take(status)
         return request
 
@@ -162,7 +165,7 @@ class RemoteComponent(Component, name="remote"):
         self._refuse_if_gone()
         status = await ask(self.session, request_key(self.instance, "abort"), {"id": str(number)},
                            timeout=self.timeouts.control)
-        request, _ = self._track(number, None)
+        request, _ = self._track(number, status["serial"], None)
         if request.take(status):
             self.host.announce_request(request)  # type: ignore[arg-type]
         return request
@@ -184,18 +187,32 @@ class RemoteComponent(Component, name="remote"):
             raise RequestRunning(f"request {known.id} is still running: abort it or wait for it to end")
         if known is not None:
             self._cleans.put(orjson.dumps({"id": str(number)}))
+            self._cleaned[number] = known.serial
         else:
             await ask(self.session, request_key(self.instance, "clean"), {"id": str(number)},
                       timeout=self.timeouts.control)
         self._remote.pop(number, None)
 
-    def _track(self, number: int, session: str | None) -> tuple[RemoteRequest, bool]:
-        """The copy of request *number*, and whether it was made now."""
+    def _track(self, number: int, serial: int, session: str | None) -> tuple[RemoteRequest, bool]:
+        """The copy of request *number* whose serial is *serial*, and whether it was made now.
+
+        A copy of an older serial is replaced (its request was cleaned elsewhere and the number
+        reused); for an older serial than the copy's, the answer is a copy nobody keeps.
+        """
         request = self._remote.get(number)
-        if request is not None:
+        if request is not None and request.serial == serial:
             return request, False
-        request = self._remote[number] = RemoteRequest(number, self.instance, session)
+        if request is not None and request.serial > serial:
+            return RemoteRequest(number, self.instance, session, serial=serial), True
+        request = self._remote[number] = RemoteRequest(number, self.instance, session, serial=serial)
         return request, True
+
+    def _is_stale(self, number: int, serial: int) -> bool:
+        """Whether news of request *number* with *serial* is about a request already cleaned or replaced."""
+        known = self._remote.get(number)
+        if known is not None:
+            return serial < known.serial
+        return serial <= self._cleaned.get(number, -1)
 
     def _refuse_if_gone(self) -> None:
         if self._gone:
@@ -243,13 +260,14 @@ class RemoteComponent(Component, name="remote"):
             number = self.requests.parse_id(status["id"])
         except NoSuchRequest:
             return
-        request = self._remote.get(number)
-        if request is None or (not request.running and status["status"] == "sent"):
+        # Events travel after the replies: the news may be of a request this gateway already cleaned.
+        if self._is_stale(number, status["serial"]):
+            return
+        request, new = self._track(number, status["serial"], event.get("session"))
+        if new and status["status"] == "sent":
             # A request this gateway has not seen yet (its send reply may come after this event),
             # or a new request under a number cleaned elsewhere.
-            request = self._remote[number] = RemoteRequest(number, self.instance, event.get("session"))
-            if status["status"] == "sent":
-                self.host.announce_request(request)  # type: ignore[arg-type]
+            self.host.announce_request(request)  # type: ignore[arg-type]
         if request.take(status):
             self.host.announce_request(request)  # type: ignore[arg-type]
 
