@@ -141,7 +141,9 @@ class ComponentExporter:
         self.instance = component.instance
         self._declared: list[Any] = []
         self._tasks: set[asyncio.Task[Any]] = set()
-        self._pending_events: list[bytes] = []
+        self._pending_events: list[tuple[Request, bytes]] = []
+        # Requests whose end a send reply carried in this loop turn: their events are news to nobody.
+        self._answered: set[Request] = set()
         self._events = session.declare_publisher(events_key(self.instance),
                                                  congestion_control=zenoh.CongestionControl.BLOCK,
                                                  reliability=zenoh.Reliability.RELIABLE, express=True)
@@ -222,6 +224,8 @@ class ComponentExporter:
         if operation == "send":
             request = await component.send(payload.get("service", ""), payload.get("input"),
                                            session=payload.get("session"), oneway=bool(payload.get("oneway")))
+            if not (request.running or request.oneway):
+                self._answered.add(request)
             return ok_reply(_status_with_serial(request))
         request_id = str(payload.get("id", ""))
         if operation == "status":
@@ -261,16 +265,21 @@ class ComponentExporter:
         event = orjson.dumps({"status": _status_with_serial(request), "session": request.session})
         if not self._pending_events:
             # Published at the end of this loop turn: the reply to a send that ended its request at
-            # once goes first (the caller waits on it), its event after.
+            # once goes first (the caller waits on it), its events after, if still news.
             self.loop.call_soon(self._publish_events)
-        self._pending_events.append(event)
+        self._pending_events.append((request, event))
 
     def _publish_events(self) -> None:
         # A request's end comes after what it published: a read once it is done sees its last data.
         self._flush_ports()
         events, self._pending_events = self._pending_events, []
-        for event in events:
-            self._events.put(event)
+        answered, self._answered = self._answered, set()
+        for request, event in events:
+            # The gateway that sent a request which ended at once took its end from the reply, and
+            # announced it to the request's session: the only listener there is (sessions belong to
+            # a gateway).  Two messages fewer per such call.
+            if request not in answered:
+                self._events.put(event)
 
     def _flush_ports(self) -> None:
         """Publish now the ports that changed since their last message (not the computed ones: see _pump)."""
