@@ -1,15 +1,16 @@
 """The processes a benchmark talks to: the gateway (with a probe component) and the floors.
 
-Run as ``python -m bench._server gateway|aiohttp|socket [options]``; each prints
-``ready <port> [<port>]`` once it listens, then serves until killed.
+Run as ``python -m bench._server gateway|aiohttp|socket|zenoh [options]``; each prints
+``ready <port> [<port>]`` (``ready <endpoint>`` for Zenoh) once it listens, then serves until killed.
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
+import socket
 import time
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
 from aiohttp import web
@@ -18,6 +19,9 @@ from aiogenomix.components.core import (
     Component, ComponentHost, Double, OutPort, Out, ScaledClock, Task, activity, function, idl_struct,
 )
 from aiogenomix.gateway import GatewayConfig, create_app
+
+if TYPE_CHECKING:
+    import zenoh  # only the Zenoh floor loads it: the gateway's memory is measured without
 
 
 @idl_struct("probe::tick")
@@ -95,12 +99,43 @@ async def _socket_floor(args: argparse.Namespace) -> None:
     await server.serve_forever()
 
 
+async def _zenoh_floor(args: argparse.Namespace) -> None:
+    """Answer each Zenoh query on ``bench/floor`` from the event loop, with nothing else to do.
+
+    A component host hands each query to its loop the same way: this is the floor of a remote call.
+    """
+    from aiogenomix.gateway.remote._session import ZenohEndpoints, on_loop, open_session
+
+    loop = asyncio.get_running_loop()
+    listen = f"tcp/127.0.0.1:{_free_port()}"
+    session = open_session(ZenohEndpoints(listen=[listen]))
+
+    def answer(query: zenoh.Query) -> None:
+        query.reply(query.key_expr, b'{"ok":{"id":"demo::0","status":"done","output":{}}}', express=True)
+        query.drop()  # type: ignore[no-untyped-call]
+
+    queryable = session.declare_queryable(
+        "bench/floor", on_loop(lambda query: loop.call_soon_threadsafe(answer, query)))
+    print("ready", listen, flush=True)
+    try:
+        await asyncio.Event().wait()
+    finally:
+        queryable.undeclare()  # type: ignore[no-untyped-call]
+        session.close()
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("kind", choices=["gateway", "aiohttp", "socket"])
+    parser.add_argument("kind", choices=["gateway", "aiohttp", "socket", "zenoh"])
     parser.add_argument("--profile", metavar="FILE", help="profile with cProfile; write the stats on SIGTERM")
     args = parser.parse_args()
-    runner = {"gateway": _gateway, "aiohttp": _bare_aiohttp, "socket": _socket_floor}[args.kind]
+    runner = {"gateway": _gateway, "aiohttp": _bare_aiohttp, "socket": _socket_floor, "zenoh": _zenoh_floor}[args.kind]
     if not args.profile:
         asyncio.run(runner(args))
         return
