@@ -221,6 +221,7 @@ class ComponentExporter:
         operation = str(query.key_expr).rsplit("/", 1)[-1]
         payload = self._payload(query)
         component = self.component
+        self._clean_answered(payload.get("cleaned"))
         if operation == "send":
             request = await component.send(payload.get("service", ""), payload.get("input"),
                                            session=payload.get("session"), oneway=bool(payload.get("oneway")))
@@ -251,11 +252,21 @@ class ComponentExporter:
         self.loop.call_soon_threadsafe(self._clean_published, body)
 
     def _clean_published(self, body: bytes) -> None:
-        """A clean the gateway answered itself (it saw the request end): nothing to report back."""
         try:
-            self.component.requests.clean(str(orjson.loads(body).get("id", "")))
-        except (ComponentError, ValueError) as exc:
-            log.debug("%s: published clean not applied: %s", self.instance, exc)
+            ids = orjson.loads(body).get("ids")
+        except (ValueError, AttributeError):
+            ids = None
+        self._clean_answered(ids)
+
+    def _clean_answered(self, ids: Any) -> None:
+        """Cleans a gateway answered itself (it saw the requests end): nothing to report back."""
+        if not isinstance(ids, list):
+            return
+        for request_id in ids:
+            try:
+                self.component.requests.clean(str(request_id))
+            except (ComponentError, ValueError) as exc:
+                log.debug("%s: clean answered by the gateway not applied: %s", self.instance, exc)
 
     # -- publications -----------------------------------------------------------------------
 

@@ -35,6 +35,8 @@ log = logging.getLogger(__name__)
 
 #: The exception that ends the requests of a component whose process is gone.
 REMOTE_IO = "::genom::remote_io"
+#: Seconds a clean answered by the gateway waits for a query to carry it before it is published.
+CLEAN_DELAY = 0.05
 
 
 @dataclasses.dataclass
@@ -99,6 +101,9 @@ class RemoteComponent(Component, name="remote"):
         self._remote: dict[int, RemoteRequest] = {}
         # The serial of the copy last cleaned under each number: late news of it is not news.
         self._cleaned: dict[int, int] = {}
+        # Cleans answered here that the host has not been told yet, and the timer that tells it.
+        self._cleans_due: list[str] = []
+        self._clean_timer: asyncio.TimerHandle | None = None
         self._mirrors = {port["name"]: MirroredOutPort(port, self)
                          for port in description.get("ports", []) if port.get("dir") == "out"}
         self._in_ports = {port["name"] for port in description.get("ports", []) if port.get("dir") == "in"}
@@ -131,9 +136,8 @@ class RemoteComponent(Component, name="remote"):
                    oneway: bool = False) -> Any:
         """Send the request to the remote instance; return its copy (its status as the host replied)."""
         self._refuse_if_gone()
-        status = await ask(self.session, request_key(self.instance, "send"),
-                           {"service": name, "input": raw_input, "session": session, "oneway": oneway},
-                           timeout=self.timeouts.send)
+        status = await self._ask("send", {"service": name, "input": raw_input, "session": session,
+                                          "oneway": oneway}, self.timeouts.send)
         number = self.requests.parse_id(status["id"])
         if oneway:
             # Nobody tracks a oneway request: the host forgets it when it ends.
@@ -153,8 +157,7 @@ class RemoteComponent(Component, name="remote"):
         if known is not None:
             return known
         self._refuse_if_gone()
-        status = await ask(self.session, request_key(self.instance, "status"), {"id": str(number)},
-                           timeout=self.timeouts.control)
+        status = await self._ask("status", {"id": str(number)}, self.timeouts.control)
         request, _ = self._track(number, status["serial"], None)
         request.take(status)
         return request
@@ -163,8 +166,7 @@ class RemoteComponent(Component, name="remote"):
         """Abort the request on the host; return its copy, ended."""
         number = self.requests.parse_id(request_id)
         self._refuse_if_gone()
-        status = await ask(self.session, request_key(self.instance, "abort"), {"id": str(number)},
-                           timeout=self.timeouts.control)
+        status = await self._ask("abort", {"id": str(number)}, self.timeouts.control)
         request, _ = self._track(number, status["serial"], None)
         if request.take(status):
             self.host.announce_request(request)  # type: ignore[arg-type]
@@ -173,9 +175,10 @@ class RemoteComponent(Component, name="remote"):
     async def clean(self, request_id: str) -> None:
         """Clean the request on the host, then forget the copy.
 
-        A request this gateway saw end cannot be refused: the clean is published to the host
-        without waiting for an answer (one round trip less per blocking call; the host takes
-        it before any later query of this gateway, which travels after it on the same link).
+        A request this gateway saw end cannot be refused: the clean is answered at once and told
+        to the host with this gateway's next query (a blocking call is then one message each
+        way, not two), or published after CLEAN_DELAY when no query comes; either way the host
+        takes it before any later query of this gateway, as if it had been asked.
 
         Raises:
             RequestRunning: for a request that has not ended.
@@ -186,12 +189,33 @@ class RemoteComponent(Component, name="remote"):
         if known is not None and known.running:
             raise RequestRunning(f"request {known.id} is still running: abort it or wait for it to end")
         if known is not None:
-            self._cleans.put(orjson.dumps({"id": str(number)}))
             self._cleaned[number] = known.serial
+            self._cleans_due.append(str(number))
+            if self._clean_timer is None:
+                self._clean_timer = self._loop.call_later(CLEAN_DELAY, self._publish_cleans)
         else:
-            await ask(self.session, request_key(self.instance, "clean"), {"id": str(number)},
-                      timeout=self.timeouts.control)
+            await self._ask("clean", {"id": str(number)}, self.timeouts.control)
         self._remote.pop(number, None)
+
+    async def _ask(self, operation: str, payload: dict[str, Any], timeout: float) -> Any:
+        """Ask the request *operation* of the host, telling it the cleans it has not been told yet."""
+        if self._cleans_due:
+            payload["cleaned"], self._cleans_due = self._cleans_due, []
+            self._cancel_clean_timer()
+        return await ask(self.session, request_key(self.instance, operation), payload, timeout=timeout)
+
+    def _publish_cleans(self) -> None:
+        """Publish the cleans no query carried (the publication travels before any later query)."""
+        self._clean_timer = None
+        if self._cleans_due and self._started:
+            due, self._cleans_due = self._cleans_due, []
+            with contextlib.suppress(zenoh.ZError):
+                self._cleans.put(orjson.dumps({"ids": due}))
+
+    def _cancel_clean_timer(self) -> None:
+        if self._clean_timer is not None:
+            self._clean_timer.cancel()
+            self._clean_timer = None
 
     def _track(self, number: int, serial: int, session: str | None) -> tuple[RemoteRequest, bool]:
         """The copy of request *number* whose serial is *serial*, and whether it was made now.
@@ -300,6 +324,8 @@ class RemoteComponent(Component, name="remote"):
         """Stop following the instance (it keeps running in its process); pending copies end with remote_io."""
         if not self._started:
             return
+        self._cancel_clean_timer()
+        self._publish_cleans()  # the host keeps running: leave it nothing this gateway cleaned
         self._started = False
         if not self._gone:
             self._gone = True

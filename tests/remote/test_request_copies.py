@@ -7,6 +7,7 @@ already cleaned.  These tests feed the proxy the orders seen on a loaded machine
 
 from __future__ import annotations
 
+import asyncio
 from collections.abc import AsyncIterator
 from typing import Any
 
@@ -23,9 +24,11 @@ _DESCRIPTION = {"component": "demo", "version": "1.0", "services": [], "ports": 
 class _Publisher:
     def __init__(self) -> None:
         self.sent: list[bytes] = []
+        self.published = asyncio.Event()
 
     def put(self, body: bytes) -> None:
         self.sent.append(body)
+        self.published.set()
 
 
 class _Rig:
@@ -35,6 +38,7 @@ class _Rig:
         self.proxy = proxy
         self.announced = announced
         self.replies: list[dict[str, Any]] = []
+        self.asked: list[tuple[str, dict[str, Any]]] = []
 
     def event(self, number: int, serial: int, status: str, **rest: Any) -> None:
         body = {"id": f"demo::{number}", "status": status, "serial": serial, **rest}
@@ -51,6 +55,7 @@ async def rig(monkeypatch: pytest.MonkeyPatch) -> AsyncIterator[_Rig]:
         test_rig = _Rig(proxy, announced)
 
         async def ask(session: Any, key: str, payload: Any, timeout: float) -> dict[str, Any]:
+            test_rig.asked.append((key.rsplit("/", 1)[-1], dict(payload)))
             return test_rig.replies.pop(0)
 
         monkeypatch.setattr(_proxy, "ask", ask)
@@ -98,3 +103,25 @@ async def test_a_request_cleaned_by_another_gateway_gives_way_to_the_next_under_
     rig.event(0, 3, "sent")  # another client cleaned demo::0 on the host and sent a new request
     assert first.status == "done"
     assert rig.proxy._remote[0].running and rig.proxy._remote[0] is not first
+
+
+async def test_a_clean_answered_by_the_gateway_reaches_the_host_with_its_next_query(rig: _Rig) -> None:
+    rig.replies.append({"id": "demo::0", "status": "done", "serial": 0, "output": {}})
+    await rig.proxy.send("SetSpeed", {"speedRef": 1}, session="s")
+    await rig.proxy.clean("demo::0")  # answered here: the host is not asked
+    rig.replies.append({"id": "demo::0", "status": "done", "serial": 1, "output": {}})
+    await rig.proxy.send("SetSpeed", {"speedRef": 1}, session="s")
+    # The host cleans demo::0 before it takes the send, so it gives the number out again, as genomix does.
+    assert [(operation, payload.get("cleaned")) for operation, payload in rig.asked] == [
+        ("send", None), ("send", ["0"])]
+    assert rig.proxy._cleans.sent == []  # type: ignore[attr-defined]
+
+
+async def test_a_clean_no_query_carries_is_published(rig: _Rig) -> None:
+    rig.proxy._started = True
+    rig.replies.append({"id": "demo::0", "status": "done", "serial": 0, "output": {}})
+    await rig.proxy.send("SetSpeed", {"speedRef": 1}, session="s")
+    await rig.proxy.clean("demo::0")
+    published = rig.proxy._cleans.published  # type: ignore[attr-defined]
+    await published.wait()
+    assert [orjson.loads(body) for body in rig.proxy._cleans.sent] == [{"ids": ["0"]}]  # type: ignore[attr-defined]
