@@ -245,8 +245,8 @@ def render(r: dict[str, Any]) -> str:
         f"A remote call cannot cost less than the in-process call plus that floor: "
         f"**{s['floor_ratio']:.2f}×** the in-process call, measured in the same blocks. What the remote call "
         f"costs beyond both ({ms(s['remote']['median'] - s['in_process']['median'] - s['zenoh_floor']['median'])} "
-        "ms, medians) is the proxy's and the component host's share: encoding the request, the host's task, the "
-        "events and the clean, and three processes taking turns on two cores.",
+        "ms, medians) is the proxy's and the component host's share: the request's encoding and the host's task "
+        "and reply, and three processes taking turns on two cores.",
         "",
         f"{w['readers']} `since=` readers of the remote `capture` (binary, every 100 ms) for {w['seconds']:g} s: "
         f"{', '.join(str(c) for c in w['chunks'])} chunks read, **{w['lost']} lost** ({w['verdict']}). "
