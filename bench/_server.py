@@ -104,7 +104,7 @@ async def _zenoh_floor(args: argparse.Namespace) -> None:
 
     A component host hands each query to its loop the same way: this is the floor of a remote call.
     """
-    from aiogenomix.gateway.remote._session import ZenohEndpoints, on_loop, open_session
+    from aiogenomix.gateway.remote._session import ZenohEndpoints, on_zenoh_thread, open_session
 
     loop = asyncio.get_running_loop()
     listen = f"tcp/127.0.0.1:{_free_port()}"
@@ -115,7 +115,7 @@ async def _zenoh_floor(args: argparse.Namespace) -> None:
         query.drop()  # type: ignore[no-untyped-call]
 
     queryable = session.declare_queryable(
-        "bench/floor", on_loop(lambda query: loop.call_soon_threadsafe(answer, query)))
+        "bench/floor", on_zenoh_thread(lambda query: loop.call_soon_threadsafe(answer, query)))
     print("ready", listen, flush=True)
     try:
         await asyncio.Event().wait()

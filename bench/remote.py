@@ -22,7 +22,6 @@ from collections.abc import AsyncIterator
 from typing import Any
 
 import aiohttp
-
 import zenoh
 
 from aiogenomix.clients import aconnect

@@ -15,7 +15,7 @@ import zenoh
 
 from ...components.core import Component, ComponentHost, LoadError
 from ._proxy import RemoteComponent, RemoteTimeouts, describe_remote
-from ._session import ZenohEndpoints, alive, on_loop, open_session
+from ._session import ZenohEndpoints, alive, on_zenoh_thread, open_session
 from ._wire import alive_key
 
 __all__ = ["ZenohDirectory"]
@@ -40,7 +40,7 @@ class ZenohDirectory:
         self._proxies: dict[str, RemoteComponent] = {}
         self._offered: set[str] = set()
         # With history: the tokens already declared come first, then every change.
-        self._watch = session.liveliness().declare_subscriber(alive_key("*"), on_loop(self._on_liveliness),
+        self._watch = session.liveliness().declare_subscriber(alive_key("*"), on_zenoh_thread(self._on_liveliness),
                                                               history=True)
 
     @classmethod

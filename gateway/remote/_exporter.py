@@ -21,7 +21,7 @@ import zenoh
 from ...components.core import Chunked, Component, Incremental, OutPortRuntime
 from ...components.core.runtime import ComponentError, ComputedOutPortRuntime, Request
 from .._errors import error_body
-from ._session import on_loop
+from ._session import on_zenoh_thread
 from ._wire import (
     alive_key, arrays_of, encode_message, error_reply, events_key, info_key, ok_reply, port_key, request_key,
     snapshot_key,
@@ -148,13 +148,13 @@ class ComponentExporter:
                                                  congestion_control=zenoh.CongestionControl.BLOCK,
                                                  reliability=zenoh.Reliability.RELIABLE, express=True)
         self._declared.append(self._events)
-        self._declared.append(session.declare_queryable(info_key(self.instance), on_loop(self._on_query(self._info))))
+        self._declared.append(session.declare_queryable(info_key(self.instance), on_zenoh_thread(self._on_query(self._info))))
         self._declared.append(session.declare_queryable(request_key(self.instance, "*"),
-                                                        on_loop(self._on_query(self._request))))
+                                                        on_zenoh_thread(self._on_query(self._request))))
         self._declared.append(session.declare_queryable(snapshot_key(self.instance, "*"),
-                                                        on_loop(self._on_query(self._snapshot))))
+                                                        on_zenoh_thread(self._on_query(self._snapshot))))
         self._declared.append(session.declare_subscriber(request_key(self.instance, "clean"),
-                                                         on_loop(self._on_clean)))
+                                                         on_zenoh_thread(self._on_clean)))
         self._encoders: dict[str, PortEncoder] = {}
         self._publishers: dict[str, Any] = {}
         for name, spec in type(component).ports().items():

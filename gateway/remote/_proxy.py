@@ -23,7 +23,7 @@ from ...components.core import Component, ComponentHost
 from ...components.core.runtime import NoSuchPort, NoSuchRequest, RequestRunning, RequestStatus
 from .._errors import RemoteUnreachable
 from ._mirror import MirroredOutPort
-from ._session import ask, ask_all, on_loop
+from ._session import ask, ask_all, on_zenoh_thread
 from ._wire import decode_message, events_key, info_key, port_key, request_key, snapshot_key
 
 if TYPE_CHECKING:
@@ -258,9 +258,9 @@ class RemoteComponent(Component, name="remote"):
         # a request's end never overtakes its last publication (a read after it would see older data).
         # The callbacks only hand the payload to the loop: they never hold that thread up.
         self._subscribers.append(self.session.declare_subscriber(
-            events_key(self.instance), on_loop(self._on_event)))
+            events_key(self.instance), on_zenoh_thread(self._on_event)))
         self._subscribers.append(self.session.declare_subscriber(
-            port_key(self.instance, "*"), on_loop(self._on_port)))
+            port_key(self.instance, "*"), on_zenoh_thread(self._on_port)))
         await asyncio.gather(*(self._fetch(name) for name in self._mirrors))
 
     async def _fetch(self, name: str) -> None:

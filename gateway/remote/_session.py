@@ -18,7 +18,7 @@ import zenoh
 
 from .._errors import RemoteRefusal, RemoteUnreachable, ZenohSessionError
 
-__all__ = ["ZenohEndpoints", "open_session", "on_loop", "ask", "ask_all", "alive"]
+__all__ = ["ZenohEndpoints", "open_session", "on_zenoh_thread", "ask", "ask_all", "alive"]
 
 
 @dataclasses.dataclass
@@ -77,7 +77,8 @@ def open_session(endpoints: ZenohEndpoints) -> zenoh.Session:
                                 f"--zenoh-connect and --zenoh-listen (e.g. tcp/192.168.1.10:7447)") from None
 
 
-def on_loop(callback: Callable[[Any], None], on_end: Callable[[], None] | None = None) -> zenoh.handlers.Callback[Any]:
+def on_zenoh_thread(callback: Callable[[Any], None],
+                    on_end: Callable[[], None] | None = None) -> zenoh.handlers.Callback[Any]:
     """A Zenoh handler that calls *callback* (and *on_end*) on the Zenoh thread that received the message.
 
     Zenoh's default handler runs a Python callback on a thread of its own, and a query's handler
@@ -115,7 +116,7 @@ async def ask(session: zenoh.Session, key: str, payload: Any = None, timeout: fl
     # With a callback, get() returns at once: the replies come on Zenoh's threads.  Express: sent at once,
     # not held to be batched with other messages (a request waits on it).
     # One queryable answers each key: no consolidation to wait for.
-    session.get(key, on_loop(on_reply, on_end), payload=orjson.dumps(payload), timeout=timeout,
+    session.get(key, on_zenoh_thread(on_reply, on_end), payload=orjson.dumps(payload), timeout=timeout,
                 express=True, consolidation=zenoh.ConsolidationMode.NONE)
     try:
         # Zenoh ends the query at its timeout; the margin covers a callback thread that is late.
@@ -149,7 +150,7 @@ async def ask_all(session: zenoh.Session, key: str, timeout: float = 5.0) -> lis
     def on_end() -> None:
         loop.call_soon_threadsafe(finish)
 
-    session.get(key, on_loop(on_reply, on_end), timeout=timeout)
+    session.get(key, on_zenoh_thread(on_reply, on_end), timeout=timeout)
     with contextlib.suppress(TimeoutError):
         async with asyncio.timeout(timeout + 1.0):
             await finished
@@ -174,7 +175,7 @@ async def alive(session: zenoh.Session, key: str, timeout: float = 2.0) -> list[
     def on_end() -> None:
         loop.call_soon_threadsafe(finish)
 
-    session.liveliness().get(key, on_loop(on_reply, on_end), timeout=timeout)
+    session.liveliness().get(key, on_zenoh_thread(on_reply, on_end), timeout=timeout)
     with contextlib.suppress(TimeoutError):
         async with asyncio.timeout(timeout + 1.0):
             await finished

@@ -4,12 +4,18 @@ Every instance ``M`` a host offers lives under ``aiogenomix/M/``::
 
     aiogenomix/alive/M            liveliness token: M runs (gone: its process died or was cut off)
     aiogenomix/M/info             query: the /info description (JSON)
-    aiogenomix/M/rq/send          query: {"service", "input", "session", "oneway", "origin"} -> status object
+    aiogenomix/M/rq/send          query: {"service", "input", "session", "oneway"} -> status object
     aiogenomix/M/rq/status        query: {"id"} -> status object
     aiogenomix/M/rq/abort         query: {"id"} -> status object
-    aiogenomix/M/rq/clean         query: {"id"} -> null; or a publication {"id"} for a request the gateway
-                                  knows has ended (nothing to refuse: no reply is waited for)
-    aiogenomix/M/events           publication: {"status": status object, "session", "origin"} per change
+    aiogenomix/M/rq/clean         query: {"id"} -> null
+                                  (every rq query may carry "cleaned": the ids of requests the gateway
+                                  saw end and cleaned itself, applied first; with no query to carry
+                                  them, they are a publication {"ids"} on this key)
+    aiogenomix/M/events           publication: {"status": status object, "session"} per change (none
+                                  for a request whose end the send reply carried)
+
+Every status object the host sends also has ``serial``, the request's incarnation: numbers are
+reused after a clean, and the gateway drops news of a serial it already cleaned.
     aiogenomix/M/port/P           publication: port P's data, once per publication (binary, below)
     aiogenomix/M/snapshot/P       query: port P's whole data now (same form)
 
