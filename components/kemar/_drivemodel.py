@@ -115,6 +115,10 @@ class HarmonicaModel:
         self.stuck_timeout = stuck_timeout
         #: Whether the motor shaft is blocked (an injected fault).
         self.stuck = False
+        #: The share of the commanded speed and accelerations the motor reaches (an injected fault:
+        #: a worn gearbox, a load it was not sized for); 1 is nominal.  The drive still reports the
+        #: motion as running, so only the host's own deadline notices.
+        self.drag = 1.0
         #: Frames to send, oldest first; the owner drains it.
         self.outbox: list[Frame] = []
         self._reverse_switch = reverse_switch
@@ -473,14 +477,16 @@ class HarmonicaModel:
             self._stuck_since = now if self._stuck_since is None else self._stuck_since
             return 0
         if self._um == 2 or self._motion_command == "JV":
-            trajectory = plan_jog(now, position, velocity, self._jv, self._ac, self._dc)
+            trajectory = plan_jog(now, position, velocity, self._jv * self.drag, self._ac * self.drag,
+                                  self._dc * self.drag)
             direction = math.copysign(1.0, self._jv) if self._jv else 0.0
         else:
             if self._motion_command == "PR":
                 self._pa = self._pa + self._pr
                 self._motion_command = "PA"
             target = self._pa - self._offset
-            trajectory = plan_move(now, position, velocity, target, self._sp, self._ac, self._dc)
+            trajectory = plan_move(now, position, velocity, target, self._sp * self.drag, self._ac * self.drag,
+                                   self._dc * self.drag)
             direction = math.copysign(1.0, target - position) if target != position else 0.0
         inputs = self.inputs(position)
         if (direction > 0 and inputs & INPUT_FORWARD_LIMIT) or (direction < 0 and inputs & INPUT_REVERSE_LIMIT):

@@ -237,6 +237,20 @@ class SimulatedHarmonica:
         with self._lock:
             self._model.set_stuck(stuck, self.clock.now())
 
+    def set_drag(self, share: float) -> None:
+        """Make the motor reach only *share* of the commanded speed from the next motion command on.
+
+        The drive reports the motion as running, faultless, until it arrives: a host learns of it
+        only from its own deadline.  1 is nominal.
+
+        Raises:
+            ValueError: for a share outside (0, 1].
+        """
+        if not 0.0 < share <= 1.0:
+            raise ValueError(f"the share of the commanded speed must be in (0, 1], not {share}")
+        with self._lock:
+            self._model.drag = share
+
     # ------------------------------------------------------------------ serving thread
 
     def _serve(self) -> None:

@@ -148,7 +148,8 @@ class ComponentExporter:
                                                  congestion_control=zenoh.CongestionControl.BLOCK,
                                                  reliability=zenoh.Reliability.RELIABLE, express=True)
         self._declared.append(self._events)
-        self._declared.append(session.declare_queryable(info_key(self.instance), on_zenoh_thread(self._on_query(self._info))))
+        self._declared.append(session.declare_queryable(info_key(self.instance),
+                                                        on_zenoh_thread(self._on_query(self._info))))
         self._declared.append(session.declare_queryable(request_key(self.instance, "*"),
                                                         on_zenoh_thread(self._on_query(self._request))))
         self._declared.append(session.declare_queryable(snapshot_key(self.instance, "*"),

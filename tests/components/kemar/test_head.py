@@ -9,7 +9,7 @@ import pytest
 from aiogenomix.components.core import ScaledClock
 from aiogenomix.components.kemar import (
     COUNTS_PER_DEGREE, DriveFault, DriveTimeout, HarmonicaDriver, HeadConfig, HeadState, HomingFailed,
-    InvalidCommand, KemarHead, MotorFault, NotHomed, SimulatedHarmonica,
+    InvalidCommand, KemarHead, MotionTimeout, MotorFault, NotHomed, SimulatedHarmonica,
 )
 
 COUNT = 1 / COUNTS_PER_DEGREE  # one encoder count, in degrees
@@ -170,6 +170,19 @@ async def test_stuck_motor_ends_the_move_with_a_fault(homed_head: KemarHead, sim
         await homed_head.move_absolute(40.0)
     sim.set_stuck(False)
     await homed_head.home()
+    assert (await homed_head.move_absolute(5.0)).position == pytest.approx(5.0, abs=0.1)
+
+
+async def test_a_dragging_motor_is_stopped_at_the_move_deadline(homed_head: KemarHead, sim: SimulatedHarmonica) -> None:
+    # The drive reports a normal move, only slow: the head's own deadline (twice the planned time,
+    # plus a second) must end it and stop the motor, not wait for an arrival that may never come.
+    sim.set_drag(0.1)
+    with pytest.raises(MotionTimeout, match="did not end within"):
+        await homed_head.move_absolute(40.0)
+    stopped = await homed_head.control_in_speed(0.0)  # returns once the drive says it stands
+    assert stopped.speed == 0 and 0.0 < stopped.position < 40.0
+    assert sim.head_azimuth == pytest.approx(stopped.position, abs=0.1)
+    sim.set_drag(1.0)
     assert (await homed_head.move_absolute(5.0)).position == pytest.approx(5.0, abs=0.1)
 
 
