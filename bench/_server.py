@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import socket
 import time
 from typing import TYPE_CHECKING, Annotated
 
@@ -104,10 +103,13 @@ async def _zenoh_floor(args: argparse.Namespace) -> None:
 
     A component host hands each query to its loop the same way: this is the floor of a remote call.
     """
+    # Here, not at the top: the gateway's memory is measured from this module without them.
     from aiogenomix.gateway.remote._session import ZenohEndpoints, on_zenoh_thread, open_session
 
+    from ._common import free_port
+
     loop = asyncio.get_running_loop()
-    listen = f"tcp/127.0.0.1:{_free_port()}"
+    listen = f"tcp/127.0.0.1:{free_port()}"
     session = open_session(ZenohEndpoints(listen=[listen]))
 
     def answer(query: zenoh.Query) -> None:
@@ -122,12 +124,6 @@ async def _zenoh_floor(args: argparse.Namespace) -> None:
     finally:
         queryable.undeclare()  # type: ignore[no-untyped-call]
         session.close()
-
-
-def _free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
 
 
 def main() -> None:

@@ -14,11 +14,10 @@ import contextlib
 import datetime
 import os
 import re
-import socket
 import statistics
 import sys
 import time
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
 from typing import Any
 
 import aiohttp
@@ -29,17 +28,11 @@ from aiogenomix.clients._binary import decode_binary
 from aiogenomix.gateway._errors import RemoteUnreachable
 from aiogenomix.gateway.remote._session import ZenohEndpoints, ask, open_session
 
-from ._common import ROOT, Result, cpu_seconds, summary
+from ._common import ROOT, Result, cpu_seconds, free_port, summary
 
 SERVICE_TARGET = 2.0
 READ_TARGET = 3.0
 CAPTURE = {"device": "sim", "transfer_rate": 44100, "chunk_time": 50, "Port_chunks": 80}  # 4000 ms
-
-
-def _free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
 
 
 @contextlib.asynccontextmanager
@@ -69,7 +62,7 @@ async def _drain(reader: asyncio.StreamReader) -> None:
 @contextlib.asynccontextmanager
 async def _gateways() -> AsyncIterator[tuple[str, str, int]]:
     """An in-process gateway, and a gateway fronting a component host (demo, capture); yields URLs and its pid."""
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
     gateway = ["-m", "aiogenomix.gateway", "--port", "0", "--audio-socket-port", "0", "--log-level", "warning"]
     async with (
         _process(gateway, r"listening on (http://\S+)", "stdout") as (local, _),
@@ -107,25 +100,38 @@ async def _service_blocks(urls: tuple[str, str], floor: zenoh.Session, calls: in
         for call in calls_of:
             for _ in range(calls // 5):  # warm-up
                 await call()
-        samples: tuple[list[float], list[float], list[float]] = ([], [], [])
-        ratios, bounds = [], []
-        for _ in range(blocks):
-            medians = []
-            for call, kept in zip(calls_of, samples, strict=True):
-                block = []
-                for _ in range(calls // blocks):
-                    started = time.perf_counter()
-                    await call()
-                    block.append(time.perf_counter() - started)
-                kept.extend(block)
-                medians.append(statistics.median(block))
-            ratios.append(medians[1] / medians[0])
-            bounds.append((medians[0] + medians[2]) / medians[0])
+        local_blocks, remote_blocks, floor_blocks = await _in_turns(calls_of, calls // blocks, blocks)
+    local_medians, remote_medians, floor_medians = (
+        [statistics.median(block) for block in case] for case in (local_blocks, remote_blocks, floor_blocks))
+    ratios = [r / m for r, m in zip(remote_medians, local_medians, strict=True)]
+    bounds = [(m + f) / m for m, f in zip(local_medians, floor_medians, strict=True)]
     ratio = statistics.median(ratios)
-    return {"in_process": summary(samples[0]), "remote": summary(samples[1]), "ratio": ratio,
+    return {"in_process": summary(_flat(local_blocks)), "remote": summary(_flat(remote_blocks)), "ratio": ratio,
             "spread": [min(ratios), max(ratios)], "target_ratio": SERVICE_TARGET,
             "verdict": "met" if ratio <= SERVICE_TARGET else "MISSED",
-            "zenoh_floor": summary(samples[2]), "floor_ratio": statistics.median(bounds)}
+            "zenoh_floor": summary(_flat(floor_blocks)), "floor_ratio": statistics.median(bounds)}
+
+
+async def _in_turns(calls: Sequence[Callable[[], Awaitable[Any]]], per_block: int,
+                    blocks: int) -> list[list[list[float]]]:
+    """Per call, the durations (s) of each of *blocks* blocks of *per_block* calls.
+
+    The calls take turns block by block, so that all of them see the same machine.
+    """
+    timed: list[list[list[float]]] = [[] for _ in calls]
+    for _ in range(blocks):
+        for call, kept in zip(calls, timed, strict=True):
+            block = []
+            for _ in range(per_block):
+                started = time.perf_counter()
+                await call()
+                block.append(time.perf_counter() - started)
+            kept.append(block)
+    return timed
+
+
+def _flat(blocks: list[list[float]]) -> list[float]:
+    return [t for block in blocks for t in block]
 
 
 async def _start_capture(http: aiohttp.ClientSession, url: str) -> None:
@@ -151,25 +157,20 @@ def _json(value: Any) -> str:
 async def _read_blocks(urls: tuple[str, str], reads: int, blocks: int) -> dict[str, Any]:
     async with aiohttp.ClientSession() as http:
         await asyncio.gather(*(_start_capture(http, url) for url in urls))
-        samples: tuple[list[float], list[float]] = ([], [])
-        ratios = []
         size = 0
-        for _ in range(blocks):
-            medians = []
-            for url, kept in zip(urls, samples, strict=True):
-                block = []
-                for _ in range(reads // blocks):
-                    started = time.perf_counter()
-                    async with http.get(f"{url}/module/capture/read/Port", params={"format": "binary"}) as reply:
-                        body = await reply.read()
-                    block.append(time.perf_counter() - started)
-                    size = len(body)
-                kept.extend(block)
-                medians.append(statistics.median(block))
-            ratios.append(medians[1] / medians[0])
+
+        def reader(url: str) -> Callable[[], Awaitable[None]]:
+            async def read() -> None:
+                nonlocal size
+                async with http.get(f"{url}/module/capture/read/Port", params={"format": "binary"}) as reply:
+                    size = len(await reply.read())
+            return read
+
+        local_blocks, remote_blocks = await _in_turns([reader(url) for url in urls], reads // blocks, blocks)
+    ratios = [statistics.median(r) / statistics.median(m) for r, m in zip(remote_blocks, local_blocks, strict=True)]
     ratio = statistics.median(ratios)
-    return {"bytes": size, "in_process": summary(samples[0]), "remote": summary(samples[1]), "ratio": ratio,
-            "spread": [min(ratios), max(ratios)], "target_ratio": READ_TARGET,
+    return {"bytes": size, "in_process": summary(_flat(local_blocks)), "remote": summary(_flat(remote_blocks)),
+            "ratio": ratio, "spread": [min(ratios), max(ratios)], "target_ratio": READ_TARGET,
             "verdict": "met" if ratio <= READ_TARGET else "MISSED"}
 
 

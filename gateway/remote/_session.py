@@ -11,7 +11,7 @@ import contextlib
 import dataclasses
 import json
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeVar
 
 import orjson
 import zenoh
@@ -19,6 +19,8 @@ import zenoh
 from .._errors import RemoteRefusal, RemoteUnreachable, ZenohSessionError
 
 __all__ = ["ZenohEndpoints", "open_session", "on_zenoh_thread", "ask", "ask_all", "alive"]
+
+T = TypeVar("T")
 
 
 @dataclasses.dataclass
@@ -134,39 +136,30 @@ async def ask(session: zenoh.Session, key: str, payload: Any = None, timeout: fl
 
 async def ask_all(session: zenoh.Session, key: str, timeout: float = 5.0) -> list[bytes]:
     """Every reply to the query *key* (an empty list when nobody answered within *timeout*)."""
-    loop = asyncio.get_running_loop()
-    replies: list[bytes] = []
-    finished: asyncio.Future[None] = loop.create_future()
-
-    def on_reply(reply: zenoh.Reply) -> None:
-        if reply.ok is not None:
-            body = reply.ok.payload.to_bytes()
-            loop.call_soon_threadsafe(replies.append, body)
-
-    def finish() -> None:
-        if not finished.done():
-            finished.set_result(None)
-
-    def on_end() -> None:
-        loop.call_soon_threadsafe(finish)
-
-    session.get(key, on_zenoh_thread(on_reply, on_end), timeout=timeout)
-    with contextlib.suppress(TimeoutError):
-        async with asyncio.timeout(timeout + 1.0):
-            await finished
-    return replies
+    return await _every_reply(lambda handler: session.get(key, handler, timeout=timeout),
+                              lambda sample: sample.payload.to_bytes(), timeout)
 
 
 async def alive(session: zenoh.Session, key: str, timeout: float = 2.0) -> list[str]:
     """The keys of the liveliness tokens matching *key* now."""
+    return await _every_reply(lambda handler: session.liveliness().get(key, handler, timeout=timeout),
+                              lambda sample: str(sample.key_expr), timeout)
+
+
+async def _every_reply(get: Callable[[zenoh.handlers.Callback[Any]], Any], take: Callable[[zenoh.Sample], T],
+                       timeout: float) -> list[T]:
+    """What *take* makes of each good reply to the query that *get* starts with the handler it is given.
+
+    The query ends when every replier answered or at *timeout* (Zenoh's, plus a margin for a late
+    end callback): nothing is left pending.
+    """
     loop = asyncio.get_running_loop()
-    keys: list[str] = []
+    taken: list[T] = []
     finished: asyncio.Future[None] = loop.create_future()
 
     def on_reply(reply: zenoh.Reply) -> None:
         if reply.ok is not None:
-            found = str(reply.ok.key_expr)
-            loop.call_soon_threadsafe(keys.append, found)
+            loop.call_soon_threadsafe(taken.append, take(reply.ok))
 
     def finish() -> None:
         if not finished.done():
@@ -175,8 +168,8 @@ async def alive(session: zenoh.Session, key: str, timeout: float = 2.0) -> list[
     def on_end() -> None:
         loop.call_soon_threadsafe(finish)
 
-    session.liveliness().get(key, on_zenoh_thread(on_reply, on_end), timeout=timeout)
+    get(on_zenoh_thread(on_reply, on_end))
     with contextlib.suppress(TimeoutError):
         async with asyncio.timeout(timeout + 1.0):
             await finished
-    return keys
+    return taken

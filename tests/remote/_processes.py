@@ -126,6 +126,21 @@ async def start_gateway(connect: Sequence[str] = (), *, listen: str | None = Non
     return gateway, url
 
 
+async def start_host_and_gateway(started: list[Process], names: Sequence[str], *, extra: Sequence[str] = (),
+                                 gateway_extra: Sequence[str] = ()) -> tuple[Process, str, str]:
+    """A component host running *names* on a loopback endpoint, and a gateway that finds them.
+
+    *extra* and *gateway_extra* are more options of each.  Both are added to *started*.  Returns the
+    host, the gateway's base URL and the host's endpoint.
+    """
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    host = await start_component_host(names, listen=endpoint, extra=extra)
+    started.append(host)
+    gateway, url = await start_gateway([endpoint], extra=gateway_extra)
+    started.append(gateway)
+    return host, url, endpoint
+
+
 @contextlib.asynccontextmanager
 async def processes() -> AsyncIterator[list[Process]]:
     """A list to put started processes in; every one is ended on the way out, whatever happened."""

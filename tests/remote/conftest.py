@@ -7,7 +7,7 @@ from collections.abc import AsyncIterator
 import aiohttp
 import pytest
 
-from ._processes import Process, free_port, processes, start_component_host, start_gateway
+from ._processes import Process, processes, start_host_and_gateway
 
 
 @pytest.fixture
@@ -23,11 +23,7 @@ async def demo_rig(started: list[Process]) -> AsyncIterator[tuple[str, Process, 
 
     Yields the gateway URL, the host process and its Zenoh endpoint.
     """
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    host = await start_component_host(["demo", "countserver"], listen=endpoint)
-    started.append(host)
-    gateway, url = await start_gateway([endpoint])
-    started.append(gateway)
+    host, url, endpoint = await start_host_and_gateway(started, ["demo", "countserver"])
     yield url, host, endpoint
 
 

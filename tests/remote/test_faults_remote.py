@@ -13,7 +13,7 @@ import aiohttp
 
 from tests.conftest import RawEventStream
 
-from ._processes import Process, free_port, start_component_host, start_gateway
+from ._processes import Process, free_port, start_component_host, start_gateway, start_host_and_gateway
 
 
 async def _get(http: aiohttp.ClientSession, path: str) -> tuple[int, dict]:
@@ -31,12 +31,8 @@ async def _next_event(events: RawEventStream, within: float = 30.0) -> tuple[str
 
 
 async def test_a_killed_host_ends_its_requests_once_and_a_new_one_is_found(started: list[Process]) -> None:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
     # Real time: the move lasts seconds, and is still running when the host dies.
-    host = await start_component_host(["demo"], listen=endpoint, extra=["--time-scale", "1"])
-    started.append(host)
-    gateway, url = await start_gateway([endpoint])
-    started.append(gateway)
+    host, url, endpoint = await start_host_and_gateway(started, ["demo"], extra=["--time-scale", "1"])
     async with aiohttp.ClientSession(base_url=url) as http:
         session = (await (await http.get("/session/start?s=")).text()).strip()
         events = await RawEventStream.open(url, session)
@@ -83,11 +79,7 @@ async def test_a_killed_host_ends_its_requests_once_and_a_new_one_is_found(start
 
 
 async def test_a_frozen_host_gives_clear_errors_in_bounded_time(started: list[Process]) -> None:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    host = await start_component_host(["demo"], listen=endpoint)
-    started.append(host)
-    gateway, url = await start_gateway([endpoint], extra=["--zenoh-timeout", "1"])
-    started.append(gateway)
+    host, url, _ = await start_host_and_gateway(started, ["demo"], gateway_extra=["--zenoh-timeout", "1"])
     async with aiohttp.ClientSession(base_url=url) as http:
         assert (await http.get("/load/demo")).status == 200
         host.kill(signal.SIGSTOP)  # no answer, no reset: what a cut network looks like

@@ -10,14 +10,11 @@ import pytest
 from aiogenomix.clients import aconnect
 from tests.gateway.test_kemar_over_http import homed_head_moves_and_reports_its_state
 
-from ._processes import Process, free_port, start_component_host, start_gateway
+from ._processes import Process, start_host_and_gateway
 
 
 async def test_homing_and_moves_of_a_remote_head(started: list[Process]) -> None:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    started.append(await start_component_host(["kemar"], listen=endpoint, extra=["--time-scale", "50"]))
-    gateway, url = await start_gateway([endpoint])
-    started.append(gateway)
+    _, url, _ = await start_host_and_gateway(started, ["kemar"], extra=["--time-scale", "50"])
     async with aconnect(url, timeout=30) as client:
         kemar = await client.load("kemar")
         with pytest.raises(kemar.NOT_HOMED):  # the component's own exception class, generated from /info

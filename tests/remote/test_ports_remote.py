@@ -13,7 +13,7 @@ import numpy as np
 
 from aiogenomix.clients._binary import decode_binary
 
-from ._processes import Process, free_port, start_component_host, start_gateway
+from ._processes import Process, start_host_and_gateway
 
 RATE = 44100
 CHUNK_FRAMES = RATE * 50 // 1000
@@ -36,12 +36,8 @@ async def _binary(http: aiohttp.ClientSession, path: str) -> tuple[dict, dict]:
 
 
 async def test_capture_read_since_for_seconds_loses_nothing(started: list[Process]) -> None:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
     # Real time: the capture paces 20 chunks a second, as on the rig.
-    host = await start_component_host(["capture"], listen=endpoint, extra=["--time-scale", "1"])
-    started.append(host)
-    gateway, url = await start_gateway([endpoint])
-    started.append(gateway)
+    _, url, _ = await start_host_and_gateway(started, ["capture"], extra=["--time-scale", "1"])
     async with aiohttp.ClientSession(base_url=url) as http:
         async with http.get("/load/capture") as reply:
             assert reply.status == 200
