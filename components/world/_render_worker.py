@@ -91,6 +91,10 @@ class _Sensors:
                                    slot * self._frame_bytes).reshape(self.height, self.width, 4)
 
     def render(self, qpos: Any, cameras: list[tuple[str, int]], with_laser: bool) -> Any:
+        """Draw each ``(camera, slot)`` into its shared slot at the joint positions *qpos*.
+
+        Returns the laser's ranges (float32) when *with_laser*, else None.
+        """
         mujoco, model, data = self._mujoco, self.model, self.data
         data.qpos[:] = qpos
         mujoco.mj_kinematics(model, data)
@@ -119,6 +123,7 @@ class _Sensors:
         return ranges.astype(np.float32)
 
     def close(self) -> None:
+        """Release the OpenGL context."""
         self.renderer.close()
 
 

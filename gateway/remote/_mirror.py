@@ -70,6 +70,7 @@ class _Entry:
 
     @property
     def items(self) -> int:
+        """How many items the message added (0 for padding)."""
         return 0 if self.first is None or self.last is None else self.last - self.first + 1
 
 
