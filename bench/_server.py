@@ -17,7 +17,7 @@ from aiohttp import web
 from aiogenomix.components.core import (
     Component, ComponentHost, Double, OutPort, Out, ScaledClock, Task, activity, function, idl_struct,
 )
-from aiogenomix.gateway import GatewayConfig, create_app
+from aiogenomix.gateway import GatewayConfig, serve
 
 if TYPE_CHECKING:
     import zenoh  # only the Zenoh floor loads it: the gateway's memory is measured without
@@ -52,15 +52,13 @@ class Probe(Component, name="probe"):
 
 
 async def _gateway(args: argparse.Namespace) -> None:
-    config = GatewayConfig(port=0, audio_socket_port=0, time_scale=1.0)
+    # Served as the gateway's command serves it (its HTTP layer included), with a probe component.
+    config = GatewayConfig(host="127.0.0.1", port=0, audio_socket_port=0, time_scale=1.0)
     host = ComponentHost(clock=ScaledClock(1.0), settings=config.host_settings())
     host.register("probe", Probe)
-    runner = web.AppRunner(create_app(config, host), access_log=None)
-    await runner.setup()
-    site = web.TCPSite(runner, "127.0.0.1", 0)
-    await site.start()
-    print("ready", runner.addresses[0][1], flush=True)
-    await asyncio.Event().wait()
+    async with serve(config, host) as url:
+        print("ready", url.rsplit(":", 1)[1], flush=True)
+        await asyncio.Event().wait()
 
 
 async def _bare_aiohttp(args: argparse.Namespace) -> None:

@@ -15,7 +15,10 @@ from ._access import AccessPolicy
 from ._auth import AUTH_PATH, LOGIN_PATH, TokenCheck, auth_without_token, login_without_token
 from ._config import GatewayConfig
 from ._guard import guard_middleware
-from ._keys import CONFIG, HOST, LAST_READS, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, LastReads, Shutdown, WatchFrames
+from ._keys import (
+    ACCESS, CONFIG, HOST, LAST_READS, SESSIONS, SHUTDOWN, TOKEN, UNLOADS, WATCH_FRAMES, LastReads, Shutdown,
+    WatchFrames,
+)
 from ._sessions import SessionStore
 from ._shutdown import shut_down
 from ._sse import format_event
@@ -36,13 +39,14 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
         An aiohttp application; run it with ``web.run_app`` or an ``AppRunner``.
     """
     config = config or GatewayConfig()
+    policy = AccessPolicy(config.allowed_hosts, config.allowed_origins)
+    token = TokenCheck(config.token) if config.token else None
     # One middleware for access, token and errors (their order is explained in _guard).
-    middlewares: list[Middleware] = [
-        guard_middleware(AccessPolicy(config.allowed_hosts, config.allowed_origins),
-                         TokenCheck(config.token) if config.token else None),
-    ]
+    middlewares: list[Middleware] = [guard_middleware(policy, token)]
     app = web.Application(middlewares=middlewares)
     app[CONFIG] = config
+    app[ACCESS] = policy
+    app[TOKEN] = token
     app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)
     app[SHUTDOWN] = Shutdown()
     app[WATCH_FRAMES] = WatchFrames()

@@ -44,10 +44,14 @@ class TokenCheck:
         # A fresh credential per run: a cookie never outlives the gateway that issued it.
         self._cookie = secrets.token_urlsafe(32).encode()
 
-    def _has_header(self, request: web.BaseRequest) -> bool:
+    def authorizes(self, authorization: str) -> bool:
+        """Whether the value of an ``Authorization`` header carries the token."""
         # Header bytes that are not UTF-8 arrive as surrogate escapes: compare the bytes as sent.
-        given = request.headers.get("Authorization", "").encode("utf-8", "surrogateescape")
+        given = authorization.encode("utf-8", "surrogateescape")
         return hmac.compare_digest(given, self._expected)
+
+    def _has_header(self, request: web.BaseRequest) -> bool:
+        return self.authorizes(request.headers.get("Authorization", ""))
 
     def _has_cookie(self, request: web.BaseRequest) -> bool:
         given = request.cookies.get(COOKIE, "").encode("utf-8", "surrogateescape")

@@ -17,9 +17,16 @@ answer (or after a bounded linger):
   the connection opened or after its first byte arrived,
 * 505 for an HTTP version other than 1.0 and 1.1 (HTTP/0.9 above all).
 
-This leans on aiohttp's ``RequestHandler`` internals (its message queue and
-error-handler hook): they are the one place where a refusal can be queued in
-order with the requests before it.  The tests of this behaviour pin it.
+It also answers plain port reads as soon as they are parsed (``_fast_reads``),
+when the connection is idle: nothing queued before them, nothing of an earlier
+reply still to send.
+
+This leans on aiohttp's ``RequestHandler`` internals (its message queue, the
+waiter of its task, its keep-alive fields and error-handler hook): they are the
+one place where a refusal can be queued in order with the requests before it,
+and where a request can be answered before the task wakes.  The tests of this
+behaviour pin it; with an aiohttp whose handler lacks those fields, reads take
+the routes.
 """
 
 from __future__ import annotations
@@ -33,6 +40,8 @@ from aiohttp.http_exceptions import HttpProcessingError, LineTooLong
 from aiohttp.streams import EMPTY_PAYLOAD
 from aiohttp.web_protocol import RequestHandler, _ErrInfo
 
+from ._fast_reads import FastReads
+from ._gather import direct_socket, unsent, write_gathered
 from ._keys import CONFIG
 from ._replies import SERVER_HEADER, dumps
 
@@ -47,6 +56,10 @@ LINGER = 5.0
 
 _JSON = {"Content-Type": "application/json", **SERVER_HEADER}
 _VERSIONS = (HttpVersion10, HttpVersion11)
+#: The fields of aiohttp's handler that answering a request before its task wakes touches.
+_FAST_FIELDS = ("_waiter", "_messages", "_keepalive", "_keepalive_handle", "_keepalive_timeout",
+                "_next_keepalive_close_time", "_manager")
+_FAST_SUPPORTED = all(field in getattr(RequestHandler, "__slots__", ()) for field in _FAST_FIELDS)
 
 
 class GatewayRunner(web.AppRunner):
@@ -73,26 +86,31 @@ class GatewayRunner(web.AppRunner):
         server = await super()._make_server()
         return _Server(server.request_handler, request_factory=server.request_factory,
                        handler_cancellation=server.handler_cancellation, loop=asyncio.get_running_loop(),
-                       header_timeout=self._header_timeout, **server._kwargs)
+                       header_timeout=self._header_timeout,
+                       fast_reads=FastReads(self.app) if _FAST_SUPPORTED else None, **server._kwargs)
 
 
 class _Server(web.Server):
     """aiohttp's low-level server, making :class:`_Connection` protocols."""
 
-    def __init__(self, *args: Any, header_timeout: float, **kwargs: Any) -> None:
+    def __init__(self, *args: Any, header_timeout: float, fast_reads: FastReads | None, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.header_timeout = header_timeout
+        self.fast_reads = fast_reads
 
     def __call__(self) -> RequestHandler:
-        return _Connection(self, loop=self._loop, header_timeout=self.header_timeout, **self._kwargs)
+        return _Connection(self, loop=self._loop, header_timeout=self.header_timeout, fast_reads=self.fast_reads,
+                           **self._kwargs)
 
 
 class _Connection(RequestHandler):
-    """One HTTP connection: aiohttp's handler, plus the head timeout and the refusals described above."""
+    """One HTTP connection: aiohttp's handler, plus the head timeout, the refusals and the fast reads above."""
 
-    def __init__(self, manager: web.Server, *, header_timeout: float, **kwargs: Any) -> None:
+    def __init__(self, manager: web.Server, *, header_timeout: float, fast_reads: FastReads | None,
+                 **kwargs: Any) -> None:
         super().__init__(manager, **kwargs)
         self._header_timeout = header_timeout
+        self._fast_reads = fast_reads
         self._header_timer: asyncio.TimerHandle | None = None
         # A request head is expected and not complete (from the connection's start, or its first bytes).
         self._awaiting_head = False
@@ -125,14 +143,71 @@ class _Connection(RequestHandler):
         if self._refused:
             return
         queued = len(self._messages)
-        super().data_received(data)
+        # The task of an idle connection waits for the next request.  aiohttp wakes it as soon as
+        # a request is parsed; held back here, it wakes only if a request is left to it.
+        waiter = self._waiter if self._fast_reads is not None and not queued else None
+        if waiter is not None and waiter.done():
+            waiter = None
+        if waiter is not None:
+            self._waiter = None
+        try:
+            super().data_received(data)
+        finally:
+            if waiter is not None:
+                self._waiter = waiter
         if len(self._messages) > queued:
             self._awaiting_head = False
             self._disarm_header_timer()
             self._screen(queued)
+            if waiter is not None:
+                if not self._refused:
+                    self._answer_fast_reads()
+                if self._messages and not waiter.done():
+                    waiter.set_result(None)
         elif data:
             self._awaiting_head = True
             self._arm_header_timer()
+
+    # -- fast reads ---------------------------------------------------------------------------
+
+    def _answer_fast_reads(self) -> None:
+        """Answer the queued requests that are plain port reads, in order, up to the first that is not."""
+        assert self._fast_reads is not None
+        transport = self.transport
+        while self._messages and transport is not None:
+            # Only on a socket with nothing left to send: a reply written beside the transport must
+            # not overtake an earlier one, and a client that does not read gets one reply queued at most.
+            fd = direct_socket(transport)
+            message, payload = self._messages[0]
+            if fd is None or isinstance(message, _ErrInfo) or payload is not EMPTY_PAYLOAD:
+                return
+            reply = self._fast_reads.reply(message)
+            if reply is None:
+                return
+            self._messages.popleft()
+            self._took_message()
+            written = write_gathered(fd, reply)
+            for piece in unsent(reply, written):
+                transport.write(piece)
+            self._kept_alive()
+
+    def _took_message(self) -> None:
+        """What aiohttp's task does on taking a request from the queue (as of aiohttp 3.14)."""
+        parser = getattr(self, "_parser", None)
+        if parser is not None and hasattr(parser, "message_consumed"):
+            parser.message_consumed()  # frees a slot of the parser's queue of requests
+        manager = self._manager
+        if manager is not None:
+            manager.requests_count += 1
+
+    def _kept_alive(self) -> None:
+        """What aiohttp's task does after a reply on a kept-alive connection: restart the idle timer."""
+        self._keepalive = True
+        if self._keepalive_timeout > 0:
+            close_time = self._loop.time() + self._keepalive_timeout
+            self._next_keepalive_close_time = close_time
+            if self._keepalive_handle is None:
+                self._keepalive_handle = self._loop.call_at(close_time, self._process_keepalive)
 
     # -- what the parser queued -------------------------------------------------------------
 

@@ -9,18 +9,24 @@ from typing import Any
 from aiohttp import web
 
 from ..components.core import ComponentHost, OutPortRuntime
+from ._access import AccessPolicy
+from ._auth import TokenCheck
 from ._config import GatewayConfig
 from ._pieces import PiecesPayload
 from ._sessions import SessionStore
 from ._unloads import Unloads
 
-__all__ = ["CONFIG", "HOST", "LAST_READS", "SESSIONS", "SHUTDOWN", "UNLOADS", "WATCH_FRAMES", "LastReads", "Shutdown",
-           "WatchFrames"]
+__all__ = ["ACCESS", "CONFIG", "HOST", "LAST_READS", "SESSIONS", "SHUTDOWN", "TOKEN", "UNLOADS", "WATCH_FRAMES",
+           "LastReads", "Shutdown", "WatchFrames"]
 
 CONFIG = web.AppKey("config", GatewayConfig)
 HOST = web.AppKey("host", ComponentHost)
 SESSIONS = web.AppKey("sessions", SessionStore)
 UNLOADS = web.AppKey("unloads", Unloads)
+#: Whom the gateway answers (the guard's policy, shared with the fast reads: one cache of verdicts).
+ACCESS = web.AppKey("access", AccessPolicy)
+#: The token check, None when the gateway has no token.
+TOKEN: web.AppKey[TokenCheck | None] = web.AppKey("token")
 
 
 class Shutdown:

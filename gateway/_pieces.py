@@ -89,6 +89,11 @@ class PiecesPayload(payload.Payload):
         self._nbytes = sum(len(piece) for piece in kept)
         self._size = self._nbytes
 
+    @property
+    def pieces(self) -> tuple[Buffer, ...]:
+        """The body's pieces, in order (none of them empty)."""
+        return self._pieces
+
     async def write(self, writer: AbstractStreamWriter) -> None:
         """Write every piece without waiting for the socket in between (aiohttp drains at the end)."""
         pieces = self._pieces

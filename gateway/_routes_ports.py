@@ -23,12 +23,12 @@ from aiohttp import web
 from ..components.core import Chunked, Incremental, OutPortRuntime
 from ._binary import CONTENT_TYPE, encode_binary
 from ._errors import BadQuery
-from ._keys import CONFIG, HOST, LAST_READS, SHUTDOWN, UNLOADS, WATCH_FRAMES, WatchFrames
+from ._keys import CONFIG, HOST, LAST_READS, SHUTDOWN, UNLOADS, WATCH_FRAMES, LastReads, WatchFrames
 from ._pieces import PiecesPayload, body_of, json_pieces
 from ._replies import SERVER_HEADER, dumps
 from ._sse import PING, EventStream, format_event
 
-__all__ = ["routes"]
+__all__ = ["routes", "read_body", "READ_HEADERS"]
 
 routes = web.RouteTableDef()
 
@@ -73,8 +73,9 @@ def _require_incremental(port: Any, value: Any) -> Incremental:
     return value
 
 
-_HEADERS = {binary: {"Content-Type": CONTENT_TYPE if binary else "application/json", **SERVER_HEADER}
-            for binary in (False, True)}
+#: The headers of a read's reply, binary or not.
+READ_HEADERS = {binary: {"Content-Type": CONTENT_TYPE if binary else "application/json", **SERVER_HEADER}
+                for binary in (False, True)}
 
 
 @functools.lru_cache(maxsize=256)
@@ -100,26 +101,33 @@ async def read(request: web.Request) -> web.StreamResponse:
     binary = _wants_binary(request)
     if since is not None:
         _require_incremental(port, value)
+    body = read_body(request.app[LAST_READS], name, port, value, element, since, binary)
+    return web.Response(body=body, headers=READ_HEADERS[binary])
+
+
+def read_body(last_reads: LastReads, name: str, port: Any, value: Any, element: str | None, since: int | None,
+              binary: bool) -> bytes | PiecesPayload:
+    """The body of a read of *port*, whose data is *value* (checked: *since* applies to it).
+
+    Also used by the connection's fast path (``_fast_reads``): both answer the same bytes.
+    """
     if _is_chunked(type(value)):  # type: ignore[arg-type]  # a type[Any] is hashable
         # The publication's chunks as they are: no copy of the window, and JSON texts made
         # once per chunk.  The data is immutable, so the reply holds this publication alone
         # however long it takes to write.
         key = (binary, element)
-        last_reads = request.app[LAST_READS]
         cached = last_reads.get(port) if since is None else None
         if cached is not None and cached[0] is value and cached[1] == key:
-            body = cached[2]
-        else:
-            chunked, lost = value.chunked(since)
-            body = _body(name, port, chunked, binary, {} if since is None else {"lost": lost})
-            if since is None:
-                last_reads[port] = (value, key, body)
-    else:
-        extra: dict[str, Any] = {}
-        if since is not None:
-            value, extra["lost"] = value.since(since)
-        body = _body(name, port, value, binary, extra)
-    return web.Response(body=body, headers=_HEADERS[binary])
+            return cached[2]
+        chunked, lost = value.chunked(since)
+        body = _body(name, port, chunked, binary, {} if since is None else {"lost": lost})
+        if since is None:
+            last_reads[port] = (value, key, body)
+        return body
+    extra: dict[str, Any] = {}
+    if since is not None:
+        value, extra["lost"] = value.since(since)
+    return _body(name, port, value, binary, extra)
 
 
 def _watch_frame(frames: WatchFrames, name: str, port: OutPortRuntime[Any], element: str | None, delivered: int,

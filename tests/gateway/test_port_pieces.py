@@ -197,8 +197,9 @@ async def test_a_large_reply_goes_to_the_socket_unjoined(served: tuple[Windowed,
 async def test_pipelined_reads_of_a_slow_reader_come_back_whole_and_in_order(
         served: tuple[Windowed, str], monkeypatch: pytest.MonkeyPatch) -> None:
     # A reply that starts while the one before it is still queued in the transport goes
-    # through aiohttp's writer, after it; the bytes must still be exact, in order.
-    from aiogenomix.gateway import _pieces
+    # through aiohttp's writer, after it; the bytes must still be exact, in order.  (The first
+    # is answered by the connection's fast path; the next find it still queued.)
+    from aiogenomix.gateway import _http_layer, _pieces
 
     sockets: list[int | None] = []
 
@@ -207,6 +208,7 @@ async def test_pipelined_reads_of_a_slow_reader_come_back_whole_and_in_order(
         return sockets[-1]
 
     monkeypatch.setattr(_pieces, "direct_socket", seen)
+    monkeypatch.setattr(_http_layer, "direct_socket", seen)
     component, url = served
     view = PortView(window(32, 20_000, 40, seed=4), 44100, 0.0, KemarPortData)
     component.Port.publish(view)
@@ -227,7 +229,7 @@ async def test_pipelined_reads_of_a_slow_reader_come_back_whole_and_in_order(
                               if line.lower().startswith(b"content-length")))
             body = await reader.readexactly(length)
             assert body == (expected_binary(view) if query else expected_json(view))
-        assert len(sockets) == 4 and None in sockets  # some replies found the one before still queued
+        assert sockets[0] is not None and None in sockets  # some replies found the one before still queued
     finally:
         writer.close()
         await writer.wait_closed()
