@@ -16,7 +16,7 @@ from ._auth import AUTH_PATH, LOGIN_PATH, TokenCheck, auth_without_token, login_
 from ._config import GatewayConfig
 from ._guard import guard_middleware
 from ._keys import (
-    ACCESS, CONFIG, HOST, LAST_READS, SESSIONS, SHUTDOWN, TOKEN, UNLOADS, WATCH_FRAMES, LastReads, Shutdown,
+    ACCESS, CONFIG, GUARD, HOST, LAST_READS, SESSIONS, SHUTDOWN, TOKEN, UNLOADS, WATCH_FRAMES, LastReads, Shutdown,
     WatchFrames,
 )
 from ._sessions import SessionStore
@@ -41,12 +41,15 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     config = config or GatewayConfig()
     policy = AccessPolicy(config.allowed_hosts, config.allowed_origins)
     token = TokenCheck(config.token) if config.token else None
-    # One middleware for access, token and errors (their order is explained in _guard).
-    middlewares: list[Middleware] = [guard_middleware(policy, token)]
+    # One middleware for access, token and errors (their order is explained in _guard); the
+    # gateway's own runner calls it before the routes instead (_http_layer), which costs less.
+    guard = guard_middleware(policy, token)
+    middlewares: list[Middleware] = [guard]
     app = web.Application(middlewares=middlewares)
     app[CONFIG] = config
     app[ACCESS] = policy
     app[TOKEN] = token
+    app[GUARD] = guard
     app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)
     app[SHUTDOWN] = Shutdown()
     app[WATCH_FRAMES] = WatchFrames()

@@ -7,6 +7,7 @@ import weakref
 from typing import Any
 
 from aiohttp import web
+from aiohttp.typedefs import Middleware
 
 from ..components.core import ComponentHost, OutPortRuntime
 from ._access import AccessPolicy
@@ -16,8 +17,8 @@ from ._pieces import PiecesPayload
 from ._sessions import SessionStore
 from ._unloads import Unloads
 
-__all__ = ["ACCESS", "CONFIG", "HOST", "LAST_READS", "SESSIONS", "SHUTDOWN", "TOKEN", "UNLOADS", "WATCH_FRAMES",
-           "LastReads", "Shutdown", "WatchFrames"]
+__all__ = ["ACCESS", "CONFIG", "GUARD", "HOST", "LAST_READS", "SESSIONS", "SHUTDOWN", "TOKEN", "UNLOADS",
+           "WATCH_FRAMES", "LastReads", "Shutdown", "WatchFrames"]
 
 CONFIG = web.AppKey("config", GatewayConfig)
 HOST = web.AppKey("host", ComponentHost)
@@ -27,6 +28,8 @@ UNLOADS = web.AppKey("unloads", Unloads)
 ACCESS = web.AppKey("access", AccessPolicy)
 #: The token check, None when the gateway has no token.
 TOKEN: web.AppKey[TokenCheck | None] = web.AppKey("token")
+#: The guard middleware (access, token, errors), which the gateway's runner puts in front of the routes.
+GUARD: web.AppKey[Middleware] = web.AppKey("guard")
 
 
 class Shutdown:
