@@ -63,6 +63,11 @@ class FastReads:
         #: How many reads were answered here (the rest went to the routes).
         self.answered = 0
 
+    @staticmethod
+    def may_answer(data: bytes) -> bool:
+        """Whether the bytes just received may hold a request this answers (a cheap look, before parsing)."""
+        return data.startswith(b"GET /module/") and b"/read/" in data
+
     def reply(self, message: Any) -> list[Buffer] | None:
         """The whole reply to the parsed request *message* (head first), or None to leave it to the routes."""
         if (message.method != "GET" or message.version != HttpVersion11 or message.should_close

@@ -159,12 +159,14 @@ class _Connection(RequestHandler):
         if self._refused:
             return
         queued = len(self._messages)
-        # The task of an idle connection waits for the next request.  aiohttp wakes it as soon as
-        # a request is parsed; held back here, it wakes only if a request is left to it.
-        waiter = self._waiter if self._fast_reads is not None and not queued else None
-        if waiter is not None and waiter.done():
+        # The task of an idle connection waits for the next request, and aiohttp wakes it as soon
+        # as a request is parsed.  For what may be a port read, it is held back here, and woken
+        # only if a request is left to it.
+        waiter = self._waiter
+        if (waiter is None or waiter.done() or queued or self._fast_reads is None
+                or not self._fast_reads.may_answer(data)):
             waiter = None
-        if waiter is not None:
+        else:
             self._waiter = None
         try:
             super().data_received(data)
@@ -191,14 +193,14 @@ class _Connection(RequestHandler):
         assert self._fast_reads is not None
         transport = self.transport
         while self._messages and transport is not None:
+            message, payload = self._messages[0]
+            if isinstance(message, _ErrInfo) or payload is not EMPTY_PAYLOAD:
+                return
             # Only on a socket with nothing left to send: a reply written beside the transport must
             # not overtake an earlier one, and a client that does not read gets one reply queued at most.
             fd = direct_socket(transport)
-            message, payload = self._messages[0]
-            if fd is None or isinstance(message, _ErrInfo) or payload is not EMPTY_PAYLOAD:
-                return
-            reply = self._fast_reads.reply(message)
-            if reply is None:
+            reply = self._fast_reads.reply(message) if fd is not None else None
+            if fd is None or reply is None:
                 return
             self._messages.popleft()
             self._took_message()
