@@ -16,9 +16,9 @@ from ._auth import AUTH_PATH, LOGIN_PATH, TokenCheck, auth_without_token, login_
 from ._config import GatewayConfig
 from ._guard import guard_middleware
 from ._keys import (
-    ACCESS, CONFIG, GUARD, HOST, LAST_READS, SESSIONS, SHUTDOWN, TOKEN, UNLOADS, WATCH_FRAMES, LastReads, Shutdown,
-    WatchFrames,
+    ACCESS, CONFIG, GUARD, HOST, READ_BODIES, SESSIONS, SHUTDOWN, TOKEN, UNLOADS, WATCH_FRAMES, Shutdown, WatchFrames,
 )
+from ._read_bodies import ReadBodies
 from ._sessions import SessionStore
 from ._shutdown import shut_down
 from ._sse import format_event
@@ -53,11 +53,12 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)
     app[SHUTDOWN] = Shutdown()
     app[WATCH_FRAMES] = WatchFrames()
-    app[LAST_READS] = LastReads()
     owns_host = host is None
     app[HOST] = host or ComponentHost(clock=ScaledClock(config.time_scale), settings=config.host_settings(),
                                       function_grace=config.function_grace, max_instances=config.max_instances)
     app[UNLOADS] = Unloads(app[HOST])
+    shutdown = app[SHUTDOWN]
+    app[READ_BODIES] = ReadBodies(app[UNLOADS], lambda: shutdown.future)
     app.add_routes(_routes_sessions.routes)
     app.add_routes(_routes_admin.routes)
     app.add_routes(_routes_modules.routes)

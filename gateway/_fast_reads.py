@@ -15,7 +15,7 @@ alive, without a body, of an out port of a loaded instance, with at most
 ``format`` and ``since`` as parameters, from a program (no ``Origin``, no
 cross-site marks), of a name the access policy accepts, with the token in its
 ``Authorization`` header when the gateway has one.  The body is the route's own
-(:func:`~._routes_ports.read_body`, with the same cache of the last reply) and
+(:func:`~._routes_ports.read_body`, with the same bodies kept per publication) and
 the head is the one aiohttp writes for it.  Every other request, including
 every one the routes would refuse or answer with an error, goes the usual way:
 refusals and errors are the routes' alone.
@@ -32,7 +32,7 @@ from aiohttp import HttpVersion11, web
 from ..components.core import Incremental, OutPortRuntime
 from ._binary import CONTENT_TYPE
 from ._gather import Buffer
-from ._keys import ACCESS, HOST, LAST_READS, TOKEN
+from ._keys import ACCESS, HOST, READ_BODIES, TOKEN
 from ._pieces import PiecesPayload
 from ._routes_ports import READ_HEADERS, read_body
 
@@ -56,7 +56,7 @@ class FastReads:
         self._host = app[HOST]
         self._policy = app[ACCESS]
         self._token = app[TOKEN]
-        self._last_reads = app[LAST_READS]
+        self._bodies = app[READ_BODIES]
         self._heads = {binary: _head_start(READ_HEADERS[binary]) for binary in (False, True)}
         self._date_second = -1
         self._date = b""
@@ -107,7 +107,7 @@ class FastReads:
         value = port.read()
         if since is not None and not isinstance(value, Incremental):
             return None
-        body = read_body(self._last_reads, parts[4], port, value, None, since, binary)
+        body = read_body(self._bodies, parts[4], port, value, None, since, binary)
         pieces = body.pieces if isinstance(body, PiecesPayload) else (body,)
         head = self._heads[binary] + b"Content-Length: %d\r\nDate: %s\r\n\r\n" % (
             sum(len(piece) for piece in pieces), self._date_now())

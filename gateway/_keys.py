@@ -13,12 +13,12 @@ from ..components.core import ComponentHost, OutPortRuntime
 from ._access import AccessPolicy
 from ._auth import TokenCheck
 from ._config import GatewayConfig
-from ._pieces import PiecesPayload
+from ._read_bodies import ReadBodies
 from ._sessions import SessionStore
 from ._unloads import Unloads
 
-__all__ = ["ACCESS", "CONFIG", "GUARD", "HOST", "LAST_READS", "SESSIONS", "SHUTDOWN", "TOKEN", "UNLOADS",
-           "WATCH_FRAMES", "LastReads", "Shutdown", "WatchFrames"]
+__all__ = ["ACCESS", "CONFIG", "GUARD", "HOST", "READ_BODIES", "SESSIONS", "SHUTDOWN", "TOKEN", "UNLOADS",
+           "WATCH_FRAMES", "Shutdown", "WatchFrames"]
 
 CONFIG = web.AppKey("config", GatewayConfig)
 HOST = web.AppKey("host", ComponentHost)
@@ -69,13 +69,5 @@ class WatchFrames(weakref.WeakKeyDictionary[OutPortRuntime[Any], tuple[tuple[Any
 WATCH_FRAMES = web.AppKey("watch_frames", WatchFrames)
 
 
-class LastReads(weakref.WeakKeyDictionary[OutPortRuntime[Any],
-                                          tuple[Any, tuple[bool, str | None], "bytes | PiecesPayload"]]):
-    """The last whole-port reply body of each chunked port, with the publication and the read's form.
-
-    Readers of the same publication share one body (a 20 Hz audio port read by several
-    clients, or polled faster than it turns over).  Held by the app, as :class:`WatchFrames`.
-    """
-
-
-LAST_READS = web.AppKey("last_reads", LastReads)
+#: The bodies of whole reads of chunked ports, made once per publication and form.
+READ_BODIES = web.AppKey("read_bodies", ReadBodies)

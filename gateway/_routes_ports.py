@@ -23,8 +23,9 @@ from aiohttp import web
 from ..components.core import Chunked, Incremental, OutPortRuntime
 from ._binary import CONTENT_TYPE, encode_binary
 from ._errors import BadQuery
-from ._keys import CONFIG, HOST, LAST_READS, SHUTDOWN, UNLOADS, WATCH_FRAMES, LastReads, WatchFrames
+from ._keys import CONFIG, HOST, READ_BODIES, SHUTDOWN, UNLOADS, WATCH_FRAMES, WatchFrames
 from ._pieces import PiecesPayload, body_of, json_pieces
+from ._read_bodies import ReadBodies
 from ._replies import SERVER_HEADER, dumps
 from ._sse import PING, EventStream, format_event
 
@@ -101,11 +102,11 @@ async def read(request: web.Request) -> web.StreamResponse:
     binary = _wants_binary(request)
     if since is not None:
         _require_incremental(port, value)
-    body = read_body(request.app[LAST_READS], name, port, value, element, since, binary)
+    body = read_body(request.app[READ_BODIES], name, port, value, element, since, binary)
     return web.Response(body=body, headers=READ_HEADERS[binary])
 
 
-def read_body(last_reads: LastReads, name: str, port: Any, value: Any, element: str | None, since: int | None,
+def read_body(bodies: ReadBodies, name: str, port: Any, value: Any, element: str | None, since: int | None,
               binary: bool) -> bytes | PiecesPayload:
     """The body of a read of *port*, whose data is *value* (checked: *since* applies to it).
 
@@ -115,15 +116,11 @@ def read_body(last_reads: LastReads, name: str, port: Any, value: Any, element: 
         # The publication's chunks as they are: no copy of the window, and JSON texts made
         # once per chunk.  The data is immutable, so the reply holds this publication alone
         # however long it takes to write.
-        key = (binary, element)
-        cached = last_reads.get(port) if since is None else None
-        if cached is not None and cached[0] is value and cached[1] == key:
-            return cached[2]
-        chunked, lost = value.chunked(since)
-        body = _body(name, port, chunked, binary, {} if since is None else {"lost": lost})
         if since is None:
-            last_reads[port] = (value, key, body)
-        return body
+            return bodies.body(port, value, (binary, element),
+                               lambda whole: _body(name, port, whole.chunked(None)[0], binary, {}))
+        chunked, lost = value.chunked(since)
+        return _body(name, port, chunked, binary, {"lost": lost})
     extra: dict[str, Any] = {}
     if since is not None:
         value, extra["lost"] = value.since(since)
