@@ -7,8 +7,8 @@ from collections.abc import Callable
 import numpy as np
 
 from ._line_server import LineServer
-from ._socket_wire import encode_reply, parse_request
-from ._window import ChunkWindow, WindowRead
+from ._socket_wire import encode_reply, encode_state_reply, parse_request
+from ._window import ChunkWindow, WindowRead, WindowState
 
 __all__ = ["DedicatedSocketServer", "DEFAULT_PORT"]
 
@@ -44,13 +44,25 @@ class DedicatedSocketServer(LineServer):
         super().__init__(lambda: _ChunkConversation(self), host=host, port=port, token=token)
         self._window = window
         self.with_positions = with_positions
+        # The last reply made, with the window state and chunk count it carries: readers of one
+        # publication (several clients, or one polling faster than the chunks come) share it.
+        self._last: tuple[WindowState, int, bytearray] | None = None
 
     def reply_to(self, index: int) -> bytearray:
-        """The reply to a request for the chunks after *index*, in a buffer of its own.
+        """The reply to a request for the chunks after *index*, in a buffer nothing writes afterwards.
 
         The transport may hold the reply while the client drains it, long after
-        the window has moved on: it must share no memory with anything that changes.
+        the window has moved on: it shares no memory with the window, and is
+        never changed once made (so the readers of one publication share it).
         """
         window = self._window()
-        chunks = window.since(index) if window is not None else _NO_CHUNKS
-        return encode_reply(chunks, with_positions=self.with_positions)
+        if window is None:
+            return encode_reply(_NO_CHUNKS, with_positions=self.with_positions)
+        state = window.state
+        count, _ = state.count_since(index)
+        last = self._last
+        if last is not None and last[0] is state and last[1] == count:
+            return last[2]
+        reply = encode_state_reply(state, index, with_positions=self.with_positions)
+        self._last = (state, count, reply)
+        return reply

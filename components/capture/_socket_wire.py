@@ -23,11 +23,11 @@ import numpy as np
 
 from ._errors import RequestError
 from ._line_server import ERROR_PREFIX, MAX_REQUEST_LINE, encode_error, split_lines
-from ._window import WindowRead
+from ._window import WindowRead, WindowState
 
 __all__ = [
     "REQUEST_PREFIX", "MAX_REQUEST_LINE", "ERROR_PREFIX", "RequestParser", "parse_request", "encode_request",
-    "encode_reply", "encode_error", "reply_size",
+    "encode_reply", "encode_state_reply", "encode_error", "reply_size",
 ]
 
 REQUEST_PREFIX = "Read Port - Index "
@@ -103,4 +103,32 @@ def encode_reply(chunks: WindowRead, *, with_positions: bool = False) -> bytearr
     words[1 + 2 * samples] = chunks.last_index
     if with_positions:
         words[2 + 2 * samples:].view("<f4")[:] = chunks.positions
+    return reply
+
+
+def encode_state_reply(state: WindowState, index: int, *, with_positions: bool = False) -> bytearray:
+    """The reply carrying the chunks of *state* after *index*, copied once from the chunks into a buffer of its own.
+
+    The same bytes as :func:`encode_reply` of ``state.since(index)``, without the
+    window's arrays in between.
+
+    Raises:
+        ValueError: when positions are asked for but the window keeps none.
+    """
+    if with_positions and state.positions is None:
+        raise ValueError("the reply needs positions but the window keeps none")
+    left, right, _ = state.chunks_since(index)
+    count, fpc = len(left), len(state.left[0])
+    reply = bytearray(reply_size(count, fpc, with_positions=with_positions))
+    words = np.frombuffer(reply, dtype="<i4")
+    words[0] = count
+    samples = count * fpc
+    for channel, start in ((left, 1), (right, 1 + samples)):
+        for number, chunk in enumerate(channel):
+            words[start + number * fpc:start + (number + 1) * fpc] = chunk.array
+    words[1 + 2 * samples] = state.last_index
+    if with_positions:
+        positions = state.positions_since(index)
+        assert positions is not None
+        words[2 + 2 * samples:].view("<f4")[:] = positions
     return reply

@@ -8,6 +8,7 @@ import pytest
 from aiogenomix.components.capture import (
     ChunkWindow, RequestError, RequestParser, encode_error, encode_reply, encode_request, parse_request, reply_size,
 )
+from aiogenomix.components.capture._socket_wire import encode_state_reply
 
 FPC = 2205  # 50 ms at 44.1 kHz
 
@@ -21,6 +22,19 @@ def test_table_6_3_byte_counts(chunks: int, size: int) -> None:
     assert len(reply) == size == reply_size(chunks, FPC, with_positions=True)
     # Table 6.3's sample count: chunks * (2 * 2205 + 1) + 2 four-byte values.
     assert len(reply) // 4 == chunks * (2 * FPC + 1) + 2
+
+
+@pytest.mark.parametrize("positions", [True, False])
+@pytest.mark.parametrize("index", [0, 1, 3, 5, 6, 7, 100])
+def test_a_reply_made_from_the_chunks_is_the_reply_of_the_window_read(positions: bool, index: int) -> None:
+    window = ChunkWindow(4, 5, with_positions=positions)
+    for i in range(1, 7):
+        window.append(np.arange(5) + 10 * i, -np.arange(5) - 10 * i, position=i * 1.5 if positions else None)
+    expected = encode_reply(window.since(index), with_positions=positions)
+    assert encode_state_reply(window.state, index, with_positions=positions) == expected
+    if not positions:
+        with pytest.raises(ValueError, match="positions"):
+            encode_state_reply(window.state, index, with_positions=True)
 
 
 def test_reply_layout() -> None:
