@@ -110,7 +110,7 @@ def access_refusal(policy: AccessPolicy, request: web.BaseRequest) -> tuple[web.
     origin = headers.get("Origin")
     if origin is None:
         # A program (no Origin), or a browser request it may not have made from another site.
-        if request.path not in _NAVIGABLE and headers.get("Sec-Fetch-Site", "") in ("cross-site", "same-site"):
+        if headers.get("Sec-Fetch-Site", "") in ("cross-site", "same-site") and request.path not in _NAVIGABLE:
             return _forbidden("a request from another web site may not use this gateway"), None
         return None, None
     if origin != f"{request.scheme}://{request.host}":

@@ -35,6 +35,7 @@ the routes.
 from __future__ import annotations
 
 import asyncio
+import functools
 import logging
 from typing import Any
 
@@ -94,12 +95,8 @@ class GatewayRunner(web.AppRunner):
         server = await super()._make_server()
         handler = server.request_handler
         if self._guard is not None:
-            guard, routes = self._guard, handler
-
-            async def guarded(request: web.BaseRequest) -> web.StreamResponse:
-                return await guard(request, routes)  # type: ignore[arg-type]  # a web.Request, in fact
-
-            handler = guarded
+            # The guard, handed the routes as the handler it guards (no frame of our own in between).
+            handler = functools.partial(self._guard, handler=handler)
         return _Server(handler, request_factory=server.request_factory,
                        handler_cancellation=server.handler_cancellation, loop=asyncio.get_running_loop(),
                        header_timeout=self._header_timeout,
