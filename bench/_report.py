@@ -48,6 +48,7 @@ def _analysis(results: dict[str, Any]) -> str:
            f"{load['bare_cpu_us_per_request']:.0f} µs for bare aiohttp (ratio "
            f"{load['bare_cpu_us_per_request'] / load['gateway_cpu_us_per_request']:.2f})"
            if "gateway_cpu_us_per_request" in load else "its CPU per request (run `--only load`)")
+    runtime = f"{load['runtime_send_us']:.0f} µs" if "runtime_send_us" in load else "a few µs"
     f = functools.partial(_figure, results)
     lines = ["## Where the time goes (profiles behind the figures above)", ""]
     if "profile" in results:
@@ -57,32 +58,48 @@ def _analysis(results: dict[str, Any]) -> str:
         "JSON text once made, its size and its bytes (`components/core/_chunked.py`); a publication holds "
         "references to its chunks. A read encodes the small struct with orjson, leaving a mark where each sample "
         "array goes, and splices in the chunks' texts (`gateway/_pieces.py`); the binary form lists the chunks' "
-        "memory. Nothing is joined: when the connection has nothing queued, the HTTP head and every piece go to "
-        "the socket in one `writev` (`gateway/_gather.py`), and what the socket does not take goes to the "
-        "transport. The last whole-port body of each port is kept, so readers of one publication share it. The "
-        "bytes are those orjson gives for the joined arrays (`tests/gateway/test_port_pieces.py`), and a window "
-        "that turns over during a reply does not tear it.",
-        "* **A read of a new publication** (the profile above): the request in aiohttp "
-        f"({f('aiohttp: handle a request (all below, and the reply)')} per request under the profiler, all "
-        f"requests together), of which the middlewares, route and handler {f('middlewares, route and handler')}; "
-        f"the read handler {f('the read handler')}: the publication's struct "
+        "memory. Nothing is joined: the HTTP head and every piece go to the socket in one `writev` "
+        "(`gateway/_gather.py`), and what the socket does not take goes to the transport. A body is kept per "
+        "publication and form, so readers of one publication share it, and for each form read during a "
+        "publication the next publication's body is made as soon as it is published (`gateway/_read_bodies.py`): "
+        "a client polling at the port's rate finds it ready. A plain read (a `GET /module/M/read/P` with at most "
+        "`format` and `since`, from a program, authorized) is answered by the connection as soon as it is parsed "
+        "(`gateway/_fast_reads.py`), without aiohttp's request task, routing, middleware and response object: "
+        "timestamps in the gateway put those at about 130 µs of the 200 µs that passed between a 500 ms read's "
+        "bytes and its reply's first byte. Every other request, and every read the routes would refuse or answer "
+        "with an error, takes the routes. The bytes are those orjson gives for the joined arrays, and those the "
+        "route gives (`tests/gateway/test_port_pieces.py`, `test_fast_reads.py`); a window that turns over during "
+        "a reply does not tear it.",
+        "* **A read of a new publication** (the profile above): a request's bytes received "
+        f"{f('a request' + chr(39) + 's bytes received (parsed, and a plain read answered)')} per request under "
+        f"the profiler, of which aiohttp's parser {f('aiohttp: parse the request head')}, the plain read "
+        f"{f('a plain read answered at the connection (all below but the write)')} (its body, found ready, "
+        f"{f('the read' + chr(39) + 's body (made ahead for a polled form: found ready)')}) and the `writev` "
+        f"{f('the gathered write (writev: the kernel' + chr(39) + 's copy)')}: the kernel's copy of the bytes, "
+        "what the floor pays too. Each body made ahead took "
+        f"{f('a body made ahead, when the publication came')} when its publication came: the struct "
         f"{f('the publication' + chr(39) + 's struct with chunked arrays')}, a JSON body "
         f"{f('build a JSON body (splice the chunks' + chr(39) + ' texts)')} (a new chunk's text is made once, by "
-        f"its first reader), a binary one {f('build a binary body (list the chunks' + chr(39) + ' memory)')}; then "
-        f"the write {f('write a large body')}, of which the `writev` "
-        f"{f('the gathered write (writev: the kernel' + chr(39) + 's copy)')}: the kernel's copy of the bytes, "
-        f"what the floor pays too. `/version` takes {f('the /version handler')} in its handler: the rest of a "
-        f"request is aiohttp's fixed cost. Each fresh read also pays waking both processes after a pause: "
+        f"its first reader), a binary one {f('build a binary body (list the chunks' + chr(39) + ' memory)')}. "
+        "For comparison, `/version` through aiohttp's routes: "
+        f"{f('aiohttp: handle a request through the routes (/version)')} per request, of which its handler "
+        f"{f('the /version handler')}. Each fresh read also pays waking both processes after a pause: "
         f"{_wake(results)}.",
-        "* **Small windows (500 and 1000 ms).** The floor moves 0.18–0.87 MB in a few tenths of a millisecond; "
-        "the request's fixed cost in aiohttp (parsing, routing, middlewares, response head) is of the same size, "
-        "so their ratio is that fixed cost over the floor, and it moves from block to block with the machine's "
-        "load (see the spreads). The dedicated socket, which has no HTTP layer, stays near its floor.",
-        f"* **Load (50 clients).** The gateway spends {cpu}. Both servers spend most of a request in aiohttp; "
-        "the gateway adds its middlewares (access checks, now one dictionary look-up for a Host seen before; "
-        "error translation), the component runtime's request (input decoding, request creation and end, the "
-        "status object) and its reply. The throughput ratio also depends on how the two cores are shared with "
-        "wrk and the rest of the machine: the CPU ratio is the steadier figure.",
+        "* **Small windows (500 and 1000 ms).** The floor moves 0.18–0.87 MB in a few tenths of a millisecond, so "
+        "any fixed cost of a request shows in their ratios. A plain HTTP read now costs little beyond parsing its "
+        "request and the write; the ratios move from block to block with the machine's load (see the spreads).",
+        "* **The dedicated socket (2014).** Its reply is copied once from the window's chunks into a buffer of its "
+        "own (Python 3.11's transport would copy the part a socket does not take anyway, and since 3.12 a "
+        "transport keeps the buffer it is handed), and readers of one publication share it; a request line goes "
+        "through a Python line parser. The floor writes a ready buffer: the copy of a new publication and the "
+        "parser are the difference, and the ratio moves most with the machine's load.",
+        f"* **Load (50 clients).** The gateway spends {cpu}. Both servers spend most of a request in aiohttp "
+        "(on Python 3.11 it also starts a task per request, which both pay). The gateway's runner calls its guard "
+        "(access checks, one dictionary look-up for a Host seen before; the token; error translation) in front "
+        f"of the routes rather than as middleware, and adds the component runtime's request ({runtime} a `send` "
+        "of `GetSpeed` in the runtime alone, measured in the benchmark's own process), the route's query and its "
+        "reply. The throughput ratio also depends on how the two cores are shared with wrk and the rest of the "
+        "machine: the CPU ratio is the steadier figure.",
         "* **Memory.** At start the gateway imports only what serving needs (components are imported when first "
         "loaded); the figure with every component loaded is dominated by the simulators (MuJoCo for `world`, "
         "`pr2` and `morse_kemar`). A session costs about a kilobyte and sessions are bounded (`--max-sessions`); "
@@ -242,7 +259,7 @@ def _load(r: dict[str, Any]) -> str:
         "| server | requests/s (median of rounds) |", "|---|---|",
         f"| aiogenomix gateway | {r['gateway_requests_per_s']:.0f} |",
         f"| bare aiohttp | {r['bare_requests_per_s']:.0f} |", "",
-        f"Ratio {r['ratio']:.2f}, median of alternating rounds (rounds: {', '.join(f'{x:.2f}' for x in r['ratios'])}; "
+        f"Ratio {r['ratio']:.3f}, median of alternating rounds (rounds: {', '.join(f'{x:.2f}' for x in r['ratios'])}; "
         f"spread {min(r['ratios']):.2f}–{max(r['ratios']):.2f}; target ≥ "
         f"{r['target_ratio']}), {r['errors']} errors in {r['gateway_requests']} requests: **{r['verdict']}**.",
         *([] if "gateway_cpu_us_per_request" not in r else [

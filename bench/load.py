@@ -11,8 +11,11 @@ import asyncio
 import re
 import shutil
 import statistics
+import time
 
 import aiohttp
+
+from aiogenomix.components.core import ComponentHost, ScaledClock
 
 from ._common import Result, cpu_seconds, server
 
@@ -61,5 +64,18 @@ async def run(seconds: float = 30.0, rounds: int = 5) -> Result:
         "errors": errors, "ratios": ratios, "ratio": ratio, "target_ratio": TARGET,
         "gateway_cpu_us_per_request": statistics.median(r["cpu_us_per_request"] for r in gateway_runs),
         "bare_cpu_us_per_request": statistics.median(r["cpu_us_per_request"] for r in bare_runs),
+        "runtime_send_us": await _runtime_send_us(),
         "verdict": "met" if ratio >= TARGET and errors == 0 else "MISSED",
     }
+
+
+async def _runtime_send_us(sends: int = 20000) -> float:
+    """What the component runtime alone spends on one ``send`` of ``demo.GetSpeed`` (µs; no HTTP, in this process)."""
+    async with ComponentHost(clock=ScaledClock(1.0)) as host:
+        demo = await host.load("demo")
+        for _ in range(sends // 10):  # warm-up
+            await demo.send("GetSpeed")
+        started = time.perf_counter()
+        for _ in range(sends):
+            await demo.send("GetSpeed")
+        return 1e6 * (time.perf_counter() - started) / sends

@@ -3,8 +3,8 @@
 The benchmark gateway runs with ``--profile`` (cProfile, stats written when it
 is stopped) while a raw reader reads ``kemarcapture``'s 4000 ms window, each
 read one chunk period after the last (so each read is of a publication nobody
-has read: the reply is built for it), in JSON and in binary, then asks
-``/version`` as many times (a request with nothing to build).  The figures are
+has read yet), in JSON and in binary, then asks ``/version`` as many times (a
+request through aiohttp's routes, with nothing to build).  The figures are
 per call of the gateway's functions, in ms.  cProfile slows Python code about
 twofold and C calls (the kernel copy, orjson) not at all: the Python figures
 are upper bounds, and what matters is their share.
@@ -26,16 +26,18 @@ from .port_read import CHUNK_MS, MODULE, WINDOWS, _http_get, _start_window
 
 #: (label, file name ending, function name): the functions whose time per call is reported.
 FUNCTIONS = [
+    ("a request's bytes received (parsed, and a plain read answered)", "gateway/_http_layer.py", "data_received"),
     ("aiohttp: parse the request head", "web_protocol.py", "data_received"),
-    ("aiohttp: handle a request (all below, and the reply)", "web_protocol.py", "_handle_request"),
-    ("middlewares, route and handler", "gateway/_access.py", "check_access"),
-    ("the read handler", "gateway/_routes_ports.py", "read"),
+    ("a plain read answered at the connection (all below but the write)", "gateway/_fast_reads.py", "reply"),
+    ("the read's body (made ahead for a polled form: found ready)", "gateway/_routes_ports.py", "read_body"),
+    ("a body made ahead, when the publication came", "gateway/_read_bodies.py", "_make_ahead"),
     ("the publication's struct with chunked arrays", "capture/_port_view.py", "chunked"),
     ("build a JSON body (splice the chunks' texts)", "gateway/_pieces.py", "json_pieces"),
     ("a new chunk's JSON text (orjson)", "core/_chunked.py", "json"),
     ("build a binary body (list the chunks' memory)", "gateway/_binary.py", "encode_binary"),
-    ("write a large body", "gateway/_pieces.py", "write"),
     ("the gathered write (writev: the kernel's copy)", "gateway/_gather.py", "write_gathered"),
+    ("aiohttp: handle a request through the routes (/version)", "web_protocol.py", "_handle_request"),
+    ("the guard, route and handler", "gateway/_guard.py", "guard"),
     ("the /version handler", "gateway/_routes_admin.py", "version"),
 ]
 
