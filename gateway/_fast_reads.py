@@ -60,8 +60,6 @@ class FastReads:
         self._heads = {binary: _head_start(READ_HEADERS[binary]) for binary in (False, True)}
         self._date_second = -1
         self._date = b""
-        #: How many reads were answered here (the rest went to the routes).
-        self.answered = 0
 
     @staticmethod
     def may_answer(data: bytes) -> bool:
@@ -99,22 +97,27 @@ class FastReads:
                 return None
             since = int(since_text)
         try:
-            port = self._host.get(parts[2]).port(parts[4])
-        except Exception:  # no such instance or port: the routes answer the error
+            body = self._body(parts[2], parts[4], since, binary)
+        except Exception:  # noqa: BLE001  # no such instance or port, or a read that fails: the routes answer it
             return None
+        if body is None:
+            return None
+        pieces = body.pieces if isinstance(body, PiecesPayload) else (body,)
+        head = self._heads[binary] + b"Content-Length: %d\r\nDate: %s\r\n\r\n" % (
+            sum(len(piece) for piece in pieces), self._date_now())
+        if isinstance(body, bytes):
+            return [head + body]  # small: one buffer, one write
+        return [head, *pieces]
+
+    def _body(self, instance: str, name: str, since: int | None, binary: bool) -> bytes | PiecesPayload | None:
+        """The body of the read of port *name* of *instance*, or None for a port the routes answer."""
+        port = self._host.get(instance).port(name)
         if not isinstance(port, OutPortRuntime) or port.spec.multiple:
             return None
         value = port.read()
         if since is not None and not isinstance(value, Incremental):
             return None
-        body = read_body(self._bodies, parts[4], port, value, None, since, binary)
-        pieces = body.pieces if isinstance(body, PiecesPayload) else (body,)
-        head = self._heads[binary] + b"Content-Length: %d\r\nDate: %s\r\n\r\n" % (
-            sum(len(piece) for piece in pieces), self._date_now())
-        self.answered += 1
-        if isinstance(body, bytes):
-            return [head + body]  # small: one buffer, one write
-        return [head, *pieces]
+        return read_body(self._bodies, name, port, value, None, since, binary)
 
     def _date_now(self) -> bytes:
         """The ``Date`` header's value, made once a second (as aiohttp does)."""

@@ -21,8 +21,7 @@ It also answers plain port reads as soon as they are parsed (``_fast_reads``),
 when the connection is idle: nothing queued before them, nothing of an earlier
 reply still to send.  And it calls the gateway's guard (``_guard``) in front of
 the routes rather than as aiohttp middleware: the same checks and error
-replies, without the middleware chain aiohttp wraps around every handler
-(about a tenth of a small request's time under load).
+replies, without the middleware chain aiohttp wraps around every handler.
 
 This leans on aiohttp's ``RequestHandler`` internals (its message queue, the
 waiter of its task, its keep-alive fields and error-handler hook): they are the

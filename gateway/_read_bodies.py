@@ -37,7 +37,9 @@ IDLE_PUBLICATIONS = 20
 Body = bytes | PiecesPayload
 #: A read's form: binary or not, and the element of a multiple port (None for a single port).
 Form = tuple[bool, str | None]
-Make = Callable[[Any], Body]
+#: Makes the body of a port's data: ``make(port, value)``.  Given the port, not holding it: the kept
+#: bodies are weakly keyed by their port, which a value referring to it would keep alive.
+Make = Callable[[OutPortRuntime[Any], Any], Body]
 
 
 class _Port:
@@ -67,7 +69,7 @@ class ReadBodies:
         self._ports: weakref.WeakKeyDictionary[OutPortRuntime[Any], _Port] = weakref.WeakKeyDictionary()
 
     def body(self, port: OutPortRuntime[Any], value: Any, form: Form, make: Make) -> Body:
-        """The body of a whole read of *port*'s publication *value* in *form*, made by ``make(value)`` once."""
+        """The body of a whole read of *port*'s publication *value* in *form*, made by ``make(port, value)`` once."""
         kept = self._ports.get(port)
         if kept is None:
             kept = self._ports[port] = _Port()
@@ -79,7 +81,7 @@ class ReadBodies:
         found = kept.bodies.get(form)
         if found is not None and found[0] is value:
             return found[1]
-        body = make(value)
+        body = make(port, value)
         kept.bodies[form] = (value, body, make)
         return body
 
@@ -105,7 +107,7 @@ class ReadBodies:
         _, _, make = kept.bodies[form]
         try:
             value = port.read(form[1])
-            kept.bodies[form] = (value, make(value), make)
+            kept.bodies[form] = (value, make(port, value), make)
         except Exception as exc:  # noqa: BLE001  # the read itself will meet it, and answer it
             log.debug("%s: no body made ahead for %s: %s", port.name, form, exc)
             with contextlib.suppress(KeyError):

@@ -118,7 +118,7 @@ def read_body(bodies: ReadBodies, name: str, port: Any, value: Any, element: str
         # however long it takes to write.
         if since is None:
             return bodies.body(port, value, (binary, element),
-                               lambda whole: _body(name, port, whole.chunked(None)[0], binary, {}))
+                               lambda of, whole: _body(name, of, whole.chunked(None)[0], binary, {}))
         chunked, lost = value.chunked(since)
         return _body(name, port, chunked, binary, {"lost": lost})
     extra: dict[str, Any] = {}

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import gc
 from collections.abc import AsyncIterator
 from typing import Any
 
@@ -12,6 +13,7 @@ from aiogenomix.components.capture._port_view import PortView
 from aiogenomix.components.core import ComponentHost, ScaledClock
 from aiogenomix.components.kemarcapture import KemarPortData
 from aiogenomix.gateway._read_bodies import IDLE_PUBLICATIONS, ReadBodies
+from aiogenomix.gateway._routes_ports import read_body
 from aiogenomix.gateway._unloads import Unloads
 from tests.gateway.test_port_pieces import Windowed, window
 
@@ -23,7 +25,7 @@ class Maker:
         self.values: list[Any] = []
         self.made = asyncio.Event()
 
-    def __call__(self, value: Any) -> bytes:
+    def __call__(self, port: Any, value: Any) -> bytes:
         self.values.append(value)
         self.made.set()
         return b"%d" % value.data.index
@@ -119,3 +121,23 @@ async def test_the_tasks_end_when_the_gateway_stops(parts: tuple[Windowed, ReadB
     assert task is not None
     stopping.set_result(None)
     await asyncio.wait_for(task, 5)
+
+
+async def test_the_bodies_of_an_unloaded_instance_go_with_it() -> None:
+    async with ComponentHost(clock=ScaledClock(1), factories={"windowed": Windowed}) as host:
+        component = await host.load("windowed")
+        assert isinstance(component, Windowed)
+        unloads = Unloads(host)
+        host.add_unload_listener(unloads.notice)
+        stopping: asyncio.Future[None] = asyncio.get_running_loop().create_future()
+        bodies = ReadBodies(unloads, lambda: stopping)
+        publish(component, 3)
+        # As the read route makes its bodies.
+        read_body(bodies, "Port", component.Port, component.Port.read(), None, None, False)
+        task = bodies._ports[component.Port].task
+        assert task is not None
+        await host.unload("windowed")
+        await asyncio.wait_for(task, 5)
+        del component, task
+        gc.collect()
+        assert len(bodies._ports) == 0  # nothing kept the port alive
