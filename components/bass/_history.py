@@ -163,23 +163,26 @@ class AudioSnapshot:
         """Frames a publication adds: a new ``watch`` starts with the newest chunk."""
         return self.frames_per_chunk
 
-    def _span(self, first: int, count: int) -> tuple[Int32Array, Int32Array]:
-        """Copies of frames ``first … first + count - 1``, which the snapshot holds."""
+    def copy_frames(self, first: int, out: Int32Array) -> None:
+        """Copy frames ``first …`` (as many as *out*, of shape ``(2, n)``, holds) into *out*, chunk by chunk.
+
+        The snapshot holds them: *first* and the count come from :meth:`placed`.
+        """
+        count = out.shape[1]
         if count == 0:
-            empty = np.zeros(0, dtype=np.int32)
-            return empty, empty
+            return
         fpc = self.frames_per_chunk
         # The chunks tuple starts with the frame after lastFrameIndex - frames on port.
         start = first - (self.last_frame_index - self.frames_on_port + 1)
-        head, offset = divmod(start, fpc)
-        tail = (start + count - 1) // fpc + 1
-        pieces = self.chunks[head:tail]
-        both = pieces[0] if len(pieces) == 1 else np.concatenate(pieces, axis=1)
-        span = both[:, offset:offset + count]
-        return span[0].copy(), span[1].copy()
+        done = 0
+        while done < count:
+            chunk, offset = divmod(start + done, fpc)
+            taken = min(fpc - offset, count - done)
+            out[:, done:done + taken] = self.chunks[chunk][:, offset:offset + taken]
+            done += taken
 
-    def frames(self, next_frame: int, limit: int | None = None) -> FrameRead:
-        """At most *limit* frames from *next_frame* on, as the 2015 socket and ``basc`` read them.
+    def placed(self, next_frame: int, limit: int | None = None) -> tuple[int, int, int]:
+        """Where a read of at most *limit* frames from *next_frame* on lands: its first frame, frames lost, count.
 
         A *next_frame* older than the port starts at the oldest frame held and
         counts the skipped ones as lost; one beyond the newest frame gets nothing.
@@ -190,16 +193,22 @@ class AudioSnapshot:
         if next_frame < 0 or (limit is not None and limit < 0):
             raise ValueError(f"frame index and limit are never negative, not {next_frame} and {limit}")
         if not self.chunks:
-            empty = np.zeros(0, dtype=np.int32)
-            return FrameRead(empty, empty, next_frame, 0, 0)
+            return next_frame, 0, 0
         oldest, newest = self.oldest_frame_index, self.last_frame_index
-        lost = max(0, oldest - next_frame)
         first = max(next_frame, oldest)
         count = max(0, newest - first + 1)
-        if limit is not None:
-            count = min(count, limit)
-        left, right = self._span(first, count)
-        return FrameRead(left, right, first, lost, newest)
+        return first, max(0, oldest - next_frame), count if limit is None else min(count, limit)
+
+    def frames(self, next_frame: int, limit: int | None = None) -> FrameRead:
+        """At most *limit* frames from *next_frame* on, as the 2015 socket and ``basc`` read them (see :meth:`placed`).
+
+        Raises:
+            ValueError: for a negative frame index or limit.
+        """
+        first, lost, count = self.placed(next_frame, limit)
+        both = np.empty((2, count), dtype=np.int32)
+        self.copy_frames(first, both)
+        return FrameRead(both[0], both[1], first, lost, self.last_frame_index)
 
     # -- the port struct ------------------------------------------------------------------
 

@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 from ..capture import CLOSE, LineServer
 from ._history import AudioSnapshot
-from ._socket_wire import encode_frame_reply, parse_frame_request
+from ._socket_wire import FrameRequest, encode_snapshot_reply, parse_frame_request
 
 __all__ = ["FrameSocketServer"]
 
@@ -14,15 +14,14 @@ __all__ = ["FrameSocketServer"]
 class _FrameConversation:
     """One client of the 2015 protocol."""
 
-    def __init__(self, snapshot: Callable[[], AudioSnapshot]) -> None:
-        self._snapshot = snapshot
+    def __init__(self, server: FrameSocketServer) -> None:
+        self._server = server
 
     def answer(self, line: bytes) -> bytes | bytearray | None:
         request = parse_frame_request(line)
         if request is None:
             return CLOSE
-        # Before the first acquisition the port is AudioSnapshot.empty(): no frames, the client keeps its place.
-        return encode_frame_reply(self._snapshot().frames(request.next_frame, request.frames))
+        return self._server.reply_to(request)
 
 
 class FrameSocketServer(LineServer):
@@ -37,4 +36,25 @@ class FrameSocketServer(LineServer):
 
     def __init__(self, snapshot: Callable[[], AudioSnapshot], *, host: str = "127.0.0.1",
                  port: int = 8081, token: str | None = None) -> None:
-        super().__init__(lambda: _FrameConversation(snapshot), host=host, port=port, token=token)
+        super().__init__(lambda: _FrameConversation(self), host=host, port=port, token=token)
+        self._snapshot = snapshot
+        # The last reply made, with the snapshot and the frames it carries: the readers of one
+        # publication asking for the same frames (several clients, or one polling faster than the
+        # chunks come) share it.
+        self._last: tuple[AudioSnapshot, tuple[int, int, int], bytearray] | None = None
+
+    def reply_to(self, request: FrameRequest) -> bytearray:
+        """The reply to *request*, copied once from the snapshot's chunks, in a buffer nothing writes afterwards.
+
+        The transport may hold the reply while the client drains it: it shares no memory with the
+        snapshot, and is never changed once made.  Before the first acquisition the port is
+        ``AudioSnapshot.empty()``: no frames, and the client keeps its place.
+        """
+        snapshot = self._snapshot()
+        placed = snapshot.placed(request.next_frame, request.frames)
+        last = self._last
+        if last is not None and last[0] is snapshot and last[1] == placed:
+            return last[2]
+        reply = encode_snapshot_reply(snapshot, request.next_frame, request.frames)
+        self._last = (snapshot, placed, reply)
+        return reply

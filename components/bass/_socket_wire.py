@@ -31,10 +31,10 @@ import struct
 import numpy as np
 
 from ..capture import RequestError, split_lines
-from ._history import FrameRead
+from ._history import AudioSnapshot, FrameRead
 
 __all__ = ["FrameRequest", "CLOSE_REQUEST", "FrameRequestParser", "parse_frame_request", "encode_frame_request",
-           "encode_frame_reply", "HEADER", "frame_reply_size"]
+           "encode_frame_reply", "encode_snapshot_reply", "HEADER", "frame_reply_size"]
 
 #: The reply header: frames sent, frames lost, next frame (int64 as two int32 halves, low first).
 HEADER = struct.Struct("<iiq")
@@ -106,6 +106,19 @@ class FrameRequestParser:
 def frame_reply_size(frames: int) -> int:
     """The size in bytes of a reply carrying *frames* frames."""
     return HEADER.size + 8 * frames
+
+
+def encode_snapshot_reply(snapshot: AudioSnapshot, next_frame: int, limit: int | None) -> bytearray:
+    """The reply to a read of *snapshot* (as :meth:`AudioSnapshot.frames` places it), copied once from its chunks.
+
+    The same bytes as :func:`encode_frame_reply` of ``snapshot.frames(next_frame, limit)``, in a
+    buffer of its own.
+    """
+    first, lost, count = snapshot.placed(next_frame, limit)
+    reply = bytearray(frame_reply_size(count))
+    HEADER.pack_into(reply, 0, count, min(lost, _INT32_MAX), first + count)
+    snapshot.copy_frames(first, np.frombuffer(reply, dtype="<i4", offset=HEADER.size).reshape(2, count))
+    return reply
 
 
 def encode_frame_reply(read: FrameRead) -> bytearray:

@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 
 from aiogenomix.components.bass import (
-    FrameRead, FrameRequest, FrameRequestParser, encode_frame_reply, encode_frame_request, parse_frame_request,
+    AudioSnapshot, ChunkHistory, FrameRead, FrameRequest, FrameRequestParser, encode_frame_reply, encode_frame_request,
+    parse_frame_request,
 )
+from aiogenomix.components.bass._socket_wire import encode_snapshot_reply
 from aiogenomix.components.capture import RequestError
 
 
@@ -40,3 +42,16 @@ def test_the_reply_is_header_then_left_block_then_right_block() -> None:
     words = np.frombuffer(bytes(reply), "<i4")
     assert words[:4].tolist() == [3, 5, 7, 2]                # n, lost, next (low, high)
     assert words[4:7].tolist() == [1, 2, 3] and words[7:].tolist() == [-1, -2, -3]
+
+
+@pytest.mark.parametrize(("next_frame", "limit"), [(0, None), (9, None), (12, 5), (11, 3), (20, 8), (21, 4),
+                                                   (3, 2), (10, 0), (13, None)])
+def test_a_reply_copied_from_the_chunks_is_the_reply_of_the_read(next_frame: int, limit: int | None) -> None:
+    history = ChunkHistory(3, 4, 16000)
+    for i in range(1, 6):  # the port holds frames 9..20 in three chunks of four
+        frames = np.arange((i - 1) * 4 + 1, i * 4 + 1)
+        history.append(frames, -frames)
+    snapshot = history.snapshot
+    assert encode_snapshot_reply(snapshot, next_frame, limit) == encode_frame_reply(snapshot.frames(next_frame, limit))
+    empty = AudioSnapshot.empty()
+    assert encode_snapshot_reply(empty, next_frame, limit) == encode_frame_reply(empty.frames(next_frame, limit))
