@@ -21,7 +21,7 @@ from ._common import ROOT
 from ._report import render
 
 BENCHMARKS = {
-    "port_read": (port_read.run, {"reads": 50, "block": 10}, {"reads": 9, "block": 3, "windows": (500, 4000)}),
+    "port_read": (port_read.run, {"reads": 120, "block": 10}, {"reads": 9, "block": 3, "windows": (500, 4000)}),
     "service": (service.run, {"calls": 2000}, {"calls": 300}),
     "fanout": (fanout.run, {"seconds": 10.0}, {"seconds": 2.0}),
     "load": (load.run, {"seconds": 30.0}, {"seconds": 3.0, "rounds": 3}),
