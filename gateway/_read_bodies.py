@@ -17,7 +17,6 @@ for the next one, and the task of a port nobody reads ends after
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 import weakref
 from collections.abc import Callable
@@ -104,11 +103,13 @@ class ReadBodies:
 
     @staticmethod
     def _make_ahead(port: OutPortRuntime[Any], kept: _Port, form: Form) -> None:
-        _, _, make = kept.bodies[form]
+        found = kept.bodies.get(form)
+        if found is None:  # its last read failed to make it: the next read will say why
+            return
+        make = found[2]
         try:
             value = port.read(form[1])
             kept.bodies[form] = (value, make(port, value), make)
         except Exception as exc:  # noqa: BLE001  # the read itself will meet it, and answer it
             log.debug("%s: no body made ahead for %s: %s", port.name, form, exc)
-            with contextlib.suppress(KeyError):
-                del kept.bodies[form]
+            del kept.bodies[form]

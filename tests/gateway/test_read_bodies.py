@@ -141,3 +141,24 @@ async def test_the_bodies_of_an_unloaded_instance_go_with_it() -> None:
         del component, task
         gc.collect()
         assert len(bodies._ports) == 0  # nothing kept the port alive
+
+
+async def test_a_body_that_cannot_be_made_is_left_to_the_read(
+        parts: tuple[Windowed, ReadBodies, asyncio.Future[None]]) -> None:
+    component, bodies, _ = parts
+    publish(component, 3)
+    working = Maker()
+
+    def fails(port: Any, value: Any) -> bytes:
+        raise ValueError("cannot")
+
+    read(bodies, component, working)
+    with pytest.raises(ValueError, match="cannot"):  # the read meets the failure itself
+        bodies.body(component.Port, component.Port.read(), (True, None), fails)
+    working.made.clear()
+    publish(component, 4)
+    await working.made.wait()  # the form that works is made ahead; the failed one is passed over
+    task = bodies._ports[component.Port].task
+    assert task is not None and not task.done()
+    assert read(bodies, component, working) == b"4"
+    assert len(working.values) == 2
