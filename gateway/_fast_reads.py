@@ -1,8 +1,8 @@
 """Port reads answered where their request is parsed, without aiohttp's request machinery.
 
-A client polling the audio window sends one small GET after another.  Profiled
-in the port-read benchmark, the gateway spent about 200 µs between such a
-request's bytes and its reply's first byte, and about 130 µs of that went to
+A client polling the audio window sends one small GET after another.  Timed
+inside the gateway (the 500 ms window, read back to back), about 200 µs passed
+between such a request's bytes and its reply's first byte, and about 130 µs went to
 the machinery around the read itself: waking the connection's task (and, before
 Python 3.12, starting a task per request), building the ``Request``, finding
 the route among the eight under ``/module``, the middleware, and building the
@@ -11,7 +11,7 @@ the route among the eight under ``/module``, the middleware, and building the
 
 :class:`FastReads` answers the reads that need none of it, straight from the
 connection (``_http_layer``): a ``GET /module/M/read/P`` over HTTP/1.1, kept
-alive, without a body, of an out port of a loaded instance, with at most
+alive, without a body, of a single out port of a loaded instance, with at most
 ``format`` and ``since`` as parameters, from a program (no ``Origin``, no
 cross-site marks), of a name the access policy accepts, with the token in its
 ``Authorization`` header when the gateway has one.  The body is the route's own

@@ -21,10 +21,10 @@ import pytest
 
 from aiogenomix.components.capture._port_view import PortView
 from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.kemarcapture import KemarPortData
 from aiogenomix.gateway import GatewayConfig, serve
 from aiogenomix.gateway._fast_reads import FastReads
 from aiogenomix.gateway._routes_ports import READ_HEADERS
-from aiogenomix.components.kemarcapture import KemarPortData
 from tests.gateway.test_port_pieces import Windowed, expected_binary, expected_json, window
 
 TOKEN = "s3cret"
