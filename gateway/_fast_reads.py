@@ -6,8 +6,7 @@ between such a request's bytes and its reply's first byte, and about 130 µs wen
 the machinery around the read itself: waking the connection's task (and, before
 Python 3.12, starting a task per request), building the ``Request``, finding
 the route among the eight under ``/module``, the middleware, and building the
-``Response`` and its head.  A plain socket serving the same bytes spends about
-20 µs.
+``Response`` and its head.
 
 :class:`FastReads` answers the reads that need none of it, straight from the
 connection (``_http_layer``): a ``GET /module/M/read/P`` over HTTP/1.1, kept
