@@ -3,7 +3,7 @@
 A client polling the audio window at its publication rate reads each
 publication once, a little while after it was published.  Making that read's
 body (the small struct around the chunks' pre-encoded pieces) when the read
-comes cost the read about 50 µs on a busy machine, and about 340 µs of a 1 ms
+comes cost the read about 50 µs when warm, and about 340 µs of a 1 ms
 read after the pause between two polls (the port-read benchmark's "each read a
 new publication").  So a body is kept per publication and form (JSON or
 binary, and the element of a multiple port): every reader of a publication
