@@ -16,9 +16,11 @@ from ._auth import AUTH_PATH, LOGIN_PATH, TokenCheck, auth_without_token, login_
 from ._config import GatewayConfig
 from ._guard import guard_middleware
 from ._keys import (
-    ACCESS, CONFIG, GUARD, HOST, READ_BODIES, SESSIONS, SHUTDOWN, TOKEN, UNLOADS, WATCH_FRAMES, Shutdown, WatchFrames,
+    ACCESS, CONFIG, GUARD, HOST, READ_BODIES, SESSIONS, SHUTDOWN, TOKEN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, Shutdown,
+    WatchFrames,
 )
 from ._read_bodies import ReadBodies
+from ._watch_wakes import WatchWakes
 from ._sessions import SessionStore
 from ._shutdown import shut_down
 from ._sse import format_event
@@ -59,6 +61,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app[UNLOADS] = Unloads(app[HOST])
     shutdown = app[SHUTDOWN]
     app[READ_BODIES] = ReadBodies(app[UNLOADS], lambda: shutdown.future)
+    app[WATCH_WAKES] = WatchWakes(app[UNLOADS], lambda: shutdown.future, config.ping_interval)
     app.add_routes(_routes_sessions.routes)
     app.add_routes(_routes_admin.routes)
     app.add_routes(_routes_modules.routes)

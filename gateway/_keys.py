@@ -16,9 +16,10 @@ from ._config import GatewayConfig
 from ._read_bodies import ReadBodies
 from ._sessions import SessionStore
 from ._unloads import Unloads
+from ._watch_wakes import WatchWakes
 
 __all__ = ["ACCESS", "CONFIG", "GUARD", "HOST", "READ_BODIES", "SESSIONS", "SHUTDOWN", "TOKEN", "UNLOADS",
-           "WATCH_FRAMES", "Shutdown", "WatchFrames"]
+           "WATCH_FRAMES", "WATCH_WAKES", "Shutdown", "WatchFrames"]
 
 CONFIG = web.AppKey("config", GatewayConfig)
 HOST = web.AppKey("host", ComponentHost)
@@ -67,6 +68,8 @@ class WatchFrames(weakref.WeakKeyDictionary[OutPortRuntime[Any], tuple[tuple[Any
 
 
 WATCH_FRAMES = web.AppKey("watch_frames", WatchFrames)
+#: What wakes the watchers of each port, together.
+WATCH_WAKES = web.AppKey("watch_wakes", WatchWakes)
 
 
 #: The bodies of whole reads of chunked ports, made once per publication and form.

@@ -12,7 +12,6 @@ when the instance is unloaded or killed.
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import functools
 from typing import Any
@@ -23,7 +22,7 @@ from aiohttp import web
 from ..components.core import Chunked, Incremental, OutPortRuntime
 from ._binary import CONTENT_TYPE, encode_binary
 from ._errors import BadQuery
-from ._keys import CONFIG, HOST, READ_BODIES, SHUTDOWN, UNLOADS, WATCH_FRAMES, WatchFrames
+from ._keys import HOST, READ_BODIES, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, WatchFrames
 from ._pieces import PiecesPayload, body_of, json_pieces
 from ._read_bodies import ReadBodies
 from ._replies import SERVER_HEADER, dumps
@@ -176,8 +175,8 @@ async def watch(request: web.Request) -> web.StreamResponse:
         _require_incremental(port, port.read(element))
     shutdown = request.app[SHUTDOWN]
     frames = request.app[WATCH_FRAMES]
+    wakes = request.app[WATCH_WAKES]
     unloaded = request.app[UNLOADS].of(port.owner)
-    ping_interval = request.app[CONFIG].ping_interval
     stream = EventStream()
     try:
         await stream.prepare(request)
@@ -188,10 +187,9 @@ async def watch(request: web.Request) -> web.StreamResponse:
                 frame, delivered, last_index = _watch_frame(frames, name, port, element, delivered, last_index)
                 await stream.write(frame)
                 continue
-            # Shared futures: a hundred watchers wait without a task each.
-            done, _ = await asyncio.wait({port.next_publication(), shutdown.future, unloaded},
-                                         timeout=ping_interval, return_when=asyncio.FIRST_COMPLETED)
-            if not done:
+            # With every other watcher of the port: woken by a publication, the end, or a ping.
+            await wakes.wait(port)
+            if port.version == delivered and not shutdown.is_set() and not unloaded.done():
                 await stream.write(PING)
         if unloaded.done():
             await stream.write(format_event("unload", orjson.dumps(port.owner.instance)))
