@@ -22,18 +22,16 @@ refusals and errors are the routes' alone.
 
 from __future__ import annotations
 
-import email.utils
-import time
 from typing import Any
 
 from aiohttp import HttpVersion11, web
+from aiohttp.helpers import rfc822_formatted_time
 
 from ..components.core import Incremental, OutPortRuntime
-from ._binary import CONTENT_TYPE
 from ._gather import Buffer
 from ._keys import ACCESS, HOST, READ_BODIES, TOKEN
 from ._pieces import PiecesPayload
-from ._routes_ports import READ_HEADERS, read_body
+from ._routes_ports import READ_HEADERS, read_body, wants_binary
 
 __all__ = ["FastReads"]
 
@@ -57,8 +55,6 @@ class FastReads:
         self._token = app[TOKEN]
         self._bodies = app[READ_BODIES]
         self._heads = {binary: _head_start(READ_HEADERS[binary]) for binary in (False, True)}
-        self._date_second = -1
-        self._date = b""
 
     @staticmethod
     def may_answer(data: bytes) -> bool:
@@ -88,7 +84,7 @@ class FastReads:
         fmt = parameters.get("format", "")
         if fmt not in ("", "json", "binary"):
             return None
-        binary = fmt == "binary" or (not fmt and CONTENT_TYPE in headers.get("Accept", ""))
+        binary = wants_binary(fmt, headers.get("Accept", ""))
         since_text = parameters.get("since")
         since = None
         if since_text is not None:
@@ -102,8 +98,9 @@ class FastReads:
         if body is None:
             return None
         pieces = body.pieces if isinstance(body, PiecesPayload) else (body,)
+        # The Date aiohttp writes (its helper, made once a second).
         head = self._heads[binary] + b"Content-Length: %d\r\nDate: %s\r\n\r\n" % (
-            sum(len(piece) for piece in pieces), self._date_now())
+            sum(len(piece) for piece in pieces), rfc822_formatted_time().encode())
         if isinstance(body, bytes):
             return [head + body]  # small: one buffer, one write
         return [head, *pieces]
@@ -117,14 +114,6 @@ class FastReads:
         if since is not None and not isinstance(value, Incremental):
             return None
         return read_body(self._bodies, name, port, value, None, since, binary)
-
-    def _date_now(self) -> bytes:
-        """The ``Date`` header's value, made once a second (as aiohttp does)."""
-        second = int(time.time())
-        if second != self._date_second:
-            self._date_second = second
-            self._date = email.utils.formatdate(second, usegmt=True).encode()
-        return self._date
 
 
 def _parameters(query: str) -> dict[str, str] | None:

@@ -28,16 +28,21 @@ from ._read_bodies import ReadBodies
 from ._replies import SERVER_HEADER, dumps
 from ._sse import PING, EventStream, format_event
 
-__all__ = ["routes", "read_body", "READ_HEADERS"]
+__all__ = ["routes", "read_body", "wants_binary", "READ_HEADERS"]
 
 routes = web.RouteTableDef()
+
+
+def wants_binary(fmt: str, accept: str) -> bool:
+    """Whether a read gets the binary form, given its ``format`` (checked: empty, json or binary) and ``Accept``."""
+    return fmt == "binary" or (not fmt and CONTENT_TYPE in accept)
 
 
 def _wants_binary(request: web.Request) -> bool:
     fmt = request.query.get("format", "")
     if fmt not in ("", "json", "binary"):
         raise BadQuery(f"format must be json or binary, not {fmt!r}")
-    return fmt == "binary" or (not fmt and CONTENT_TYPE in request.headers.get("Accept", ""))
+    return wants_binary(fmt, request.headers.get("Accept", ""))
 
 
 def _since(request: web.Request) -> int | None:
