@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ..capture import CLOSE, LineServer
+from ..capture import CLOSE, LastReply, LineServer
 from ._history import AudioSnapshot
 from ._socket_wire import FrameRequest, encode_snapshot_reply, parse_frame_request
 
@@ -38,10 +38,7 @@ class FrameSocketServer(LineServer):
                  port: int = 8081, token: str | None = None) -> None:
         super().__init__(lambda: _FrameConversation(self), host=host, port=port, token=token)
         self._snapshot = snapshot
-        # The last reply made, with the snapshot and the frames it carries: the readers of one
-        # publication asking for the same frames (several clients, or one polling faster than the
-        # chunks come) share it.
-        self._last: tuple[AudioSnapshot, tuple[int, int, int], bytearray] | None = None
+        self._last = LastReply()
 
     def reply_to(self, request: FrameRequest) -> bytearray:
         """The reply to *request*, copied once from the snapshot's chunks, in a buffer nothing writes afterwards.
@@ -51,10 +48,5 @@ class FrameSocketServer(LineServer):
         ``AudioSnapshot.empty()``: no frames, and the client keeps its place.
         """
         snapshot = self._snapshot()
-        placed = snapshot.placed(request.next_frame, request.frames)
-        last = self._last
-        if last is not None and last[0] is snapshot and last[1] == placed:
-            return last[2]
-        reply = encode_snapshot_reply(snapshot, request.next_frame, request.frames)
-        self._last = (snapshot, placed, reply)
-        return reply
+        return self._last.get(snapshot, snapshot.placed(request.next_frame, request.frames),
+                              lambda: encode_snapshot_reply(snapshot, request.next_frame, request.frames))

@@ -7,7 +7,7 @@ from ._errors import (
 )
 from ._devices import list_capture_devices
 from ._head_link import scene_azimuth, simulated_head_azimuth, simulated_scene
-from ._line_server import CLOSE, TOKEN_PREFIX, Conversation, LineServer, split_lines
+from ._line_server import CLOSE, TOKEN_PREFIX, Conversation, LastReply, LineServer, split_lines
 from ._head_model import SphericalHeadRenderer, woodworth_itd
 from ._scene import DEFAULT_SCENE, Scene, Source, load_scene
 from ._socket_server import DedicatedSocketServer
@@ -31,8 +31,8 @@ __all__ = [
     # The simulated scene
     "Scene", "Source", "DEFAULT_SCENE", "load_scene", "SphericalHeadRenderer", "woodworth_itd",
     # The chunk window and the dedicated socket
-    "ChunkWindow", "WindowRead", "DedicatedSocketServer", "LineServer", "Conversation", "split_lines", "CLOSE",
-    "TOKEN_PREFIX", "RequestParser", "parse_request", "encode_request",
+    "ChunkWindow", "WindowRead", "DedicatedSocketServer", "LineServer", "LastReply", "Conversation", "split_lines",
+    "CLOSE", "TOKEN_PREFIX", "RequestParser", "parse_request", "encode_request",
     "encode_reply", "encode_error", "reply_size",
     # Errors
     "CaptureError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "FormatRefused", "SceneError",

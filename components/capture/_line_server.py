@@ -25,12 +25,12 @@ import hmac
 import logging
 import os
 import socket
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from typing import Protocol
 
 from ._errors import RequestError
 
-__all__ = ["Conversation", "LineServer", "CLOSE", "TOKEN_PREFIX", "ERROR_PREFIX", "MAX_REQUEST_LINE",
+__all__ = ["Conversation", "LineServer", "LastReply", "CLOSE", "TOKEN_PREFIX", "ERROR_PREFIX", "MAX_REQUEST_LINE",
            "encode_error", "split_lines"]
 
 log = logging.getLogger(__name__)
@@ -81,6 +81,27 @@ def split_lines(pending: bytearray, data: bytes) -> list[bytes]:
 def encode_error(message: str) -> bytes:
     """The one-line reply to a request that cannot be served (readable with ``nc``)."""
     return ERROR_PREFIX + message.replace("\n", " ").encode("utf-8", "replace") + b"\n"
+
+
+class LastReply:
+    """The last reply a server made, shared while the publication and the request's placement are the same.
+
+    Readers of one publication asking for the same chunks (several clients, or one
+    polling faster than the chunks come) get one buffer, which nothing writes
+    after it is made.
+    """
+
+    def __init__(self) -> None:
+        self._last: tuple[object, Hashable, bytearray] | None = None
+
+    def get(self, publication: object, placement: Hashable, make: Callable[[], bytearray]) -> bytearray:
+        """The reply for *placement* in *publication* (compared by identity), made by ``make()`` when new."""
+        last = self._last
+        if last is not None and last[0] is publication and last[1] == placement:
+            return last[2]
+        reply = make()
+        self._last = (publication, placement, reply)
+        return reply
 
 
 class LineServer:

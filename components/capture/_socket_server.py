@@ -6,9 +6,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ._line_server import LineServer
+from ._line_server import LastReply, LineServer
 from ._socket_wire import encode_reply, encode_state_reply, parse_request
-from ._window import ChunkWindow, WindowRead, WindowState
+from ._window import ChunkWindow, WindowRead
 
 __all__ = ["DedicatedSocketServer", "DEFAULT_PORT"]
 
@@ -44,9 +44,7 @@ class DedicatedSocketServer(LineServer):
         super().__init__(lambda: _ChunkConversation(self), host=host, port=port, token=token)
         self._window = window
         self.with_positions = with_positions
-        # The last reply made, with the window state and chunk count it carries: readers of one
-        # publication (several clients, or one polling faster than the chunks come) share it.
-        self._last: tuple[WindowState, int, bytearray] | None = None
+        self._last = LastReply()
 
     def reply_to(self, index: int) -> bytearray:
         """The reply to a request for the chunks after *index*, in a buffer nothing writes afterwards.
@@ -59,10 +57,6 @@ class DedicatedSocketServer(LineServer):
         if window is None:
             return encode_reply(_NO_CHUNKS, with_positions=self.with_positions)
         state = window.state
-        count, _ = state.count_since(index)
-        last = self._last
-        if last is not None and last[0] is state and last[1] == count:
-            return last[2]
-        reply = encode_state_reply(state, index, with_positions=self.with_positions)
-        self._last = (state, count, reply)
-        return reply
+        count, _ = state.count_since(index)  # the reply carries the newest *count* chunks
+        return self._last.get(state, count,
+                              lambda: encode_state_reply(state, index, with_positions=self.with_positions))
