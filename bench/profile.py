@@ -26,8 +26,11 @@ from .port_read import CHUNK_MS, MODULE, WINDOWS, _http_get, _start_window
 
 #: (label, file name ending, function name): the functions whose time per call is reported.
 FUNCTIONS = [
-    ("a request's bytes received (parsed, and a plain read answered)", "gateway/_http_layer.py", "data_received"),
-    ("aiohttp: parse the request head", "web_protocol.py", "data_received"),
+    ("a request's bytes received (its head read, and a plain read answered)", "gateway/_connection.py",
+     "data_received"),
+    ("the head checked (request line and fields)", "gateway/_request_head.py", "parse_head"),
+    ("the door's decision", "gateway/_door.py", "decide"),
+    ("aiohttp: parse a request head passed on", "web_protocol.py", "data_received"),
     ("a plain read answered at the connection (all below but the write)", "gateway/_fast_reads.py", "reply"),
     ("the read's body (made ahead for a polled form: found ready)", "gateway/_routes_ports.py", "read_body"),
     ("a body made ahead, when the publication came", "gateway/_read_bodies.py", "_make_ahead"),

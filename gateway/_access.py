@@ -28,21 +28,17 @@ import hashlib
 import ipaddress
 import re
 import socket
-from collections.abc import Awaitable, Callable, Iterable
+from collections.abc import Iterable, Mapping
+from typing import Any
 
 from aiohttp import web
-from aiohttp.typedefs import Middleware
 
-from ._replies import json_reply
-
-__all__ = ["AccessPolicy", "access_middleware", "access_refusal", "allow_origin", "console_policy"]
+__all__ = ["AccessPolicy", "browser_refusal", "allow_origin", "console_policy"]
 
 #: How many distinct Host headers the policy remembers its verdict on.
 _REMEMBERED_HOSTS = 256
 #: Pages a link from another site may open: they show, they do not act.
 _NAVIGABLE = frozenset({"/", "/console"})
-
-Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
 
 
 def _hostname(host: str) -> str:
@@ -97,23 +93,26 @@ class AccessPolicy:
         return "*" in self.origins or origin in self.origins
 
 
-def access_refusal(policy: AccessPolicy, request: web.BaseRequest) -> tuple[web.Response | None, str | None]:
-    """Apply *policy* to *request*: ``(refusal, None)``, or ``(None, origin)`` to answer.
+def browser_refusal(policy: AccessPolicy, path: str, headers: Mapping[str, str],
+                    scheme: str = "http") -> tuple[dict[str, Any] | None, str | None]:
+    """Apply *policy* to a request for *path* with *headers* (looked up by lower-case name).
 
-    *origin* is the other-site origin the reply must carry the CORS headers for
-    (None for a program, or a page of the gateway's own origin).
+    Returns:
+        ``(error body, None)`` to refuse it (403), or ``(None, origin)`` to answer
+        it, *origin* being the other-site origin the reply must carry the CORS
+        headers for (None for a program, or a page of the gateway's own origin).
     """
-    headers = request.headers
-    if not policy.host_allowed(headers.get("Host")):
-        return _forbidden(f"this gateway does not answer to the name {_shown(headers['Host'])} "
+    host = headers.get("host")
+    if not policy.host_allowed(host):
+        return _forbidden(f"this gateway does not answer to the name {_shown(host or '')} "
                           "(its operator can allow it with --allowed-host)"), None
-    origin = headers.get("Origin")
+    origin = headers.get("origin")
     if origin is None:
         # A program (no Origin), or a browser request it may not have made from another site.
-        if headers.get("Sec-Fetch-Site", "") in ("cross-site", "same-site") and request.path not in _NAVIGABLE:
+        if headers.get("sec-fetch-site", "") in ("cross-site", "same-site") and path not in _NAVIGABLE:
             return _forbidden("a request from another web site may not use this gateway"), None
         return None, None
-    if origin != f"{request.scheme}://{request.host}":
+    if origin != f"{scheme}://{host}":
         if not policy.origin_allowed(origin):
             return _forbidden(f"pages from {_shown(origin)} may not use this gateway "
                               "(its operator can allow them with --allow-origin)"), None
@@ -127,29 +126,13 @@ def allow_origin(response: web.StreamResponse, origin: str) -> None:
     response.headers["Vary"] = "Origin"
 
 
-def access_middleware(policy: AccessPolicy) -> Middleware:
-    """The middleware that applies *policy* before anything else runs (the gateway's own is ``_guard``)."""
-
-    @web.middleware
-    async def check_access(request: web.Request, handler: Handler) -> web.StreamResponse:
-        refusal, origin = access_refusal(policy, request)
-        if refusal is not None:
-            return refusal
-        response = await handler(request)
-        if origin is not None:
-            allow_origin(response, origin)
-        return response
-
-    return check_access
-
-
 def _shown(header: str) -> str:
     """A header value fit for a JSON message: quoted, bytes that are not UTF-8 escaped."""
     return ascii(header.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace"))
 
 
-def _forbidden(message: str) -> web.Response:
-    return json_reply({"ex": "::genomix::forbidden", "message": message}, status=403)
+def _forbidden(message: str) -> dict[str, Any]:
+    return {"ex": "::genomix::forbidden", "message": message}
 
 
 def console_policy(page: bytes) -> str:

@@ -12,11 +12,12 @@ from aiohttp.typedefs import Middleware
 from ..components.core import ComponentHost, ScaledClock
 from . import _routes_admin, _routes_modules, _routes_openapi, _routes_ports, _routes_sessions
 from ._access import AccessPolicy
-from ._auth import AUTH_PATH, LOGIN_PATH, TokenCheck, auth_without_token, login_without_token
+from ._auth import TokenCheck
 from ._config import GatewayConfig
+from ._door import Door
 from ._guard import guard_middleware
 from ._keys import (
-    ACCESS, CONFIG, GUARD, HOST, READ_BODIES, SESSIONS, SHUTDOWN, TOKEN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, Shutdown,
+    CONFIG, DOOR, GUARD, HOST, READ_BODIES, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, Shutdown,
     WatchFrames,
 )
 from ._read_bodies import ReadBodies
@@ -41,16 +42,15 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
         An aiohttp application; run it with ``web.run_app`` or an ``AppRunner``.
     """
     config = config or GatewayConfig()
-    policy = AccessPolicy(config.allowed_hosts, config.allowed_origins)
-    token = TokenCheck(config.token) if config.token else None
-    # One middleware for access, token and errors (their order is explained in _guard); the
-    # gateway's own runner calls it before the routes instead (_http_layer), which costs less.
-    guard = guard_middleware(policy, token)
+    door = Door(AccessPolicy(config.allowed_hosts, config.allowed_origins),
+                TokenCheck(config.token) if config.token else None)
+    # One middleware: the door, then errors as JSON; the gateway's own connections call it
+    # in front of the routes instead (_connection), which costs less.
+    guard = guard_middleware(door)
     middlewares: list[Middleware] = [guard]
     app = web.Application(middlewares=middlewares)
     app[CONFIG] = config
-    app[ACCESS] = policy
-    app[TOKEN] = token
+    app[DOOR] = door
     app[GUARD] = guard
     app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)
     app[SHUTDOWN] = Shutdown()
@@ -67,9 +67,6 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app.add_routes(_routes_modules.routes)
     app.add_routes(_routes_ports.routes)
     app.add_routes(_routes_openapi.routes)
-    # With a token, TokenCheck answers these two itself.
-    app.router.add_get(LOGIN_PATH, login_without_token)
-    app.router.add_get(AUTH_PATH, auth_without_token)
     app.cleanup_ctx.append(_host_lifetime(owns_host))
     app.on_shutdown.append(shut_down(owns_host))
     return app

@@ -33,6 +33,7 @@ class GatewayConfig:
         function_grace: How long a ``send`` waits for a function to end before replying ``sent``.
         header_timeout: Seconds a client has to send a request's line and headers (408 after).
         max_url_bytes: The longest request line accepted, in bytes (414 beyond; at least 8192).
+        keep_alive: Seconds an idle kept-alive HTTP connection stays open.
         session_idle: Seconds after which a session that nobody listens to is forgotten.
         max_sessions: How many sessions may exist at once (429 for a new one beyond).
         max_instances: How many component instances may be loaded at once (429 beyond).
@@ -60,6 +61,7 @@ class GatewayConfig:
     function_grace: float = 2.0
     header_timeout: float = 10.0
     max_url_bytes: int = 65536
+    keep_alive: float = 75.0
     session_idle: float = 600.0
     max_sessions: int = 256
     max_instances: int = 64

@@ -21,7 +21,6 @@ request in ``error`` (docs/decisions/0011).
 from __future__ import annotations
 
 import logging
-from collections.abc import Awaitable, Callable
 from typing import Any
 
 from aiohttp import web
@@ -35,7 +34,7 @@ from ._replies import json_reply
 
 __all__ = [
     "GatewayError", "NoSuchSession", "BadQuery", "LoadForbidden", "TooManySessions", "RemoteRefusal",
-    "RemoteUnreachable", "ZenohSessionError", "error_middleware", "error_reply", "error_body",
+    "RemoteUnreachable", "ZenohSessionError", "error_reply", "error_body",
 ]
 
 log = logging.getLogger(__name__)
@@ -146,13 +145,3 @@ def error_reply(request: web.BaseRequest, exc: Exception) -> web.Response:
     if status >= 500:
         log.exception("%s %s failed", request.method, request.path_qs, exc_info=exc)
     return json_reply(body, status=status)
-
-
-@web.middleware
-async def error_middleware(request: web.Request,
-                           handler: Callable[[web.Request], Awaitable[web.StreamResponse]]) -> web.StreamResponse:
-    """Turn every exception of a handler into a JSON error reply (the gateway's own middleware is ``_guard``)."""
-    try:
-        return await handler(request)
-    except Exception as exc:
-        return error_reply(request, exc)

@@ -1,4 +1,4 @@
-"""Port reads answered where their request is parsed, without aiohttp's request machinery.
+"""Port reads answered where their request is read, without aiohttp's request machinery.
 
 A client polling the audio window sends one small GET after another.  Timed
 inside the gateway (the 500 ms window, read back to back), about 200 µs passed
@@ -9,101 +9,81 @@ the route among the eight under ``/module``, the middleware, and building the
 ``Response`` and its head.
 
 :class:`FastReads` answers the reads that need none of it, straight from the
-connection (``_http_layer``): a ``GET /module/M/read/P`` over HTTP/1.1, kept
+connection (``_connection``): a ``GET /module/M/read/P`` over HTTP/1.1, kept
 alive, without a body, of a single out port of a loaded instance, with at most
-``format`` and ``since`` as parameters, from a program (no ``Origin``, no
-cross-site marks), of a name the access policy accepts, with the token in its
-``Authorization`` header when the gateway has one.  The body is the route's own
-(:func:`~._routes_ports.read_body`, with the same bodies kept per publication) and
-the head is the one aiohttp writes for it.  Every other request, including
-every one the routes would refuse or answer with an error, goes the usual way:
-refusals and errors are the routes' alone.
+``format`` and ``since`` (plain: no percent-encoding) among its parameters,
+that the door (``_door``) admits as a program's request.  The body is the
+route's own (:func:`~._routes_ports.read_body`, with the same bodies kept per
+publication) and the head is the one aiohttp writes for it.  Every other
+request goes the usual way, including every one the door refuses and every
+read the routes answer with an error: refusals and errors are the routes'
+alone, and the rules are the door's alone.
 """
 
 from __future__ import annotations
 
-from typing import Any
-
-from aiohttp import HttpVersion11, web
+from aiohttp import web
 from aiohttp.helpers import rfc822_formatted_time
 
 from ..components.core import Incremental, OutPortRuntime
+from ._door import ADMITTED, Door
 from ._gather import Buffer
-from ._keys import ACCESS, HOST, READ_BODIES, TOKEN
+from ._keys import DOOR, HOST, READ_BODIES
 from ._pieces import PiecesPayload
-from ._routes_ports import READ_HEADERS, read_body, wants_binary
+from ._request_head import RequestHead
+from ._routes_ports import READ_HEADERS, parse_since, read_body, wants_binary
 
 __all__ = ["FastReads"]
 
-#: The only parameters a fast read may carry (``name=`` is for multiple ports: the routes answer it).
-_PARAMETERS = frozenset({"format", "since"})
-#: Request headers that ask for more than a plain read (a body, a browser's or a proxy's business).
-_DECLINED = ("Origin", "Expect", "Content-Length", "Transfer-Encoding", "Upgrade")
-_CROSS_SITE = ("cross-site", "same-site")
+#: The parameters a fast read may carry (``name=`` is for multiple ports: the routes answer it).
+_PARAMETERS = frozenset({"format", "since", "s", "_"})
 
 
 class FastReads:
     """Answers the plain port reads of the gateway *app* (see the module's description).
 
     Args:
-        app: The gateway application (its host, access policy, token and read cache).
+        app: The gateway application (its host, door and read cache).
     """
 
     def __init__(self, app: web.Application) -> None:
         self._host = app[HOST]
-        self._policy = app[ACCESS]
-        self._token = app[TOKEN]
+        self._door: Door = app[DOOR]
         self._bodies = app[READ_BODIES]
         self._heads = {binary: _head_start(READ_HEADERS[binary]) for binary in (False, True)}
 
-    @staticmethod
-    def may_answer(data: bytes) -> bool:
-        """Whether the bytes just received may hold a request this answers (a cheap look, before parsing)."""
-        return data.startswith(b"GET /module/") and b"/read/" in data
-
-    def reply(self, message: Any) -> list[Buffer] | None:
-        """The whole reply to the parsed request *message* (head first), or None to leave it to the routes."""
-        if (message.method != "GET" or message.version != HttpVersion11 or message.should_close
-                or message.upgrade or message.chunked):
+    def reply(self, head: RequestHead) -> list[Buffer] | None:
+        """The whole reply to *head* (its HTTP head first), or None to leave the request to the routes."""
+        if head.method != "GET" or head.version != "1.1" or head.body_length:
             return None
-        target: str = message.path
-        path, _, query = target.partition("?")
+        path, _, query = head.target.partition("?")
         parts = path.split("/")
         if len(parts) != 5 or parts[1] != "module" or parts[3] != "read" or "%" in path or "#" in query:
             return None
         parameters = _parameters(query)
         if parameters is None:
             return None
-        headers = message.headers
-        if any(name in headers for name in _DECLINED) or headers.get("Sec-Fetch-Site", "") in _CROSS_SITE:
-            return None
-        if not self._policy.host_allowed(headers.get("Host")):
-            return None
-        if self._token is not None and not self._token.authorizes(headers.get("Authorization", "")):
+        headers = head.headers()
+        if not head.keeps_alive(headers) or self._door.decide("GET", path, parameters, headers) is not ADMITTED:
             return None
         fmt = parameters.get("format", "")
         if fmt not in ("", "json", "binary"):
             return None
-        binary = wants_binary(fmt, headers.get("Accept", ""))
-        since_text = parameters.get("since")
-        since = None
-        if since_text is not None:
-            if not (since_text.isascii() and since_text.isdigit()):
-                return None
-            since = int(since_text)
+        binary = wants_binary(fmt, headers.get("accept", ""))
         try:
+            since = parse_since(parameters.get("since"))
             body = self._body(parts[2], parts[4], since, binary)
-        except Exception:  # noqa: BLE001  # no such instance or port, or a read that fails: the routes answer it
+        except Exception:  # noqa: BLE001  # a bad since, no such instance or port, a read that fails: the routes'
             return None
         if body is None:
             return None
         pieces = body.pieces if isinstance(body, PiecesPayload) else (body,)
         # The Date aiohttp writes (its helper, made once a second).
-        head = self._heads[binary] + b"Content-Length: %d\r\nDate: %s\r\n\r\n" % (
+        http_head = self._heads[binary] + b"Content-Length: %d\r\nDate: %s\r\n\r\n" % (
             sum(len(piece) for piece in pieces), rfc822_formatted_time().encode())
         if isinstance(body, bytes):
-            return [head + body]  # small: one buffer, one write
-        return [head, *pieces]
+            return [http_head + body]  # small: one buffer, one write
+        return [http_head, *pieces]
 
     def _body(self, instance: str, name: str, since: int | None, binary: bool) -> bytes | PiecesPayload | None:
         """The body of the read of port *name* of *instance*, or None for a port the routes answer."""

@@ -1,12 +1,10 @@
-"""The gateway's one middleware: access checks, the token, and errors as genomix JSON.
+"""The guard in front of the routes: the door's decision, then the handler, its errors as genomix JSON.
 
-These were three aiohttp middlewares.  Each middleware is one more coroutine
-frame (and ``functools.partial`` call) on every request, and under load the
-gateway's own share of a request is a handful of microseconds: doing the three
-in one coroutine keeps their order and replies and saves two frames a request.
-The order is the one the three had: browsers are checked first (a refused page
-learns nothing, not even whether a token is needed), then the token, and only
-the handler's exceptions become error replies (a refusal is already a reply).
+The gateway's connections call it as the server's request handler, given the
+routes (``_connection``); an application served by aiohttp's own runner has it
+as its one middleware.  Either way a refused request never reaches a route,
+every exception of a handler becomes the documented error reply, and a page of
+an allowed other origin gets the CORS headers it needs to read the reply.
 """
 
 from __future__ import annotations
@@ -16,33 +14,33 @@ from collections.abc import Awaitable, Callable
 from aiohttp import web
 from aiohttp.typedefs import Middleware
 
-from ._access import AccessPolicy, access_refusal, allow_origin
-from ._auth import TokenCheck
+from ._access import allow_origin
+from ._door import Door, Refusal
 from ._errors import error_reply
+from ._replies import json_reply
 
-__all__ = ["guard_middleware"]
+__all__ = ["guard_middleware", "Handler"]
 
 Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
 
 
-def guard_middleware(policy: AccessPolicy, token: TokenCheck | None) -> Middleware:
-    """The middleware applying *policy*, then *token* (None: no token), then mapping the handler's errors."""
+def guard_middleware(door: Door) -> Middleware:
+    """The middleware asking *door* about each request, then mapping the handler's errors."""
 
     @web.middleware
     async def guard(request: web.Request, handler: Handler) -> web.StreamResponse:
-        refusal, origin = access_refusal(policy, request)
-        if refusal is not None:
-            return refusal
-        if token is not None:
-            refusal = token.screen(request)
-            if refusal is not None:
-                return refusal
-        try:
-            response = await handler(request)
-        except Exception as exc:
-            response = error_reply(request, exc)
-        if origin is not None:
-            allow_origin(response, origin)
+        # Every name, repeats included (the keys of a MultiDict are distinct).
+        names = [name for name, _ in request.query.items()]
+        verdict = door.decide(request.method, request.path, names, request.headers, request.scheme)
+        if type(verdict) is Refusal:
+            response: web.StreamResponse = json_reply(verdict.body, status=verdict.status)
+        else:
+            try:
+                response = await handler(request)
+            except Exception as exc:
+                response = error_reply(request, exc)
+        if verdict.origin is not None and not response.prepared:
+            allow_origin(response, verdict.origin)
         return response
 
     return guard

@@ -10,26 +10,24 @@ from aiohttp import web
 from aiohttp.typedefs import Middleware
 
 from ..components.core import ComponentHost, OutPortRuntime
-from ._access import AccessPolicy
-from ._auth import TokenCheck
 from ._config import GatewayConfig
+from ._door import Door
 from ._read_bodies import ReadBodies
 from ._sessions import SessionStore
 from ._unloads import Unloads
 from ._watch_wakes import WatchWakes
 
-__all__ = ["ACCESS", "CONFIG", "GUARD", "HOST", "READ_BODIES", "SESSIONS", "SHUTDOWN", "TOKEN", "UNLOADS",
+__all__ = ["CONFIG", "DOOR", "GUARD", "HOST", "READ_BODIES", "SESSIONS", "SHUTDOWN", "UNLOADS",
            "WATCH_FRAMES", "WATCH_WAKES", "Shutdown", "WatchFrames"]
 
 CONFIG = web.AppKey("config", GatewayConfig)
 HOST = web.AppKey("host", ComponentHost)
 SESSIONS = web.AppKey("sessions", SessionStore)
 UNLOADS = web.AppKey("unloads", Unloads)
-#: Whom the gateway answers (the guard's policy, shared with the fast reads: one cache of verdicts).
-ACCESS = web.AppKey("access", AccessPolicy)
-#: The token check, None when the gateway has no token.
-TOKEN: web.AppKey[TokenCheck | None] = web.AppKey("token")
-#: The guard middleware (access, token, errors), which the gateway's runner puts in front of the routes.
+#: Whether the gateway answers a request: the one decision of the guard and of the fast reads.
+DOOR = web.AppKey("door", Door)
+#: The guard middleware (the door, then errors as JSON), which the gateway's connections call in front
+#: of the routes instead.
 GUARD: web.AppKey[Middleware] = web.AppKey("guard")
 
 

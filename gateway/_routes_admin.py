@@ -10,8 +10,9 @@ from aiohttp import web
 
 from ..components.core import NoSuchModule
 from ._access import console_policy
+from ._auth import AUTH_PATH, LOGIN_PATH
 from ._errors import BadQuery, LoadForbidden
-from ._keys import CONFIG, HOST, SESSIONS
+from ._keys import CONFIG, DOOR, HOST, SESSIONS
 from ._replies import SERVER_HEADER, SERVER_VERSION, json_reply, text_reply
 
 __all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "FEATURES"]
@@ -52,6 +53,20 @@ async def console(request: web.Request) -> web.Response:
     """A browser console: modules, services with forms built from /info, ports, live events."""
     return web.Response(body=_CONSOLE, headers={"Content-Type": "text/html; charset=utf-8",
                                                 "Content-Security-Policy": _CONSOLE_POLICY, **SERVER_HEADER})
+
+
+@routes.get(LOGIN_PATH)
+async def console_login(request: web.Request) -> web.Response:
+    """Trade the token (``Authorization`` header) for the console's cookie; 204 at once without a token."""
+    token = request.app[DOOR].token
+    return web.Response(status=204, headers=SERVER_HEADER) if token is None else token.login(request)
+
+
+@routes.get(AUTH_PATH)
+async def console_auth(request: web.Request) -> web.Response:
+    """Whether this request carries the token or the console's cookie: ``{"authorized": bool}``."""
+    token = request.app[DOOR].token
+    return json_reply({"authorized": token is None or token.admits(request.headers)})
 
 
 @routes.get("/favicon.ico")

@@ -28,7 +28,7 @@ from ._read_bodies import ReadBodies
 from ._replies import SERVER_HEADER, dumps
 from ._sse import PING, EventStream, format_event
 
-__all__ = ["routes", "read_body", "wants_binary", "READ_HEADERS"]
+__all__ = ["routes", "read_body", "wants_binary", "parse_since", "READ_HEADERS"]
 
 routes = web.RouteTableDef()
 
@@ -45,17 +45,27 @@ def _wants_binary(request: web.Request) -> bool:
     return wants_binary(fmt, request.headers.get("Accept", ""))
 
 
-def _since(request: web.Request) -> int | None:
-    text = request.query.get("since")
+#: The most digits of a ``since`` (indexes stay below 2**63).
+_SINCE_DIGITS = 19
+
+
+def parse_since(text: str | None) -> int | None:
+    """The index a ``since=`` names (None when absent).
+
+    Raises:
+        BadQuery: for anything but a number of at most 19 decimal digits.
+    """
     if text is None:
         return None
-    try:
-        since = int(text)
-    except ValueError:
-        raise BadQuery(f"since must be a chunk index (an integer), not {text!r}") from None
-    if since < 0:
-        raise BadQuery("since must not be negative")
-    return since
+    if not (text.isascii() and text.isdigit() and len(text) <= _SINCE_DIGITS):
+        shown = ascii(text if len(text) <= 30 else text[:27] + "...")
+        raise BadQuery(f"since must be an item index: a whole number, 0 or more, of at most "
+                       f"{_SINCE_DIGITS} digits (not {shown})")
+    return int(text)
+
+
+def _since(request: web.Request) -> int | None:
+    return parse_since(request.query.get("since"))
 
 
 def _port(request: web.Request) -> tuple[str, Any]:

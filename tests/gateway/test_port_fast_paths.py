@@ -116,8 +116,9 @@ async def test_incremental_reads_return_only_new_items_and_count_losses(http: ai
 
 
 @pytest.mark.parametrize("query, message", [
-    ({"since": "x"}, "since must be a chunk index"),
-    ({"since": "-1"}, "since must not be negative"),
+    ({"since": "x"}, "since must be an item index"),
+    ({"since": "-1"}, "a whole number, 0 or more"),
+    ({"since": "9" * 5000}, "of at most 19 digits"),
     ({"format": "xml"}, "format must be json or binary"),
 ])
 async def test_bad_fast_path_queries(http: aiohttp.ClientSession, query: dict[str, str], message: str) -> None:

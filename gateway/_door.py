@@ -1,0 +1,95 @@
+"""The door: one decision, from a request's method, path, query and headers, on whether the gateway answers it.
+
+Every entry point asks the door, and only the door: the guard in front of the
+routes, and the connection that answers plain port reads itself (which
+answers only what the door admits and leaves everything else to the routes,
+so a refusal always comes from one place).  The checks run in this order:
+
+1. browsers (``_access``): the Host a request names, and its ``Origin`` or
+   cross-site marks; a refused page learns nothing more, not even whether a
+   token is needed (403);
+2. the token (``_auth``), when the gateway has one (401);
+3. the query's parameters (``_parameters``): a name the endpoint does not take,
+   or one of its names twice, is refused before anything runs (400).
+
+The decision is a pure function of its arguments (and of the configuration
+the door was built with): no I/O, no request object, so that any reader of
+requests can ask it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from ._access import AccessPolicy, browser_refusal
+from ._auth import OPEN_PATHS, TokenCheck, unauthorized_body
+from ._parameters import parameter_refusal
+
+__all__ = ["Door", "Admission", "Refusal", "ADMITTED"]
+
+
+@dataclass(frozen=True, slots=True)
+class Admission:
+    """The request is answered.
+
+    Attributes:
+        origin: The other-site origin (allowed by ``--allow-origin``) whose page made
+            the request: its reply carries the CORS headers. None for programs.
+    """
+
+    origin: str | None
+
+
+@dataclass(frozen=True, slots=True)
+class Refusal:
+    """The request is refused with *status* and the genomix error *body*.
+
+    Attributes:
+        status: 400, 401 or 403.
+        body: ``{"ex", "message"[, "detail"]}``.
+        origin: As for :class:`Admission` (a page allowed to use the gateway may read its refusals).
+    """
+
+    status: int
+    body: dict[str, Any]
+    origin: str | None = None
+
+
+#: The admission of a program's request (the usual one: made once).
+ADMITTED = Admission(None)
+
+
+class Door:
+    """Decides whether the gateway answers a request.
+
+    Args:
+        policy: The host names and web origins browsers may use.
+        token: The token check, or None when the gateway has no token.
+    """
+
+    def __init__(self, policy: AccessPolicy, token: TokenCheck | None) -> None:
+        self.policy = policy
+        self.token = token
+
+    def decide(self, method: str, path: str, names: Iterable[str], headers: Mapping[str, str],
+               scheme: str = "http") -> Admission | Refusal:
+        """Decide on a request.
+
+        Args:
+            method: Its method (the routes answer the methods they do not take).
+            path: Its path, percent-decoded.
+            names: The names of its query parameters, decoded, in order, repeats included.
+            headers: Its header fields, looked up by lower-case name.
+            scheme: How it reached the gateway (for telling the gateway's own pages apart).
+        """
+        body, origin = browser_refusal(self.policy, path, headers, scheme)
+        if body is not None:
+            return Refusal(403, body)
+        if self.token is not None and path not in OPEN_PATHS and not self.token.admits(headers):
+            return Refusal(401, unauthorized_body(), origin)
+        body = parameter_refusal(path, names)
+        if body is not None:
+            return Refusal(400, body, origin)
+        return ADMITTED if origin is None else Admission(origin)
