@@ -110,9 +110,12 @@ def answering(handler: Handler, connections: Connections) -> Callable[[web.BaseR
                 response = await handler(request)
             except web.HTTPException as exc:  # a redirect the guard lets through: written here as well
                 response = web.Response(status=exc.status, reason=exc.reason, text=exc.text, headers=exc.headers)
-            if not response.prepared:
-                await response.prepare(request)
-            await response.write_eof()
+            try:
+                if not response.prepared:
+                    await response.prepare(request)
+                await response.write_eof()
+            except ConnectionError:
+                pass  # the client left: aiohttp sees the same when it finishes the reply, and says nothing
             return response
         finally:
             if connection is not None:

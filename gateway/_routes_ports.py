@@ -26,7 +26,7 @@ from ._keys import HOST, READ_BODIES, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAK
 from ._pieces import PiecesPayload, body_of, json_pieces
 from ._read_bodies import ReadBodies
 from ._replies import SERVER_HEADER, dumps
-from ._sse import PING, EventStream, format_event
+from ._sse import FINAL_ID, PING, event_id, event_stream, format_event
 
 __all__ = ["routes", "read_body", "wants_binary", "parse_since", "READ_HEADERS"]
 
@@ -174,7 +174,15 @@ async def watch(request: web.Request) -> web.StreamResponse:
     newest chunk); for other data it is the latest value and ``lost`` counts the
     publications skipped while the reader was busy.  When the instance is
     unloaded (or killed) the stream sends ``unload`` and ends.
+
+    In the standard form (``Accept: text/event-stream``) each event's id is the
+    newest item it holds (numbered data) or the publication's number: an
+    EventSource that reconnects resumes after the chunks it had, as with
+    ``since``; after ``unload`` it gets 204 and stops.
     """
+    last_event = request.headers.get("Last-Event-ID")
+    if last_event == FINAL_ID:
+        return web.Response(status=204, headers=SERVER_HEADER)
     name, port = _port(request)
     if not isinstance(port, OutPortRuntime):
         raise BadQuery(f"{name} is an in port: watch its remote out port instead")
@@ -188,11 +196,13 @@ async def watch(request: web.Request) -> web.StreamResponse:
         port.read(element)
     if since is not None and port.version:
         _require_incremental(port, port.read(element))
+    elif last_event is not None and last_event.isdigit() and isinstance(port.read(element), Incremental):
+        since = parse_since(last_event)  # an EventSource resuming where it was
     shutdown = request.app[SHUTDOWN]
     frames = request.app[WATCH_FRAMES]
     wakes = request.app[WATCH_WAKES]
     unloaded = request.app[UNLOADS].of(port.owner)
-    stream = EventStream()
+    stream = event_stream(request)
     try:
         await stream.prepare(request)
         delivered = 0  # the port version the reader has
@@ -200,6 +210,8 @@ async def watch(request: web.Request) -> web.StreamResponse:
         while not shutdown.is_set() and not unloaded.done():
             if port.version > delivered:
                 frame, delivered, last_index = _watch_frame(frames, name, port, element, delivered, last_index)
+                if stream.standard:
+                    frame = event_id(delivered if last_index is None else last_index) + frame
                 await stream.write(frame)
                 continue
             # With every other watcher of the port: woken by a publication, the end, or a ping.
@@ -207,7 +219,8 @@ async def watch(request: web.Request) -> web.StreamResponse:
             if port.version == delivered and not shutdown.is_set() and not unloaded.done():
                 await stream.write(PING)
         if unloaded.done():
-            await stream.write(format_event("unload", orjson.dumps(port.owner.instance)))
+            frame = format_event("unload", orjson.dumps(port.owner.instance))
+            await stream.write(event_id(FINAL_ID) + frame if stream.standard else frame)
     except ConnectionError:
         pass  # the reader went away
     with contextlib.suppress(ConnectionError):

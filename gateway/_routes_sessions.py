@@ -9,8 +9,8 @@ from aiohttp import web
 
 from ._errors import BadQuery
 from ._keys import CONFIG, SESSIONS
-from ._replies import text_reply
-from ._sse import PING, EventStream
+from ._replies import SERVER_HEADER, text_reply
+from ._sse import FINAL_ID, PING, event_stream
 
 __all__ = ["routes"]
 
@@ -40,13 +40,21 @@ async def stop(request: web.Request) -> web.Response:
 
 @routes.get("/session/listen")
 async def listen(request: web.Request) -> web.StreamResponse:
-    """Stream the session's events (``request``, ``unload``, ``quit``) until it stops or the client leaves."""
+    """Stream the session's events (``request``, ``unload``, ``quit``) until it stops or the client leaves.
+
+    A reconnect after ``quit`` (``Last-Event-ID`` of the final event) gets 204, and the
+    session is not started again: an EventSource stops there.
+    """
+    name = _session_name(request)
+    if request.headers.get("Last-Event-ID") == FINAL_ID:
+        return web.Response(status=204, headers=SERVER_HEADER)
     sessions = request.app[SESSIONS]
-    session = sessions.get_or_create(_session_name(request))
+    session = sessions.get_or_create(name)
     transport = request.transport
-    listener = session.attach(alive=lambda: transport is not None and not transport.is_closing())
+    stream = event_stream(request)
+    listener = session.attach(alive=lambda: transport is not None and not transport.is_closing(),
+                              standard=stream.standard)
     ping_interval = request.app[CONFIG].ping_interval
-    stream = EventStream()
     try:
         await stream.prepare(request)
         while True:

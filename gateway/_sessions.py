@@ -24,7 +24,7 @@ import orjson
 
 from ..components.core import Request
 from ._errors import BadQuery, NoSuchSession, TooManySessions
-from ._sse import format_event
+from ._sse import FINAL_ID, event_id, format_event
 
 __all__ = ["Listener", "Session", "SessionStore", "check_session_name", "MAX_NAME_BYTES"]
 
@@ -60,25 +60,36 @@ class Listener:
         limit: How many undelivered events it may hold before it is dropped.
         alive: Whether its connection is still open (a vanished client is only
             noticed at the next write otherwise, and its events would be lost).
+        standard: Whether the stream is in the standard form (an ``id`` on each event,
+            data on ``quit``: see ``_sse``), else genomix's.
     """
 
-    def __init__(self, limit: int, alive: Callable[[], bool] = lambda: True) -> None:
+    def __init__(self, limit: int, alive: Callable[[], bool] = lambda: True, standard: bool = False) -> None:
         self.limit = limit
         self.alive = alive
+        self.standard = standard
         self.frames: deque[bytes] = deque()
         self.ready = asyncio.Event()
         self.overflowed = False
         self.closed = False
 
-    def offer(self, frame: bytes) -> None:
-        """Queue a framed event (never blocks)."""
+    def offer(self, frame: bytes, number: int) -> None:
+        """Queue the framed event *number* of its session (never blocks)."""
         if self.closed:
             return
         if len(self.frames) >= self.limit:
             self.overflowed = True
         else:
-            self.frames.append(frame)
+            self.frames.append(event_id(number) + frame if self.standard else frame)
         self.ready.set()
+
+    def quit(self, session: str) -> None:
+        """Queue ``quit`` (*session* stopped), then end the stream."""
+        if self.standard:
+            self.frames.append(event_id(FINAL_ID) + format_event("quit", orjson.dumps(session)))
+        else:
+            self.frames.append(format_event("quit"))
+        self.close()
 
     def close(self) -> None:
         """End the stream after the frames already queued."""
@@ -105,7 +116,10 @@ class Session:
     def __init__(self, name: str, backlog: int = 1000, listener_limit: int = 10000) -> None:
         self.name = name
         self.listeners: set[Listener] = set()
-        self.backlog: deque[bytes] = deque(maxlen=backlog)
+        #: Events kept while nobody listens, with their numbers.
+        self.backlog: deque[tuple[bytes, int]] = deque(maxlen=backlog)
+        #: The number of the session's last event (a standard stream's event ids).
+        self.events = 0
         self.listener_limit = listener_limit
         #: When a client last used the session (its store's clock), for the expiry of unlistened sessions.
         self.used = 0.0
@@ -113,16 +127,17 @@ class Session:
     def deliver(self, frame: bytes) -> None:
         """Send a framed event to every live listener (or keep it until one attaches)."""
         self.prune()
+        self.events += 1
         if not self.listeners:
-            self.backlog.append(frame)
+            self.backlog.append((frame, self.events))
         for listener in self.listeners:
-            listener.offer(frame)
+            listener.offer(frame, self.events)
 
-    def attach(self, alive: Callable[[], bool] = lambda: True) -> Listener:
-        """Open a listener; it first receives the backlog."""
-        listener = Listener(self.listener_limit, alive)
+    def attach(self, alive: Callable[[], bool] = lambda: True, standard: bool = False) -> Listener:
+        """Open a listener (in the standard form or genomix's); it first receives the backlog."""
+        listener = Listener(self.listener_limit, alive, standard)
         while self.backlog:
-            listener.offer(self.backlog.popleft())
+            listener.offer(*self.backlog.popleft())
         self.listeners.add(listener)
         return listener
 
@@ -140,10 +155,8 @@ class Session:
 
     def stop(self) -> None:
         """Send ``quit`` to every listener and end their streams."""
-        quit_frame = format_event("quit")
         for listener in self.listeners:
-            listener.offer(quit_frame)
-            listener.close()
+            listener.quit(self.name)
         self.listeners.clear()
         self.backlog.clear()
 

@@ -1,9 +1,22 @@
-"""Server-sent events on ``/session/listen``: event framing, and a close-delimited stream response.
+"""Server-sent events: event framing, and the two forms of an event stream response.
 
 genomix's own clients (Tcl, MATLAB, python-genomix) read the listen socket with
-hand-written HTTP code, so the stream is sent the way genomixd sends it: no
-``Transfer-Encoding: chunked`` and no ``Content-Length`` — the body simply runs
-until the connection closes — and each event is flushed as soon as it exists.
+hand-written HTTP code, so by default a stream is sent the way genomixd sends
+it: no ``Transfer-Encoding: chunked`` and no ``Content-Length`` (the body runs
+until the connection closes), each event flushed as soon as it exists, and
+``quit`` a bare ``event: quit`` line.
+
+Standard clients say what they are: a WHATWG ``EventSource`` (every browser)
+always sends ``Accept: text/event-stream``, and so do aiohttp-sse-client,
+httpx-sse and sseclient-py when told to.  They get the standard form
+(docs/decisions/0023): chunked framing, which their HTTP libraries hand over
+chunk by chunk (a close-delimited body is read in blocks, so a line-buffered
+client saw each event only when the next one's bytes came); an ``id:`` on every
+event; and ``data:`` on ``quit`` and ``unload`` too, since an EventSource
+never dispatches an event without data.  The ``id`` of the last event of a
+stream (``quit``, ``unload``) is :data:`FINAL_ID`: a client that reconnects
+with it as ``Last-Event-ID`` is answered 204, which stops an EventSource for
+good, so a stopped session is never started again by a reconnect.
 """
 
 from __future__ import annotations
@@ -12,17 +25,22 @@ from aiohttp import web
 
 from ._replies import SERVER_HEADER
 
-__all__ = ["format_event", "EventStream", "PING"]
+__all__ = ["format_event", "event_id", "EventStream", "event_stream", "wants_standard", "PING", "FINAL_ID"]
 
 #: An SSE comment, sent on idle streams so that a vanished client is noticed.
 PING = b": ping\n\n"
+#: The id of the event that ends a stream (``quit``, ``unload``): a reconnect carrying it gets 204.
+FINAL_ID = "end"
+_STANDARD = "text/event-stream"
+_HEADERS = {"Content-Type": "text/event-stream", "Cache-Control": "no-cache", "X-Accel-Buffering": "no",
+            **SERVER_HEADER}
 
 
 def format_event(event: str, data: bytes | None = None) -> bytes:
     """Frame one event: ``event: NAME``, an optional one-line ``data:``, a blank line.
 
     Args:
-        event: The event name (``request``, ``unload``, ``quit``).
+        event: The event name (``request``, ``unload``, ``quit``, ``port``).
         data: Compact JSON, on one line (JSON never needs a raw newline).
     """
     if "\n" in event or (data is not None and b"\n" in data):
@@ -32,22 +50,42 @@ def format_event(event: str, data: bytes | None = None) -> bytes:
     return b"event: " + event.encode() + b"\ndata: " + data + b"\n\n"
 
 
+def event_id(identifier: int | str) -> bytes:
+    """The ``id:`` line that goes before an event of the standard form."""
+    return b"id: %s\n" % str(identifier).encode()
+
+
+def wants_standard(request: web.BaseRequest) -> bool:
+    """Whether the client asked for the standard form (``Accept: text/event-stream``)."""
+    return _STANDARD in request.headers.get("Accept", "")
+
+
 class EventStream(web.StreamResponse):
-    """A ``text/event-stream`` response delimited by closing the connection.
+    """A ``text/event-stream`` response in the standard form: chunked on HTTP/1.1, with ids.
+
+    The connection closes after it: a stream that ends is a stream its client
+    reconnects to, on a new connection.
+    """
+
+    standard = True
+
+    def __init__(self) -> None:
+        super().__init__(status=200, headers=_HEADERS)
+        self.force_close()
+
+
+class GenomixEventStream(EventStream):
+    """A ``text/event-stream`` response in genomix's form: delimited by closing the connection.
 
     aiohttp switches an HTTP/1.1 response with no length to chunked transfer
     coding; turning its length check off (as its own WebSocket response does)
-    keeps the body raw, and forcing the connection to close at the end tells
-    the client where the body ends.
+    keeps the body raw, and closing the connection tells the client where it ends.
     """
 
+    standard = False
     _length_check = False
 
-    def __init__(self) -> None:
-        super().__init__(status=200, headers={
-            "Content-Type": "text/event-stream",
-            "Cache-Control": "no-cache",
-            "X-Accel-Buffering": "no",
-            **SERVER_HEADER,
-        })
-        self.force_close()
+
+def event_stream(request: web.BaseRequest) -> EventStream:
+    """The stream response in the form *request* asked for."""
+    return EventStream() if wants_standard(request) else GenomixEventStream()

@@ -3,11 +3,18 @@
 from __future__ import annotations
 
 import contextlib
+import os
 import shutil
 from collections.abc import AsyncIterator
 from typing import Any
 
+import pytest
+
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+#: Browser tests are heavy: ./run runs them once, on the default Python (AIOGENOMIX_HEAVY=0 on the others).
+needs_browser = pytest.mark.skipif(
+    CHROMIUM is None or os.environ.get("AIOGENOMIX_HEAVY") == "0",
+    reason="needs Debian's chromium (./run test installs it); run once, on the default Python")
 #: Chromium as the machine allows it: no sandbox (root), no GPU, no calls home.
 FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
          "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage"]

@@ -16,9 +16,9 @@ import pytest
 from aiogenomix.gateway import GatewayConfig
 
 from ..conftest import TEST_TIME_SCALE
-from ._browser import CHROMIUM, browser_page
+from ._browser import browser_page, needs_browser
 
-pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="needs Debian's chromium (./run test installs it)")
+pytestmark = needs_browser
 TOKEN = "s3cret-console"
 
 

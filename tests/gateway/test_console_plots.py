@@ -21,9 +21,9 @@ from aiogenomix.gateway import GatewayConfig, serve
 
 from ..conftest import TEST_TIME_SCALE
 from ._console_camera import Camera
-from ._browser import CHROMIUM, browser_page
+from ._browser import browser_page, needs_browser
 
-pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="needs Debian's chromium (./run test installs it)")
+pytestmark = needs_browser
 SCREENSHOT = pathlib.Path(__file__).parents[2] / "docs" / "images" / "console.png"
 WAIT = 20_000
 

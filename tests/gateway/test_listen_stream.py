@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
 
 import aiohttp
@@ -80,3 +81,74 @@ async def test_events_after_a_listener_vanished_wait_for_the_next_one(gateway: s
         assert name == "request" and json.loads(data or "")["id"] == request_id
     finally:
         back.close()
+
+
+async def _standard_stream(gateway: str, path: str, *headers: str) -> tuple[asyncio.StreamReader,
+                                                                              asyncio.StreamWriter, bytes]:
+    host, port = gateway.removeprefix("http://").rsplit(":", 1)
+    reader, writer = await asyncio.open_connection(host, int(port))
+    lines = [f"GET {path} HTTP/1.1", f"Host: {host}", "Accept: text/event-stream", *headers]
+    writer.write(("\r\n".join(lines) + "\r\n\r\n").encode())
+    return reader, writer, await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 10)
+
+
+async def _chunk(reader: asyncio.StreamReader) -> bytes:
+    """The next chunk of a chunked body, pings skipped."""
+    while True:
+        size = int(await asyncio.wait_for(reader.readuntil(b"\r\n"), 10), 16)
+        data = await reader.readexactly(size + 2)
+        if not data.startswith(b":"):
+            return data[:-2]
+
+
+async def test_a_standard_client_gets_chunks_ids_and_a_quit_with_data(gateway: str,
+                                                                        http: aiohttp.ClientSession) -> None:
+    await http.get("/load/demo")
+    reader, writer, head = await _standard_stream(gateway, "/session/listen?s=std")
+    try:
+        assert b"transfer-encoding: chunked" in head.lower()
+        for number in (1, 2):
+            await http.get("/module/demo/send/GetSpeed", params={"s": "std"})
+            assert (await _chunk(reader)).startswith(b"id: %d\nevent: request\ndata: {" % number)
+        await http.get("/session/stop", params={"s": "std"})
+        assert await _chunk(reader) == b'id: end\nevent: quit\ndata: "std"\n\n'
+        assert await reader.readuntil(b"0\r\n\r\n") == b"0\r\n\r\n"  # the last chunk: the stream ended
+    finally:
+        writer.close()
+    # The reconnect an EventSource makes after quit: 204, and the session stays stopped.
+    reader, writer, head = await _standard_stream(gateway, "/session/listen?s=std", "Last-Event-ID: end")
+    writer.close()
+    assert head.startswith(b"HTTP/1.1 204")
+    async with http.get("/session/stop", params={"s": "std"}) as reply:
+        assert reply.status == 404
+
+
+async def test_a_standard_watch_resumes_from_its_last_event_id_and_stops_after_unload(
+        gateway: str, http: aiohttp.ClientSession) -> None:
+    await http.get("/load/capture")
+    # A long window (a second at the tests' time scale), so that the reconnect below loses nothing.
+    await http.get("/module/capture/send/StartCapture", params={"input": '{"Port_chunks":400}'})
+    reader, writer, _ = await _standard_stream(gateway, "/module/capture/watch/Port")
+    try:
+        first = await _chunk(reader)
+        assert first.startswith(b"id: ") and b"event: port\n" in first
+        last_chunk = int(first.split(b"\n")[0][4:])
+        assert json.loads(first.split(b"data: ")[1])["Port"]["index"] == last_chunk
+    finally:
+        writer.close()
+    # An EventSource reconnects with the id it had: it gets the chunks after it, as with since=.
+    reader, writer, _ = await _standard_stream(gateway, "/module/capture/watch/Port", f"Last-Event-ID: {last_chunk}")
+    try:
+        resumed = json.loads((await _chunk(reader)).split(b"data: ")[1])
+        port = resumed["Port"]
+        chunks = port["nbframes"] // 2205  # 50 ms chunks at 44.1 kHz
+        assert port["index"] - chunks + 1 == last_chunk + 1 and resumed["lost"] == 0
+        await http.get("/unload/capture")
+        while b"event: unload" not in (last := await _chunk(reader)):
+            pass
+        assert last == b'id: end\nevent: unload\ndata: "capture"\n\n'
+    finally:
+        writer.close()
+    reader, writer, head = await _standard_stream(gateway, "/module/capture/watch/Port", "Last-Event-ID: end")
+    writer.close()
+    assert head.startswith(b"HTTP/1.1 204")
