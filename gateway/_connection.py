@@ -32,7 +32,6 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import logging
-import socket
 from collections.abc import Awaitable, Callable
 
 from aiohttp import web
@@ -149,16 +148,13 @@ class GatewayConnection(asyncio.Protocol):
         self._refusal: HeadRefusal | None = None  # written once aiohttp has answered what it holds
         self._head_timer: asyncio.TimerHandle | None = None
         self._idle_timer: asyncio.TimerHandle | None = None
+        self._last_reply = 0.0  # when the last reply was finished (the loop's clock)
 
     # -- the connection ---------------------------------------------------------------------
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:  # noqa: D102
         assert isinstance(transport, asyncio.Transport)
         self._transport = transport
-        sock = transport.get_extra_info("socket")
-        if sock is not None and sock.family in (socket.AF_INET, socket.AF_INET6):
-            # Replies go out as soon as they are written (genomix 1.7.3 does the same).
-            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self._connections.add(self._inner, self)
         self._inner.connection_made(transport)
         self._arm_head_timer()
@@ -234,23 +230,24 @@ class GatewayConnection(asyncio.Protocol):
         if self._refusal is not None:
             self._write_refusal(self._refusal)
         elif not self._closing:
-            self._restart_idle_timer()
+            self._replied()
             self._time_what_is_awaited()
 
     def _answer_fast(self, head: RequestHead) -> bool:
         """Answer *head* here if it is a plain read and the socket has nothing else to send."""
-        transport = self._transport
-        fd = direct_socket(transport) if self._fast_reads is not None else None
+        fast_reads, transport = self._fast_reads, self._transport
+        if fast_reads is None or not fast_reads.may_answer(head):
+            return False
+        fd = direct_socket(transport)
         if fd is None or transport is None:
             return False
-        assert self._fast_reads is not None
-        reply = self._fast_reads.reply(head)
+        reply = fast_reads.reply(head)
         if reply is None:
             return False
         written = write_gathered(fd, reply)
         for piece in unsent(reply, written):
             transport.write(piece)
-        self._restart_idle_timer()
+        self._replied()
         return True
 
     # -- refusals ---------------------------------------------------------------------------
@@ -287,17 +284,12 @@ class GatewayConnection(asyncio.Protocol):
     # -- timers -----------------------------------------------------------------------------
 
     def _time_what_is_awaited(self) -> None:
-        """Time the request being received, if any; else, with nothing in hand, the idle connection."""
+        """Time the request being received, if any (the idle timer looks at the connection when it fires)."""
         if self._buffer or self._body_left:
-            if self._idle_timer is not None:
-                self._idle_timer.cancel()
-                self._idle_timer = None
             self._arm_head_timer()
         elif self._head_timer is not None:
             self._head_timer.cancel()
             self._head_timer = None
-            if not self._in_hand:
-                self._restart_idle_timer()
 
     def _arm_head_timer(self) -> None:
         if self._head_timer is None and self._limits.header_timeout > 0:
@@ -317,15 +309,26 @@ class GatewayConnection(asyncio.Protocol):
         else:
             self._refuse(HeadRefusal(408, f"the request head took more than {self._limits.header_timeout:g} s"))
 
-    def _restart_idle_timer(self) -> None:
-        if self._idle_timer is not None:
-            self._idle_timer.cancel()
-        self._idle_timer = self._loop.call_later(self._limits.keep_alive, self._idle_timed_out)
+    def _replied(self) -> None:
+        """A reply is finished: the connection is idle from now until its next request.
+
+        One timer per connection, moved on lazily: a timer made and cancelled at every
+        request of 50 busy connections costs asyncio more than the rest of this layer.
+        """
+        self._last_reply = self._loop.time()
+        if self._idle_timer is None:
+            self._idle_timer = self._loop.call_at(self._last_reply + self._limits.keep_alive, self._idle_timed_out)
 
     def _idle_timed_out(self) -> None:
         self._idle_timer = None
-        if self._transport is not None and not (self._in_hand or self._buffer or self._body_left):
-            self._transport.close()
+        transport = self._transport
+        if transport is None or self._in_hand or self._buffer or self._body_left:
+            return  # busy: timed again after its next reply
+        left = self._last_reply + self._limits.keep_alive - self._loop.time()
+        if left > 0:
+            self._idle_timer = self._loop.call_later(left, self._idle_timed_out)
+        else:
+            transport.close()
 
     def _cancel_timers(self) -> None:
         for timer in (self._head_timer, self._idle_timer):

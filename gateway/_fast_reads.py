@@ -52,6 +52,11 @@ class FastReads:
         self._bodies = app[READ_BODIES]
         self._heads = {binary: _head_start(READ_HEADERS[binary]) for binary in (False, True)}
 
+    @staticmethod
+    def may_answer(head: RequestHead) -> bool:
+        """Whether *head* may be a plain read (a cheap look, before the socket and the door are asked)."""
+        return head.method == "GET" and head.target.startswith("/module/") and "/read/" in head.target
+
     def reply(self, head: RequestHead) -> list[Buffer] | None:
         """The whole reply to *head* (its HTTP head first), or None to leave the request to the routes."""
         if head.method != "GET" or head.version != "1.1" or head.body_length:

@@ -35,6 +35,9 @@ MAX_FIELDS = 100
 #: knows more (WebDAV's, CONNECT), none of which this gateway serves.
 METHODS = frozenset({"GET", "HEAD", "POST", "PUT", "DELETE", "OPTIONS", "PATCH"})
 
+_METHOD_NAMES = {method.encode(): method for method in METHODS}
+_VERSIONS = {b" HTTP/1.1": "1.1", b" HTTP/1.0": "1.0"}
+_TARGET = re.compile(rb"/[\x21-\x7e]*|https?://[\x21-\x7e]+")
 _TOKEN = rb"[!#$%&'*+\-.^_`|~0-9A-Za-z]+"
 # method SP request-target SP HTTP-version: origin form or absolute form, printable ASCII.
 _REQUEST_LINE = re.compile(rb"(" + _TOKEN + rb") (/[\x21-\x7e]*|https?://[\x21-\x7e]+) HTTP/(\d)\.(\d)")
@@ -110,15 +113,13 @@ def parse_head(buffer: bytes, start: int, end: int) -> RequestHead:
     """
     line_end = buffer.find(b"\r\n", start, end)
     line = buffer[start:line_end]
-    match = _REQUEST_LINE.fullmatch(line)
-    if match is None:
-        raise _malformed_request_line(line)
-    method, target, major, minor = match.groups()
-    if (major, minor) not in ((b"1", b"1"), (b"1", b"0")):
-        raise HeadRefusal(505, f"HTTP/{major.decode()}.{minor.decode()} is not supported: send HTTP/1.1 or HTTP/1.0")
-    name = method.decode("ascii")
-    if name not in METHODS:
-        raise HeadRefusal(400, f"malformed HTTP request: unknown method {_shown(method)}")
+    # The usual line first, without a regular expression's groups: METHOD SP target SP HTTP/1.x.
+    space = line.find(b" ")
+    name = _METHOD_NAMES.get(line[:space])
+    version = _VERSIONS.get(line[-9:])
+    if name is None or version is None or not _TARGET.fullmatch(line, space + 1, len(line) - 9):
+        raise _refusal_of_line(line)
+    target = line[space + 1:-9].decode("ascii")
     fields = buffer[line_end + 2:end - 2]
     if _FIELD_LINES.fullmatch(fields) is None:
         raise _malformed_field(fields)
@@ -136,7 +137,7 @@ def parse_head(buffer: bytes, start: int, end: int) -> RequestHead:
             body_length = _content_length(fields)
         if b"upgrade" in lowered and _UPGRADE_LINE.search(fields):
             raw = buffer[start:line_end + 2] + _UPGRADE_LINE.sub(b"", fields) + b"\r\n"
-    return RequestHead(name, target.decode("ascii"), f"{major.decode()}.{minor.decode()}", fields, raw, body_length)
+    return RequestHead(name, target, version, fields, raw, body_length)
 
 
 def check_partial(buffer: bytes, start: int, max_url_bytes: int) -> None:
@@ -173,11 +174,18 @@ def _content_length(fields: bytes) -> int:
     return int(found[0])
 
 
-def _malformed_request_line(line: bytes) -> HeadRefusal:
-    if _SIMPLE_REQUEST.fullmatch(line):
-        # "GET /path" alone: an HTTP/0.9 request, whose reply would have no status line or headers.
-        return HeadRefusal(505, "HTTP/0.9 is not supported: send HTTP/1.1 or HTTP/1.0")
-    return HeadRefusal(400, f"malformed HTTP request: bad request line {_shown(line)}")
+def _refusal_of_line(line: bytes) -> HeadRefusal:
+    """Why a request line that is not the usual one is refused."""
+    match = _REQUEST_LINE.fullmatch(line)
+    if match is None:
+        if _SIMPLE_REQUEST.fullmatch(line):
+            # "GET /path" alone: an HTTP/0.9 request, whose reply would have no status line or headers.
+            return HeadRefusal(505, "HTTP/0.9 is not supported: send HTTP/1.1 or HTTP/1.0")
+        return HeadRefusal(400, f"malformed HTTP request: bad request line {_shown(line)}")
+    method, _, major, minor = match.groups()
+    if (major, minor) not in ((b"1", b"1"), (b"1", b"0")):
+        return HeadRefusal(505, f"HTTP/{major.decode()}.{minor.decode()} is not supported: send HTTP/1.1 or HTTP/1.0")
+    return HeadRefusal(400, f"malformed HTTP request: unknown method {_shown(method)}")
 
 
 def _malformed_field(fields: bytes) -> HeadRefusal:
