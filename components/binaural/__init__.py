@@ -1,0 +1,26 @@
+"""Binaural science on measured HRIRs: the KEMAR set, a streaming renderer, and a localiser with head turns.
+
+Pure computation (no I/O besides reading the HRIRs once): the capture scene
+renders through :class:`BinauralRenderer`, and a ``binauloc`` component runs
+:class:`BinauralLocaliser`. Conventions throughout: azimuths in degrees,
+counter-clockwise seen from above (positive to the LEFT), room or head frame
+as named; ear 0 is the left; samples are floats with full scale 1; the
+localiser reports radians in the head frame, as the Two!Ears code read
+``binauloc.Azimuths()``. ``docs/localisation.md`` gives the methods, their
+references and the measured figures.
+"""
+
+from ._cues import band_ilds, gcc_phat_itd, third_octave_centres
+from ._errors import BinauralError, HrirError, HrirUnavailable, LocalisationError
+from ._hrir_set import HrirSet, wrap_degrees
+from ._interpolation import HorizontalInterpolator
+from ._kemar import KEMAR_RATE, kemar_cache_path, load_kemar
+
+__all__ = [
+    # Measured HRIRs
+    "HrirSet", "load_kemar", "kemar_cache_path", "KEMAR_RATE", "HorizontalInterpolator", "wrap_degrees",
+    # Cues
+    "gcc_phat_itd", "band_ilds", "third_octave_centres",
+    # Errors
+    "BinauralError", "HrirError", "HrirUnavailable", "LocalisationError",
+]
