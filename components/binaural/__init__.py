@@ -12,13 +12,17 @@ references and the measured figures.
 
 from ._cues import band_ilds, gcc_phat_itd, third_octave_centres
 from ._errors import BinauralError, HrirError, HrirUnavailable, LocalisationError
+from ._filters import AzimuthFilters, DiffuseFilters, azimuth_filters, diffuse_filters
 from ._hrir_set import HrirSet, wrap_degrees
 from ._interpolation import HorizontalInterpolator
 from ._kemar import KEMAR_RATE, kemar_cache_path, load_kemar
+from ._renderer import BinauralRenderer
 
 __all__ = [
     # Measured HRIRs
     "HrirSet", "load_kemar", "kemar_cache_path", "KEMAR_RATE", "HorizontalInterpolator", "wrap_degrees",
+    # Rendering
+    "BinauralRenderer", "AzimuthFilters", "azimuth_filters", "DiffuseFilters", "diffuse_filters",
     # Cues
     "gcc_phat_itd", "band_ilds", "third_octave_centres",
     # Errors
