@@ -16,15 +16,22 @@ from ._filters import AzimuthFilters, DiffuseFilters, azimuth_filters, diffuse_f
 from ._hrir_set import HrirSet, wrap_degrees
 from ._interpolation import HorizontalInterpolator
 from ._kemar import KEMAR_RATE, kemar_cache_path, load_kemar
+from ._likelihood import GRID_DEGREES, AzimuthLikelihood, combine_in_room
+from ._localiser import AzimuthEstimate, BinauralLocaliser, LocaliserSetup
 from ._renderer import BinauralRenderer
+from ._signals import SIGNALS, speech_like, tone_complex, white_noise
 
 __all__ = [
     # Measured HRIRs
     "HrirSet", "load_kemar", "kemar_cache_path", "KEMAR_RATE", "HorizontalInterpolator", "wrap_degrees",
     # Rendering
     "BinauralRenderer", "AzimuthFilters", "azimuth_filters", "DiffuseFilters", "diffuse_filters",
+    # Localisation
+    "BinauralLocaliser", "LocaliserSetup", "AzimuthEstimate", "AzimuthLikelihood", "combine_in_room", "GRID_DEGREES",
     # Cues
     "gcc_phat_itd", "band_ilds", "third_octave_centres",
+    # Test signals
+    "white_noise", "speech_like", "tone_complex", "SIGNALS",
     # Errors
     "BinauralError", "HrirError", "HrirUnavailable", "LocalisationError",
 ]
