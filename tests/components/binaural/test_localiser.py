@@ -93,6 +93,15 @@ def test_a_likelihood_turns_into_the_room_frame() -> None:
         room.in_room(0.0)
 
 
+def test_a_front_back_tie_shows_two_peaks_of_half_confidence() -> None:
+    tie = AzimuthLikelihood(np.logaddexp(-0.5 * ((GRID_DEGREES - 30.0) / 2.0) ** 2,
+                                         -0.5 * ((GRID_DEGREES - 150.0) / 2.0) ** 2))
+    (first, first_mass), (second, second_mass) = tie.peaks(2)
+    assert sorted([first, second]) == [30.0, 150.0]
+    assert first_mass == pytest.approx(0.5, abs=0.01) and second_mass == pytest.approx(0.5, abs=0.01)
+    assert tie.confidence() == pytest.approx(0.5, abs=0.01)
+
+
 def test_setups_that_make_no_analysis_are_refused(kemar) -> None:
     with pytest.raises(LocalisationError, match="power of two"):
         BinauralLocaliser(LocaliserSetup(rate=RATE, frame=1000), hrirs=kemar)
