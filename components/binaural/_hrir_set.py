@@ -89,7 +89,7 @@ class HrirSet:
     def resampled(self, rate: float) -> HrirSet:
         """The same responses at another sample rate (polyphase filtering with a rational ratio).
 
-        The ratio is exact for integer rates whose reduced ratio has terms up to 20,000
+        The ratio is exact for integer rates whose reduced ratio has a denominator up to 20,000
         (44,100 Hz → 24,414 Hz is 4069/7350), else its closest such approximation. The
         filter is zero-phase, so onsets and interaural delays keep their times; the
         measured responses start with enough silence (≥ 29 samples for KEMAR) for its

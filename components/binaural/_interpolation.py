@@ -1,7 +1,7 @@
 """HRIRs at any azimuth of the horizontal plane: time-aligned linear interpolation of the measured neighbours.
 
 Interpolating two measured responses sample by sample adds two copies of the
-sound a few samples apart (an ear's delay moves by up to 2 samples between
+sound slightly apart (an ear's delay moves by up to 1.5 samples between
 KEMAR's 5° neighbours), which is a comb filter with notches in the audible
 range. So, for each ear and each pair of neighbouring measured directions, the
 delay of the second response relative to the first is found once, as the peak
@@ -35,7 +35,7 @@ from ._hrir_set import HrirSet, wrap_degrees
 __all__ = ["HorizontalInterpolator", "relative_delay"]
 
 _OVERSAMPLE = 8
-#: The largest delay searched between neighbours (an ear's delay moves by 0.05 ms per 5° on KEMAR).
+#: The largest delay searched between neighbours (an ear's delay moves by at most 1.5 samples per 5° on KEMAR).
 _MAX_DELAY_SECONDS = 0.3e-3
 
 
