@@ -1,0 +1,120 @@
+"""The localiser: estimates in the head frame, streaming, head turns that resolve front and back, speed."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+from aiogenomix.components.binaural import (
+    GRID_DEGREES, AzimuthLikelihood, BinauralLocaliser, BinauralRenderer, HrirSet, LocalisationError,
+    LocaliserSetup, combine_in_room, speech_like, white_noise,
+)
+
+RATE = 24_414.0
+
+
+@pytest.fixture(scope="module")
+def localiser(kemar: HrirSet) -> BinauralLocaliser:
+    return BinauralLocaliser(LocaliserSetup(rate=RATE), hrirs=kemar)
+
+
+def scene(kemar: HrirSet, dry: np.ndarray, azimuth: float, head: float, snr: float, seed: int):
+    """The ears' audio of one source in a diffuse field at *snr*, and a stretch of the field alone."""
+    ears = BinauralRenderer(RATE, 1, hrirs=kemar).render(dry[np.newaxis], head, [azimuth])
+    field = BinauralRenderer(RATE, 0, hrirs=kemar, diffuse_level=0.0, seed=seed).render(
+        np.zeros((0, 2 * len(dry))), head)
+    gain = np.sqrt(np.mean(ears**2) / 10 ** (snr / 10))
+    return ears + gain * field[len(dry):], gain * field[:len(dry)]
+
+
+@pytest.mark.parametrize("make", [white_noise, speech_like])
+def test_a_source_at_62_5_degrees_is_found_within_5_degrees(kemar, localiser, make) -> None:
+    dry = 0.1 * make(1.0, RATE, np.random.default_rng(1))
+    ears, noise = scene(kemar, dry, 62.5, 0.0, 10.0, seed=2)
+    localiser.learn_noise(noise)
+    estimate = localiser.localise(ears)
+    lateral = math.degrees(math.asin(math.sin(estimate.azimuth)))
+    assert abs(lateral - 62.5) <= 5.0
+    assert -math.pi < estimate.azimuth <= math.pi and 0.0 <= estimate.confidence <= 1.0 + 1e-9
+
+
+def test_estimates_are_in_the_head_frame(kemar, localiser) -> None:
+    dry = 0.1 * white_noise(0.5, RATE, np.random.default_rng(3))
+    ears, noise = scene(kemar, dry, 100.0, 40.0, 20.0, seed=4)
+    localiser.learn_noise(noise)
+    assert localiser.localise(ears).degrees == pytest.approx(60.0, abs=3.0)
+
+
+def test_head_turns_tell_32_5_from_147_5_degrees_in_every_seeded_run(kemar, localiser) -> None:
+    for seed in range(6):
+        for azimuth in (32.5, 147.5):
+            rng = np.random.default_rng([seed, int(azimuth)])
+            head = float(rng.uniform(-10.0, 10.0))
+            observations = []
+            for turn in (0.0, 30.0, -30.0):
+                dry = 0.1 * speech_like(0.5, RATE, rng)
+                ears, noise = scene(kemar, dry, azimuth, head + turn, 5.0, seed=int(rng.integers(1 << 30)))
+                localiser.learn_noise(noise)
+                observations.append((localiser.localise(ears).likelihood, head + turn))
+            room = combine_in_room(observations)
+            assert abs(room.peak() - azimuth) < 5.0, (seed, azimuth)
+            assert room.confidence() > 0.9
+
+
+def test_streaming_gives_an_estimate_every_smoothing_frames(kemar) -> None:
+    setup = LocaliserSetup(rate=RATE, frame=1024, hop=512, smoothing=10)
+    streaming = BinauralLocaliser(setup, hrirs=kemar)
+    dry = 0.1 * white_noise(2.0, RATE, np.random.default_rng(5))
+    ears = BinauralRenderer(RATE, 1, hrirs=kemar).render(dry[np.newaxis], 0.0, [-45.0])
+    estimates = []
+    for start in range(0, len(ears), 1000):
+        estimates += streaming.feed(ears[start:start + 1000])
+    per_estimate = 10 * 512
+    assert len(estimates) == (len(ears) - 1024 + 512) // per_estimate
+    assert [e.end for e in estimates] == [k * per_estimate + 512 for k in range(1, len(estimates) + 1)]
+    assert all(e.frames == 10 for e in estimates)
+    # The same frames in one block give the same estimate.
+    second = BinauralLocaliser(setup, hrirs=kemar).localise(ears[per_estimate:2 * per_estimate + 512])
+    assert second.azimuth == pytest.approx(estimates[1].azimuth, abs=1e-9)
+    assert all(abs(abs(e.degrees) - 45.0) < 5.0 for e in estimates)
+
+
+def test_a_likelihood_turns_into_the_room_frame() -> None:
+    head_frame = AzimuthLikelihood(-0.5 * ((GRID_DEGREES - 30.0) / 3.0) ** 2)
+    assert head_frame.peak() == pytest.approx(30.0, abs=0.01)
+    room = head_frame.in_room(40.5)
+    assert room.frame == "room" and room.peak() == pytest.approx(70.5, abs=0.05)
+    assert room.relative_to(40.5).peak() == pytest.approx(30.0, abs=0.05)
+    assert head_frame.confidence() == pytest.approx(0.999, abs=0.002)
+    with pytest.raises(LocalisationError):
+        room.in_room(0.0)
+
+
+def test_a_front_back_tie_shows_two_peaks_of_half_confidence() -> None:
+    tie = AzimuthLikelihood(np.logaddexp(-0.5 * ((GRID_DEGREES - 30.0) / 2.0) ** 2,
+                                         -0.5 * ((GRID_DEGREES - 150.0) / 2.0) ** 2))
+    (first, first_mass), (second, second_mass) = tie.peaks(2)
+    assert sorted([first, second]) == [30.0, 150.0]
+    assert first_mass == pytest.approx(0.5, abs=0.01) and second_mass == pytest.approx(0.5, abs=0.01)
+    assert tie.confidence() == pytest.approx(0.5, abs=0.01)
+
+
+def test_setups_that_make_no_analysis_are_refused(kemar) -> None:
+    with pytest.raises(LocalisationError, match="power of two"):
+        BinauralLocaliser(LocaliserSetup(rate=RATE, frame=1000), hrirs=kemar)
+    with pytest.raises(LocalisationError, match="frequency"):
+        BinauralLocaliser(LocaliserSetup(rate=RATE, min_frequency=6000.0, max_frequency=5000.0), hrirs=kemar)
+    with pytest.raises(LocalisationError, match="frame"):
+        BinauralLocaliser(LocaliserSetup(rate=RATE), hrirs=kemar).localise(np.zeros((100, 2)))
+
+
+def test_localising_runs_well_over_ten_times_real_time(kemar, localiser) -> None:
+    ears = np.random.default_rng(6).standard_normal((int(5 * RATE), 2))
+    localiser.learn_noise(ears[:int(RATE)])
+    started = time.process_time()
+    for start in range(0, len(ears), int(0.5 * RATE)):
+        localiser.localise(ears[start:start + int(0.5 * RATE)])
+    assert 5.0 / (time.process_time() - started) > 10.0
