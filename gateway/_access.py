@@ -12,7 +12,9 @@ nor ``Sec-Fetch-Site``, so these checks cost them nothing:
   rebinding page names the attacker's domain and is refused.
 * **Origin**: a browser request from another origin is refused unless the
   operator allows that origin (``--allow-origin``), which then also gets the
-  CORS headers to read the replies.  A request a browser marks as cross-site
+  CORS headers on every reply (errors, refusals and event streams included)
+  and answers to its preflights, so that a web app or Swagger UI served
+  elsewhere can use the gateway, its token included.  A request a browser marks as cross-site
   with no ``Origin`` (an image, a link, a form) is refused too, except a
   navigation to the read-only pages ``/`` and ``/console``.
 
@@ -33,7 +35,10 @@ from typing import Any
 
 from aiohttp import web
 
-__all__ = ["AccessPolicy", "browser_refusal", "allow_origin", "console_policy"]
+from ._replies import SERVER_HEADER
+
+__all__ = ["AccessPolicy", "browser_refusal", "other_origin", "allow_origin", "preflight_reply", "console_policy",
+           "inline_hashes"]
 
 #: How many distinct Host headers the policy remembers its verdict on.
 _REMEMBERED_HOSTS = 256
@@ -112,7 +117,7 @@ def browser_refusal(policy: AccessPolicy, path: str, headers: Mapping[str, str],
         if headers.get("sec-fetch-site", "") in ("cross-site", "same-site") and path not in _NAVIGABLE:
             return _forbidden("a request from another web site may not use this gateway"), None
         return None, None
-    if origin != f"{scheme}://{host}":
+    if other_origin(headers, scheme) is not None:
         if not policy.origin_allowed(origin):
             return _forbidden(f"pages from {_shown(origin)} may not use this gateway "
                               "(its operator can allow them with --allow-origin)"), None
@@ -120,10 +125,32 @@ def browser_refusal(policy: AccessPolicy, path: str, headers: Mapping[str, str],
     return None, None
 
 
+def other_origin(headers: Mapping[str, str], scheme: str = "http") -> str | None:
+    """The ``Origin`` of a request made by a page of another origin than the gateway's own (else None)."""
+    origin = headers.get("origin")
+    return origin if origin is not None and origin != f"{scheme}://{headers.get('host')}" else None
+
+
+#: What a page of an allowed origin may send (the token, JSON bodies, an EventSource's reconnect).
+_ALLOWED_METHODS = "GET, POST, OPTIONS"
+_ALLOWED_HEADERS = "Authorization, Content-Type, Accept, Last-Event-ID, Cache-Control"
+#: How long a browser may keep a preflight's answer (seconds).
+_PREFLIGHT_MAX_AGE = "600"
+
+
 def allow_origin(response: web.StreamResponse, origin: str) -> None:
-    """Let pages of *origin* (allowed by the policy) read *response*."""
+    """Let pages of *origin* (allowed by the policy) read *response* (before it is prepared)."""
     response.headers["Access-Control-Allow-Origin"] = origin
     response.headers["Vary"] = "Origin"
+
+
+def preflight_reply(origin: str) -> web.Response:
+    """The answer to a browser's preflight (``OPTIONS``) from an allowed *origin*: 204 and what it may send."""
+    response = web.Response(status=204, headers={
+        "Access-Control-Allow-Methods": _ALLOWED_METHODS, "Access-Control-Allow-Headers": _ALLOWED_HEADERS,
+        "Access-Control-Max-Age": _PREFLIGHT_MAX_AGE, **SERVER_HEADER})
+    allow_origin(response, origin)
+    return response
 
 
 def _shown(header: str) -> str:
@@ -135,13 +162,14 @@ def _forbidden(message: str) -> dict[str, Any]:
     return {"ex": "::genomix::forbidden", "message": message}
 
 
+def inline_hashes(page: bytes, tag: str) -> str:
+    """The CSP hashes (``'sha256-...'``) of the inline ``<tag>`` blocks of *page* (a block with ``src`` is empty)."""
+    blocks = re.findall(rb"<" + tag.encode() + rb"[^>]*>(.*?)</" + tag.encode() + rb">", page, re.S)
+    return " ".join(f"'sha256-{base64.b64encode(hashlib.sha256(b).digest()).decode()}'" for b in blocks if b)
+
+
 def console_policy(page: bytes) -> str:
     """The Content-Security-Policy of the console *page*: its inline script and style, nothing else."""
-
-    def hashes(tag: str) -> str:
-        blocks = re.findall(rb"<" + tag.encode() + rb"[^>]*>(.*?)</" + tag.encode() + rb">", page, re.S)
-        return " ".join(f"'sha256-{base64.b64encode(hashlib.sha256(b).digest()).decode()}'" for b in blocks)
-
-    return (f"default-src 'none'; script-src {hashes('script')}; style-src {hashes('style')}; "
-            "connect-src 'self'; img-src 'self' data: blob:; base-uri 'none'; form-action 'none'; "
-            "frame-ancestors 'none'")
+    return (f"default-src 'none'; script-src {inline_hashes(page, 'script')}; style-src "
+            f"{inline_hashes(page, 'style')}; connect-src 'self'; img-src 'self' data: blob:; base-uri 'none'; "
+            "form-action 'none'; frame-ancestors 'none'")

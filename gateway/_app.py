@@ -10,7 +10,7 @@ from aiohttp import web
 from aiohttp.typedefs import Middleware
 
 from ..components.core import ComponentHost, ScaledClock
-from . import _routes_admin, _routes_modules, _routes_openapi, _routes_ports, _routes_sessions
+from . import _routes_admin, _routes_docs, _routes_modules, _routes_openapi, _routes_ports, _routes_sessions
 from ._access import AccessPolicy
 from ._auth import TokenCheck
 from ._config import GatewayConfig
@@ -67,6 +67,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app.add_routes(_routes_modules.routes)
     app.add_routes(_routes_ports.routes)
     app.add_routes(_routes_openapi.routes)
+    app.add_routes(_routes_docs.routes)
     app.cleanup_ctx.append(_host_lifetime(owns_host))
     app.on_shutdown.append(shut_down(owns_host))
     return app

@@ -7,7 +7,8 @@ so a refusal always comes from one place).  The checks run in this order:
 
 1. browsers (``_access``): the Host a request names, and its ``Origin`` or
    cross-site marks; a refused page learns nothing more, not even whether a
-   token is needed (403);
+   token is needed (403); a page of an allowed origin asking first
+   (``OPTIONS``, a CORS preflight) is told what it may send;
 2. the token (``_auth``), when the gateway has one (401);
 3. the query's parameters (``_parameters``): a name the endpoint does not take,
    or one of its names twice, is refused before anything runs (400).
@@ -27,7 +28,7 @@ from ._access import AccessPolicy, browser_refusal
 from ._auth import OPEN_PATHS, TokenCheck, unauthorized_body
 from ._parameters import parameter_refusal
 
-__all__ = ["Door", "Admission", "Refusal", "ADMITTED"]
+__all__ = ["Door", "Admission", "Preflight", "Refusal", "ADMITTED"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -40,6 +41,13 @@ class Admission:
     """
 
     origin: str | None
+
+
+@dataclass(frozen=True, slots=True)
+class Preflight:
+    """A browser asks (``OPTIONS``) whether a page of the allowed *origin* may send its request."""
+
+    origin: str
 
 
 @dataclass(frozen=True, slots=True)
@@ -74,7 +82,7 @@ class Door:
         self.token = token
 
     def decide(self, method: str, path: str, names: Iterable[str], headers: Mapping[str, str],
-               scheme: str = "http") -> Admission | Refusal:
+               scheme: str = "http") -> Admission | Preflight | Refusal:
         """Decide on a request.
 
         Args:
@@ -87,9 +95,11 @@ class Door:
         body, origin = browser_refusal(self.policy, path, headers, scheme)
         if body is not None:
             return Refusal(403, body)
+        if origin is not None and method == "OPTIONS" and "access-control-request-method" in headers:
+            return Preflight(origin)  # a browser's question, never with credentials: before the token
         if self.token is not None and path not in OPEN_PATHS and not self.token.admits(headers):
             return Refusal(401, unauthorized_body(), origin)
-        body = parameter_refusal(path, names)
+        body = parameter_refusal(path, names, method)
         if body is not None:
             return Refusal(400, body, origin)
         return ADMITTED if origin is None else Admission(origin)

@@ -5,6 +5,7 @@
     GatewayError
     ├── NoSuchSession (LookupError)   404
     ├── BadQuery (ValueError)         400  malformed query parameters or input JSON
+    ├── UnsupportedBody               415  a send's body that is not JSON
     ├── LoadForbidden                 403  a load by path (only registered components load)
     ├── TooManySessions               429  the session cap is reached
     ├── RemoteRefusal                 the error of a component in another process, as answered there
@@ -33,7 +34,7 @@ from ..components.core import (
 from ._replies import json_reply
 
 __all__ = [
-    "GatewayError", "NoSuchSession", "BadQuery", "LoadForbidden", "TooManySessions", "RemoteRefusal",
+    "GatewayError", "NoSuchSession", "BadQuery", "UnsupportedBody", "LoadForbidden", "TooManySessions", "RemoteRefusal",
     "RemoteUnreachable", "ZenohSessionError", "error_reply", "error_body",
 ]
 
@@ -50,6 +51,10 @@ class NoSuchSession(GatewayError, LookupError):
 
 class BadQuery(GatewayError, ValueError):
     """A malformed query (bad JSON in ``input``, a bad ``timeout``...)."""
+
+
+class UnsupportedBody(GatewayError):
+    """A request body of a type the endpoint does not take (a send's body must be JSON)."""
 
 
 class LoadForbidden(GatewayError):
@@ -105,6 +110,8 @@ def error_body(exc: Exception) -> tuple[int, dict[str, Any]]:
         return 400, {"ex": "::genom::serialization", "detail": {"what": message}, "message": message}
     if isinstance(exc, BadQuery):
         return 400, {"ex": "::genom::serialization", "detail": {"what": message}, "message": message}
+    if isinstance(exc, UnsupportedBody):
+        return 415, {"ex": "::genomix::unsupported_media_type", "message": message}
     if isinstance(exc, LoadError):
         return 400, {"ex": "::genomix::bad_load", "message": message}
     if isinstance(exc, TooManyInstances):

@@ -14,8 +14,8 @@ from collections.abc import Awaitable, Callable
 from aiohttp import web
 from aiohttp.typedefs import Middleware
 
-from ._access import allow_origin
-from ._door import Door, Refusal
+from ._access import allow_origin, preflight_reply
+from ._door import Door, Preflight, Refusal
 from ._errors import error_reply
 from ._replies import json_reply
 
@@ -34,12 +34,14 @@ def guard_middleware(door: Door) -> Middleware:
         verdict = door.decide(request.method, request.path, names, request.headers, request.scheme)
         if type(verdict) is Refusal:
             response: web.StreamResponse = json_reply(verdict.body, status=verdict.status)
+        elif type(verdict) is Preflight:
+            return preflight_reply(verdict.origin)
         else:
             try:
                 response = await handler(request)
             except Exception as exc:
                 response = error_reply(request, exc)
-        if verdict.origin is not None and not response.prepared:
+        if verdict.origin is not None and not response.prepared:  # a stream set its own (``_sse``)
             allow_origin(response, verdict.origin)
         return response
 

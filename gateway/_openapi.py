@@ -1,15 +1,27 @@
-"""The OpenAPI 3.1 description of the gateway: its endpoints, and one path per service of every loaded module.
+"""The OpenAPI 3.1 description of the gateway: its endpoints, and the services and ports of every loaded module.
 
 Built from the same ``/info`` descriptions the clients read, so that users of
-any language can generate a client or browse the gateway in their usual tools.
-A service's input travels as JSON in the ``input`` query parameter: OpenAPI
-says so with a parameter whose ``content`` is ``application/json`` and whose
-schema is derived from the service's ``in`` and ``inout`` parameters.
+any language can generate a typed client or browse the gateway in their usual
+tools (Swagger UI is served at ``/docs``).  What generators need, and get here:
+
+* an ``operationId`` on every operation (``demo_GotoPosition``, ``demo_read_Mobile``, ``getStatus``...);
+* named models in ``components/schemas``: every IDL struct (``demo_state``), each
+  service's input and output (``demo_GotoPosition_Input``), its status object, and
+  each out port's reply (``demo_read_Mobile_Reply``: ``{"Mobile": demo_state}``);
+* a service's input as a typed JSON body of the ``POST`` form of ``send``
+  (docs/decisions/0024); the genomix ``GET`` form keeps its ``input`` as a string
+  of JSON text whose ``contentSchema`` is the same model;
+* ``links`` from a send's request id to ``status``, ``wait``, ``abort`` and ``clean``;
+* the token as the ``security`` of every operation but the console's, when the
+  gateway has one.
 """
 
 from __future__ import annotations
 
+import re
 from typing import Any
+
+from ._routes_modules import MAX_WAIT
 
 __all__ = ["openapi_document", "type_schema"]
 
@@ -21,139 +33,197 @@ _INTEGER_RANGES = {
     "long": (-(2**31), 2**31 - 1), "unsigned long": (0, 2**32 - 1),
     "long long": (-(2**63), 2**63 - 1), "unsigned long long": (0, 2**64 - 1),
 }
-
-_ERROR = {"$ref": "#/components/schemas/Error"}
+_SCHEMAS = "#/components/schemas/"
+_ERROR = {"$ref": _SCHEMAS + "Error"}
 _TEXT = {"text/plain": {"schema": {"type": "string"}}}
+#: Paths served without the token (the console asks for it itself).
+_OPEN = ("/console", "/console/auth", "/console/login", "/docs")
+
+
+def _name(*parts: str) -> str:
+    """An identifier for generated code from *parts* (``::demo::state`` → ``demo_state``)."""
+    return "_".join(p for p in (re.sub(r"\W+", "_", part).strip("_") for part in parts) if p)
+
+
+class _Schemas:
+    """The named schemas of a document, filled as types are met (each IDL struct once per direction)."""
+
+    def __init__(self) -> None:
+        self.named: dict[str, Json] = {}
+
+    def ref(self, name: str, schema: Json) -> Json:
+        self.named.setdefault(name, schema)
+        return {"$ref": _SCHEMAS + name}
+
+    def input(self, t: Json) -> Json:
+        """The schema of data of type *t* as a service accepts it (short enum names, members optional)."""
+        kind = t["kind"]
+        if kind in _INTEGER_RANGES:
+            low, high = _INTEGER_RANGES[kind]
+            return {"type": "integer", "minimum": low, "maximum": high}
+        if kind in ("float", "double"):
+            return {"type": "number"}
+        if kind == "boolean":
+            return {"type": "boolean"}  # genom3 reads 0 and 1 too
+        if kind == "char":
+            return {"type": "string", "minLength": 1, "maxLength": 1}
+        if kind == "string":
+            return {"type": "string", **({"maxLength": t["bound"]} if t.get("bound") else {})}
+        if kind == "enum":
+            # Full names come out; short names are accepted on input too.
+            return {"type": "string", "enum": [*t["values"], *(v.rsplit("::", 1)[-1] for v in t["values"])]}
+        if kind == "struct":
+            return self.ref(_name(t["name"], "Input"), {
+                "type": "object", "title": t["name"], "additionalProperties": False,
+                "properties": {m["name"]: self._member(m, self.input) for m in t["members"]}})
+        if kind == "sequence":
+            return {"type": "array", "items": self.input(t["element"]),
+                    **({"maxItems": t["bound"]} if t.get("bound") else {})}
+        if kind == "array":
+            return {"type": "array", "items": self.input(t["element"]), "maxItems": t["length"]}
+        if kind == "optional":
+            return {"anyOf": [{"type": "null"}, self.input(t["element"])]}
+        return {}
+
+    def output(self, t: Json) -> Json:
+        """The schema of data of type *t* as the gateway writes it (full enum names, NaN as null, every member)."""
+        kind = t["kind"]
+        if kind in ("float", "double"):
+            return {"type": ["number", "null"]}
+        if kind == "boolean":
+            return {"type": "integer", "enum": [0, 1]}
+        if kind == "enum":
+            return {"type": "string", "enum": list(t["values"])}
+        if kind == "struct":
+            return self.ref(_name(t["name"]), {
+                "type": "object", "title": t["name"], "required": [m["name"] for m in t["members"]],
+                "properties": {m["name"]: self._member(m, self.output) for m in t["members"]}})
+        if kind in ("sequence", "array"):
+            return {"type": "array", "items": self.output(t["element"])}
+        if kind == "optional":
+            return {"anyOf": [{"type": "null"}, self.output(t["element"])]}
+        return self.input(t)
+
+    @staticmethod
+    def _member(member: Json, schema_of: Any) -> Json:
+        schema: Json = schema_of(member["type"])
+        if member.get("doc") and "$ref" not in schema:
+            schema = {**schema, "description": member["doc"]}
+        return schema
 
 
 def type_schema(t: Json) -> Json:
-    """The JSON Schema of the data of IDL type *t* (a type description of ``/info``), as a service accepts it."""
-    kind = t["kind"]
-    if kind in _INTEGER_RANGES:
-        low, high = _INTEGER_RANGES[kind]
-        return {"type": "integer", "minimum": low, "maximum": high}
-    if kind in ("float", "double"):
-        return {"type": "number"}
-    if kind == "boolean":
-        # genom3 reads 0 and 1 as well as true and false.
-        return {"anyOf": [{"type": "boolean"}, {"enum": [0, 1]}]}
-    if kind == "char":
-        return {"type": "string", "minLength": 1, "maxLength": 1}
-    if kind == "string":
-        schema: Json = {"type": "string"}
-        if t.get("bound"):
-            schema["maxLength"] = t["bound"]
-        return schema
-    if kind == "enum":
-        # Full names come out; short names are accepted on input too.
-        return {"type": "string", "enum": [*t["values"], *(v.rsplit("::", 1)[-1] for v in t["values"])]}
-    if kind == "struct":
-        return {"type": "object", "title": t["name"], "additionalProperties": False,
-                "properties": {m["name"]: type_schema(m["type"]) for m in t["members"]}}
-    if kind == "sequence":
-        schema = {"type": "array", "items": type_schema(t["element"])}
-        if t.get("bound"):
-            schema["maxItems"] = t["bound"]
-        return schema
-    if kind == "array":
-        return {"type": "array", "items": type_schema(t["element"]), "maxItems": t["length"]}
-    if kind == "optional":
-        return {"anyOf": [{"type": "null"}, type_schema(t["element"])]}
-    return {}
+    """The JSON Schema of the data of IDL type *t* (a type description of ``/info``), as a service accepts it.
+
+    Structs are given inline (the document itself names them in ``components``).
+    """
+    schemas = _Schemas()
+    schema = schemas.input(t)
+    return _inline(schema, schemas.named)
 
 
-def _output_schema(t: Json) -> Json:
-    """The schema of data of type *t* as the gateway writes it (NaN as null, booleans as 0/1)."""
-    kind = t["kind"]
-    if kind in ("float", "double"):
-        return {"type": ["number", "null"]}
-    if kind == "boolean":
-        return {"enum": [0, 1]}
-    if kind == "enum":
-        return {"type": "string", "enum": list(t["values"])}
-    if kind == "struct":
-        return {"type": "object", "properties": {m["name"]: _output_schema(m["type"]) for m in t["members"]}}
-    if kind in ("sequence", "array"):
-        return {"type": "array", "items": _output_schema(t["element"])}
-    if kind == "optional":
-        return {"anyOf": [{"type": "null"}, _output_schema(t["element"])]}
-    return type_schema(t)
-
-
-def _input_schema(service: Json) -> Json:
-    params = [p for p in service["parameters"] if p["dir"] != "out"]
-    properties = {}
-    for p in params:
-        schema = {**type_schema(p["type"]), "description": p.get("doc") or p["type"]["name"]}
-        if "default" in p:
-            schema["default"] = p["default"]
-        properties[p["name"]] = schema
-    return {"type": "object", "additionalProperties": False, "properties": properties}
-
-
-def _status_schema(instance: str, info: Json, service: Json) -> Json:
-    outs = [p for p in service["parameters"] if p["dir"] != "in"]
-    output = {"type": "object", "properties": {p["name"]: _output_schema(p["type"]) for p in outs}}
-    declared = {e["name"]: e for e in info.get("exceptions", [])}
-    raised = [*service.get("throws", []), "::genom::interrupted"]
-    exceptions = []
-    for name in raised:
-        detail = declared.get(name, {}).get("detail") or []
-        schema: Json = {"type": "object", "required": ["ex"], "properties": {"ex": {"const": name}}}
-        if detail:
-            schema["properties"]["detail"] = {"type": "object", "properties": {
-                d["name"]: _output_schema(d["type"]) for d in detail}}
-        if declared.get(name, {}).get("doc"):
-            schema["description"] = declared[name]["doc"]
-        exceptions.append(schema)
-    request_id = {"type": "string", "pattern": f"^{instance}::[0-9]+$"}
-    return {"oneOf": [
-        {"title": "running", "type": "object", "required": ["id", "status"],
-         "properties": {"id": request_id, "status": {"const": "sent"}}},
-        {"title": "done", "type": "object", "required": ["id", "status"],
-         "properties": {"id": request_id, "status": {"const": "done"}, "output": output}},
-        {"title": "error", "type": "object", "required": ["id", "status", "exception"],
-         "properties": {"id": request_id, "status": {"const": "error"},
-                        "exception": {"anyOf": [*exceptions, {"$ref": "#/components/schemas/Exception"}]}}},
-    ]}
+def _inline(schema: Any, named: dict[str, Json]) -> Any:
+    if isinstance(schema, dict):
+        if "$ref" in schema:
+            return _inline(named[schema["$ref"].removeprefix(_SCHEMAS)], named)
+        return {key: _inline(value, named) for key, value in schema.items()}
+    if isinstance(schema, list):
+        return [_inline(item, named) for item in schema]
+    return schema
 
 
 def _errors(*codes: int) -> Json:
-    meaning = {400: "The input does not fit its type, or a query parameter is malformed",
+    meaning = {400: "A query parameter the endpoint does not take, or one that is malformed, or an input that "
+                    "does not fit its type",
                401: "The gateway needs its token", 403: "Refused to browsers of other sites",
-               404: "No such module, service, port or request", 409: "The request is running, or the module stops",
-               429: "Too many running activities, sessions or instances",
-               503: "The gateway shuts down"}
+               404: "No such module, service, port, request or session",
+               409: "The request is running, or the module stops", 415: "A body that is not JSON",
+               429: "Too many running activities, sessions or instances", 503: "The gateway shuts down"}
     return {str(c): {"description": meaning[c], "content": {"application/json": {"schema": _ERROR}}} for c in codes}
 
 
-def _service_path(instance: str, info: Json, service: Json) -> Json:
+def _service_operations(instance: str, info: Json, service: Json, schemas: _Schemas) -> Json:
+    ident = _name(instance, service["name"])
+    ins = [p for p in service["parameters"] if p["dir"] != "out"]
+    outs = [p for p in service["parameters"] if p["dir"] != "in"]
+    properties = {}
+    for p in ins:
+        schema = schemas.input(p["type"])
+        schema = {"allOf": [schema]} if "$ref" in schema else dict(schema)
+        schema["description"] = p.get("doc") or p["type"]["name"]
+        if "default" in p:
+            schema["default"] = p["default"]
+        properties[p["name"]] = schema
+    model = schemas.ref(f"{ident}_Input", {"type": "object", "title": f"{instance}.{service['name']} input",
+                                           "additionalProperties": False, "properties": properties})
+    output = schemas.ref(f"{ident}_Output", {
+        "type": "object", "title": f"{instance}.{service['name']} output", "required": [p["name"] for p in outs],
+        "properties": {p["name"]: schemas.output(p["type"]) for p in outs}})
+    status = schemas.ref(f"{ident}_Status", {
+        "type": "object", "title": f"{instance}.{service['name']} status", "required": ["id", "status"],
+        "properties": {"id": {"type": "string", "pattern": f"^{re.escape(instance)}::[0-9]+$"},
+                       "status": {"type": "string", "enum": ["sent", "done", "error"]},
+                       "output": output, "exception": {"$ref": _SCHEMAS + "Exception"}}})
+    declared = {e["name"]: e for e in info.get("exceptions", [])}
+    raised = [*service.get("throws", []), "::genom::interrupted"]
     doc = service.get("doc") or service["name"]
-    return {"get": {
-        "operationId": f"{instance}.{service['name']}",
-        "tags": [instance],
-        "summary": doc.splitlines()[0] if doc else service["name"],
-        "description": f"{doc}\n\nA {service['kind']}"
-                       + (f"; interrupts {', '.join(service['interrupts'])}" if service.get("interrupts") else "")
-                       + (f"; may raise {', '.join(service['throws'])}" if service.get("throws") else "") + ".",
-        "parameters": [
-            {"name": "input", "in": "query", "required": False, "description": "The inputs, as a JSON object",
-             "content": {"application/json": {"schema": _input_schema(service)}}},
-            {"$ref": "#/components/parameters/session"},
-            {"name": "oneway", "in": "query", "required": False, "allowEmptyValue": True,
-             "description": "Nobody is told the result", "schema": {"type": "string"}},
-        ],
-        "responses": {
-            "200": {"description": "The status object of the new request: `sent` for a running activity, "
-                                   "`done` with its output, or `error` with the component's exception",
-                    "content": {"application/json": {"schema": _status_schema(instance, info, service)}}},
-            **_errors(400, 401, 404, 409, 429),
-        },
-    }}
+    description = (f"{doc}\n\nA {service['kind']}"
+                   + (f"; interrupts {', '.join(service['interrupts'])}" if service.get("interrupts") else "")
+                   + ". Its request may end in `error` with "
+                   + ", ".join(f"`{name}`" + (f" ({declared[name]['doc'].splitlines()[0]})"
+                                              if declared.get(name, {}).get("doc") else "") for name in raised)
+                   + ".")
+    links = {verb: {"operationId": operation, "parameters": {"module": instance, "rqst": "$response.body#/id"},
+                    "description": f"The {verb} of the request just sent"}
+             for verb, operation in (("status", "getStatus"), ("wait", "waitRequest"), ("abort", "abortRequest"),
+                                     ("clean", "cleanRequest"))}
+    replies = {"200": {"description": "The status object of the new request: `sent` for a running activity, "
+                                      "`done` with its output, or `error` with the component's exception",
+                       "content": {"application/json": {"schema": status}}, "links": links},
+               **_errors(400, 401, 404, 409, 429)}
+    common = {"tags": [instance], "summary": doc.splitlines()[0], "description": description}
+    oneway = {"name": "oneway", "in": "query", "required": False, "allowEmptyValue": True,
+              "description": "Nobody is told the result: no events, and the request is forgotten when it ends",
+              "schema": {"type": "string"}}
+    session = {"$ref": "#/components/parameters/session"}
+    return {
+        "post": {**common, "operationId": ident, "parameters": [session, oneway],
+                 "requestBody": {"required": False, "description": "The inputs (defaults for those left out)",
+                                 "content": {"application/json": {"schema": model}}},
+                 "responses": {**replies, **_errors(415)}},
+        "get": {**common, "operationId": f"{ident}_query",
+                "summary": f"{common['summary']} (genomix form: the input as JSON text in the query)",
+                "parameters": [{"name": "input", "in": "query", "required": False,
+                                "description": "The inputs as JSON text (URL-encoded), e.g. `{\"posRef\":0.5}`",
+                                "schema": {"type": "string", "contentMediaType": "application/json",
+                                           "contentSchema": model}}, session, oneway],
+                "responses": replies},
+    }
 
 
-def _get(summary: str, params: list[Json], responses: Json, tag: str = "gateway") -> Json:
-    return {"get": {"summary": summary, "tags": [tag], "parameters": params, "responses": responses}}
+def _port_operation(instance: str, port: Json, schemas: _Schemas) -> Json:
+    ident = _name(instance, "read", port["name"])
+    reply = schemas.ref(f"{ident}_Reply", {"type": "object", "title": f"{instance}/{port['name']}",
+                                           "required": [port["name"]],
+                                           "properties": {port["name"]: schemas.output(port["type"])}})
+    parameters: list[Json] = [{"name": "format", "in": "query", "required": False,
+                               "description": "json (the default) or binary (docs/protocol.md)",
+                               "schema": {"type": "string", "enum": ["json", "binary"]}}]
+    if port.get("kind") == "multiple":
+        parameters.append({"name": "name", "in": "query", "required": True, "description": "The element",
+                           "schema": {"type": "string"}})
+    doc = port.get("doc") or f"The port {port['name']}"
+    return {"get": {"operationId": ident, "tags": [instance], "summary": f"Read {port['name']}: "
+                    + doc.splitlines()[0], "description": doc, "parameters": parameters,
+                    "responses": {"200": {"description": f"`{{\"{port['name']}\": data}}`",
+                                          "content": {"application/json": {"schema": reply},
+                                                      "application/x-aiogenomix-binary": {}}},
+                                  **_errors(400, 401, 404)}}}
+
+
+def _get(operation: str, summary: str, params: list[Json], responses: Json, tag: str = "gateway") -> Json:
+    return {"get": {"operationId": operation, "summary": summary, "tags": [tag], "parameters": params,
+                    "responses": {**responses, **({} if "400" in responses else _errors(400))}}}
 
 
 def _path_param(name: str, description: str) -> Json:
@@ -161,80 +231,123 @@ def _path_param(name: str, description: str) -> Json:
 
 
 def _json(description: str, schema: Json | None = None) -> Json:
-    return {"description": description, "content": {"application/json": {"schema": schema or {}}}}
+    return {"description": description, "content": {"application/json": {"schema": schema or {"type": "object"}}}}
 
 
 def _endpoints() -> Json:
     """The paths every gateway has (docs/protocol.md)."""
     session = {"$ref": "#/components/parameters/session"}
+    named = {"name": "s", "in": "query", "required": True, "description": "The session",
+             "schema": {"type": "string", "minLength": 1, "maxLength": 128}}
     module, rq = _path_param("module", "The instance"), _path_param("rqst", "A request id, M::n or n")
-    status = _json("The status object", {"$ref": "#/components/schemas/Status"})
-    stream = {"description": "Server-sent events (close-delimited)", "content": {"text/event-stream": {}}}
+    status = _json("The status object", {"$ref": _SCHEMAS + "Status"})
+    stream = {"description": "Server-sent events: close-delimited, or chunked with ids for `Accept: "
+                             "text/event-stream`", "content": {"text/event-stream": {"schema": {"type": "string"}}}}
     name = _path_param("name", "A component (see /)")
+    html = {"description": "HTML", "content": {"text/html": {"schema": {"type": "string"}}}}
     return {
-        "/": _get("What runs here: versions, loaded modules, loadable components", [], {"200": _json("The index")}),
-        "/version": _get("The genomix protocol version", [], {"200": {"description": "1.7.3", "content": _TEXT}}),
-        "/openapi.json": _get("This document", [], {"200": _json("OpenAPI 3.1")}),
-        "/console": _get("The browser console", [], {"200": {"description": "HTML",
-                                                              "content": {"text/html": {}}}}),
-        "/session/start": _get("Start (or reuse) a session", [session],
+        "/": _get("getIndex", "What runs here: versions, loaded modules, loadable components", [],
+                  {"200": _json("The index")}),
+        "/version": _get("getVersion", "The genomix protocol version", [],
+                         {"200": {"description": "1.7.3", "content": _TEXT}}),
+        "/openapi.json": _get("getOpenapi", "This document", [], {"200": _json("OpenAPI 3.1")}),
+        "/docs": _get("getDocs", "This document in Swagger UI", [], {"200": html}),
+        "/console": _get("getConsole", "The browser console", [], {"200": html}),
+        "/console/auth": _get("consoleAuth", "Whether this request carries the token or the console's cookie", [],
+                              {"200": _json("`{\"authorized\": bool}`")}),
+        "/console/login": _get("consoleLogin", "Trade the token for the console's cookie", [],
+                               {"204": {"description": "The cookie is set"}, **_errors(401)}),
+        "/session/start": _get("startSession", "Start (or reuse) a session; an empty name picks one", [session],
                                {"200": {"description": "The session name", "content": _TEXT}, **_errors(400, 429)},
                                "sessions"),
-        "/session/stop": _get("Stop a session", [session], {"200": {"description": "Stopped"}, **_errors(400, 404)},
-                              "sessions"),
-        "/session/listen": _get("The session's events", [session], {"200": stream, **_errors(400)}, "sessions"),
-        "/load/{name}": _get("Load a component", [name, {"name": "argv", "in": "query", "schema": {"type": "string"}}],
+        "/session/stop": _get("stopSession", "Stop a session", [named],
+                              {"200": {"description": "Stopped"}, **_errors(400, 404)}, "sessions"),
+        "/session/listen": _get("listenSession", "The session's events", [named],
+                                {"200": stream, "204": {"description": "A reconnect after quit"}, **_errors(400)},
+                                "sessions"),
+        "/load/{name}": _get("loadComponent", "Load a component",
+                             [name, {"name": "argv", "in": "query", "required": False,
+                                     "description": "Load options, such as `-i INSTANCE`",
+                                     "schema": {"type": "string"}}],
                              {"200": {"description": "The instance name", "content": _TEXT},
                               **_errors(400, 403, 404, 429)}),
-        "/unload/{name}": _get("Unload an instance", [name], {"200": {"description": "The instance name",
-                                                                      "content": _TEXT}, **_errors(404)}),
-        "/usage/{name}": _get("A component's load options", [name], {"200": _json("Options"), **_errors(404)}),
-        "/module/{module}/info": _get("The description of an instance", [module],
+        "/unload/{name}": _get("unloadInstance", "Unload an instance", [name],
+                               {"200": {"description": "The instance name", "content": _TEXT}, **_errors(404)}),
+        "/usage/{name}": _get("getUsage", "A component's load options", [name],
+                              {"200": _json("Options", {"type": "array", "items": {"type": "object"}}),
+                               **_errors(404)}),
+        "/module/{module}/info": _get("getInfo", "The description of an instance", [module],
                                       {"200": _json("The /info description"), **_errors(404)}, "modules"),
-        "/module/{module}/status/{rqst}": _get("A request's status", [module, rq], {"200": status, **_errors(404)},
-                                               "modules"),
+        "/module/{module}/status/{rqst}": _get("getStatus", "A request's status", [module, rq],
+                                               {"200": status, **_errors(404)}, "modules"),
         "/module/{module}/wait/{rqst}": _get(
-            "A request's status once it has ended (or after timeout seconds)",
-            [module, rq, {"name": "timeout", "in": "query", "schema": {"type": "number", "minimum": 0}}],
+            "waitRequest", "A request's status once it has ended (or after timeout seconds)",
+            [module, rq, {"name": "timeout", "in": "query", "required": False,
+                          "description": f"Seconds to wait at most (default and most: {MAX_WAIT:g})",
+                          "schema": {"type": "number", "minimum": 0, "maximum": MAX_WAIT}}],
             {"200": status, **_errors(400, 404, 503)}, "modules"),
-        "/module/{module}/abort/{rqst}": _get("Interrupt a request", [module, rq], {"200": status, **_errors(404)},
+        "/module/{module}/abort/{rqst}": _get("abortRequest", "Interrupt a request", [module, rq],
+                                              {"200": status, **_errors(404)}, "modules"),
+        "/module/{module}/clean/{rqst}": _get("cleanRequest", "Forget an ended request", [module, rq],
+                                              {"200": {"description": "Forgotten"}, **_errors(404, 409)},
                                               "modules"),
-        "/module/{module}/clean/{rqst}": _get("Forget an ended request", [module, rq],
-                                              {"200": {"description": "Forgotten"}, **_errors(404, 409)}, "modules"),
         "/module/{module}/read/{port}": _get(
-            "Read a port", [module, _path_param("port", "The port"),
-                            {"name": "name", "in": "query", "schema": {"type": "string"}},
-                            {"name": "since", "in": "query", "schema": {"type": "integer", "minimum": 0}},
-                            {"name": "format", "in": "query", "schema": {"enum": ["json", "binary"]}}],
+            "readPort", "Read a port (each loaded module's ports also have a typed path of their own)",
+            [module, _path_param("port", "The port"),
+             {"name": "name", "in": "query", "required": False, "description": "The element of a multiple port",
+              "schema": {"type": "string"}},
+             {"name": "since", "in": "query", "required": False, "description": "Only the items after this one",
+              "schema": {"type": "integer", "minimum": 0}},
+             {"name": "format", "in": "query", "required": False, "description": "json (the default) or binary",
+              "schema": {"type": "string", "enum": ["json", "binary"]}}],
             {"200": {"description": "{PORT: data}, or the binary form",
-                     "content": {"application/json": {}, "application/x-aiogenomix-binary": {}}},
+                     "content": {"application/json": {"schema": {"type": "object"}},
+                                 "application/x-aiogenomix-binary": {}}},
              **_errors(400, 404)}, "ports"),
         "/module/{module}/watch/{port}": _get(
-            "Watch a port", [module, _path_param("port", "The port"),
-                             {"name": "since", "in": "query", "schema": {"type": "integer", "minimum": 0}}],
-            {"200": stream, **_errors(400, 404)}, "ports"),
+            "watchPort", "Watch a port",
+            [module, _path_param("port", "The port"),
+             {"name": "name", "in": "query", "required": False, "description": "The element of a multiple port",
+              "schema": {"type": "string"}},
+             {"name": "since", "in": "query", "required": False, "description": "Only the items after this one",
+              "schema": {"type": "integer", "minimum": 0}}],
+            {"200": stream, "204": {"description": "A reconnect after unload"}, **_errors(400, 404)}, "ports"),
     }
 
 
-def openapi_document(infos: dict[str, Json], server: str, version: str) -> Json:
+def openapi_document(infos: dict[str, Json], server: str, version: str, token: bool = False) -> Json:
     """The OpenAPI 3.1 document of a gateway whose loaded instances have the ``/info`` descriptions *infos*.
 
     Args:
         infos: ``/info`` of every loaded instance, by instance name.
         server: The base URL clients use (``http://127.0.0.1:8080``).
         version: The gateway's version.
+        token: Whether the gateway needs its token (every operation but the console's says so).
     """
+    schemas = _Schemas()
     paths = _endpoints()
     for instance, info in infos.items():
         for service in info["services"]:
-            paths[f"/module/{instance}/send/{service['name']}"] = _service_path(instance, info, service)
+            paths[f"/module/{instance}/send/{service['name']}"] = _service_operations(instance, info, service,
+                                                                                        schemas)
+        for port in info.get("ports", []):
+            if port.get("dir") == "out":
+                paths[f"/module/{instance}/read/{port['name']}"] = _port_operation(instance, port, schemas)
+    for path in _OPEN:
+        paths[path]["get"]["security"] = []
     return {
         "openapi": "3.1.0",
         "info": {"title": "aiogenomix gateway", "version": version,
-                 "description": "The genomix HTTP/JSON protocol (docs/protocol.md): every request is a GET; "
-                                "one path per service of every loaded module."},
+                 "license": {"name": "BSD-2-Clause", "identifier": "BSD-2-Clause"},
+                 "description": "The genomix HTTP/JSON protocol (docs/protocol.md): every service of every loaded "
+                                "module, as a POST with a typed JSON body or as genomix's GET, and every out port."},
         "servers": [{"url": server}],
-        "tags": [{"name": instance, "description": info.get("doc", "")} for instance, info in infos.items()],
+        "security": [{"token": []}] if token else [{}],
+        "tags": [{"name": "gateway", "description": "The gateway itself"},
+                 {"name": "sessions", "description": "Sessions and their events"},
+                 {"name": "modules", "description": "Requests of any module"},
+                 {"name": "ports", "description": "Ports of any module"},
+                 *({"name": instance, "description": info.get("doc") or instance} for instance, info in infos.items())],
         "paths": paths,
         "components": {
             "parameters": {"session": {"name": "s", "in": "query", "required": False, "schema": {"type": "string"},
@@ -245,10 +358,11 @@ def openapi_document(infos: dict[str, Json], server: str, version: str) -> Json:
                 "Exception": {"type": "object", "required": ["ex"], "properties": {
                     "ex": {"type": "string"}, "detail": {"type": "object"}}},
                 "Status": {"type": "object", "required": ["id", "status"], "properties": {
-                    "id": {"type": "string"}, "status": {"enum": ["sent", "done", "error"]},
-                    "output": {"type": "object"}, "exception": {"$ref": "#/components/schemas/Exception"}}},
+                    "id": {"type": "string"}, "status": {"type": "string", "enum": ["sent", "done", "error"]},
+                    "output": {"type": "object"}, "exception": {"$ref": _SCHEMAS + "Exception"}}},
+                **schemas.named,
             },
             "securitySchemes": {"token": {"type": "http", "scheme": "bearer",
-                                          "description": "When the gateway runs with --token"}},
+                                          "description": "The gateway's --token"}},
         },
     }

@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
-__all__ = ["ENDPOINT_PARAMETERS", "REPEATABLE", "endpoint_of", "parameter_refusal"]
+__all__ = ["ENDPOINT_PARAMETERS", "POST_PARAMETERS", "REPEATABLE", "endpoint_of", "parameter_refusal"]
 
 _EVERYWHERE = frozenset({"s", "_"})
 
@@ -32,6 +32,9 @@ ENDPOINT_PARAMETERS: dict[str, frozenset[str]] = {
     "/console/login": frozenset(),
     "/favicon.ico": frozenset(),
     "/openapi.json": frozenset(),
+    "/docs": frozenset(),
+    "/docs/swagger-ui-bundle.js": frozenset(),
+    "/docs/swagger-ui.css": frozenset(),
     "/session/start": frozenset(),
     "/session/stop": frozenset(),
     "/session/listen": frozenset(),
@@ -47,6 +50,8 @@ ENDPOINT_PARAMETERS: dict[str, frozenset[str]] = {
     "/module/read": frozenset({"name", "format", "since"}),
     "/module/watch": frozenset({"name", "since"}),
 }
+#: The parameters of the endpoints that take a ``POST`` (its body is the input: no ``input`` in the query).
+POST_PARAMETERS: dict[str, frozenset[str]] = {"/module/send": frozenset({"oneway"})}
 #: Parameters that may be given more than once (``argv=-i&argv=demo2``).
 REPEATABLE = frozenset({"argv"})
 
@@ -73,12 +78,21 @@ def endpoint_of(path: str) -> str | None:
     return key if key in ENDPOINT_PARAMETERS else None
 
 
-def parameter_refusal(path: str, names: Iterable[str]) -> dict[str, Any] | None:
-    """The error body refusing the query parameters *names* on *path*, or None when they are all taken."""
+def parameter_refusal(path: str, names: Iterable[str], method: str = "GET") -> dict[str, Any] | None:
+    """The error body refusing the query parameters *names* on *path*, or None when they are all taken.
+
+    Requests with other methods than GET (and HEAD) are checked where the endpoint takes
+    them (``POST`` on ``send``); elsewhere the routes answer 405.
+    """
     key = endpoint_of(path)
     if key is None:
         return None
-    takes = ENDPOINT_PARAMETERS[key]
+    if method in ("GET", "HEAD"):
+        takes = ENDPOINT_PARAMETERS[key]
+    elif key in POST_PARAMETERS and method == "POST":
+        takes = POST_PARAMETERS[key]
+    else:
+        return None
     seen: set[str] = set()
     unknown: list[str] = []
     repeated: list[str] = []
@@ -98,7 +112,9 @@ def parameter_refusal(path: str, names: Iterable[str]) -> dict[str, Any] | None:
     if unknown:
         message = (f"{what} takes the parameters {', '.join(listed)}: {_names(unknown)} "
                    f"{'is' if len(unknown) == 1 else 'are'} not among them")
-        if key == "/module/send":
+        if key == "/module/send" and method == "POST":
+            message += " (a POST's input is its JSON body)"
+        elif key == "/module/send":
             message += ' (a service\'s input goes in input=, as JSON: input={"posRef":0.7})'
     else:
         message = f"{_names(repeated)} may be given once only"

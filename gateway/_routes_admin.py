@@ -107,7 +107,7 @@ def _argv(request: web.Request) -> list[str]:
         raise BadQuery(f"argv: {exc}") from None
 
 
-@routes.get("/load/{name:.+}")
+@routes.get("/load/{name:.+}", allow_head=False)
 async def load(request: web.Request) -> web.Response:
     """Load a registered component (``argv`` may hold ``-i INSTANCE``). Reply: the instance name."""
     name = request.match_info["name"]
@@ -121,7 +121,7 @@ async def load(request: web.Request) -> web.Response:
     return text_reply(component.instance)
 
 
-@routes.get("/unload/{name}")
+@routes.get("/unload/{name}", allow_head=False)
 async def unload(request: web.Request) -> web.Response:
     """Unload an instance; every session gets an ``unload`` event."""
     name = request.match_info["name"]

@@ -24,21 +24,21 @@ def _session_name(request: web.Request, required: bool = True) -> str:
     return name
 
 
-@routes.get("/session/start")
+@routes.get("/session/start", allow_head=False)
 async def start(request: web.Request) -> web.Response:
     """Start a session; an empty ``s`` lets the gateway choose a unique name. Reply: the name."""
     session = request.app[SESSIONS].start(_session_name(request, required=False))
     return text_reply(session.name)
 
 
-@routes.get("/session/stop")
+@routes.get("/session/stop", allow_head=False)
 async def stop(request: web.Request) -> web.Response:
     """Stop a session: its listeners get ``quit`` and their streams end."""
     request.app[SESSIONS].stop(_session_name(request))
     return text_reply("")
 
 
-@routes.get("/session/listen")
+@routes.get("/session/listen", allow_head=False)
 async def listen(request: web.Request) -> web.StreamResponse:
     """Stream the session's events (``request``, ``unload``, ``quit``) until it stops or the client leaves.
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from aiohttp import web
 
+from ._access import allow_origin, other_origin
 from ._replies import SERVER_HEADER
 
 __all__ = ["format_event", "event_id", "EventStream", "event_stream", "wants_standard", "PING", "FINAL_ID"]
@@ -87,5 +88,12 @@ class GenomixEventStream(EventStream):
 
 
 def event_stream(request: web.BaseRequest) -> EventStream:
-    """The stream response in the form *request* asked for."""
-    return EventStream() if wants_standard(request) else GenomixEventStream()
+    """The stream response in the form *request* asked for, readable by the page of another origin that made it.
+
+    (The door let the request in: an other origin it comes from is an allowed one.)
+    """
+    stream = EventStream() if wants_standard(request) else GenomixEventStream()
+    origin = other_origin(request.headers, request.scheme)
+    if origin is not None:
+        allow_origin(stream, origin)
+    return stream

@@ -10,7 +10,7 @@ import aiohttp
 import pytest
 from hypothesis import HealthCheck, given, settings
 
-from aiogenomix.gateway import GatewayConfig, serve_in_thread
+from aiogenomix.gateway import GatewayConfig, serve, serve_in_thread
 
 from ..conftest import TEST_TIME_SCALE
 
@@ -31,18 +31,53 @@ async def test_the_document_is_valid_openapi_with_one_path_per_service(http: aio
         document = await reply.json()
     validate(document)
     assert document["openapi"] == "3.1.0"
-    goto = document["paths"]["/module/demo/send/GotoPosition"]["get"]
-    (input_param,) = [p for p in goto["parameters"] if p.get("name") == "input"]
-    schema = input_param["content"]["application/json"]["schema"]
-    assert schema["properties"]["posRef"] == {"type": "number", "description": "Goto position in m", "default": 0.0}
-    speed = document["paths"]["/module/demo/send/SetSpeed"]["get"]["parameters"][0]["content"]
-    assert "::demo::FAST" in speed["application/json"]["schema"]["properties"]["speedRef"]["enum"]
-    count_from = document["paths"]["/module/countserver/send/CountFrom"]["get"]["parameters"][0]["content"]
-    assert count_from["application/json"]["schema"]["properties"]["initial_value"]["maximum"] == 32767
-    error = goto["responses"]["200"]["content"]["application/json"]["schema"]["oneOf"][2]
-    raised = [e.get("properties", {}).get("ex", {}).get("const") for e in error["properties"]["exception"]["anyOf"]]
-    assert "::demo::TOO_FAR_AWAY" in raised and "400" in goto["responses"]
+    schemas = document["components"]["schemas"]
+    goto = document["paths"]["/module/demo/send/GotoPosition"]
+    # The typed form: a JSON body whose model is named for generators.
+    body = goto["post"]["requestBody"]["content"]["application/json"]["schema"]
+    assert body == {"$ref": "#/components/schemas/demo_GotoPosition_Input"}
+    model = schemas["demo_GotoPosition_Input"]
+    assert model["properties"]["posRef"] == {"type": "number", "description": "Goto position in m", "default": 0.0}
+    # genomix's form keeps input as JSON text of the same model.
+    (input_param,) = [p for p in goto["get"]["parameters"] if p.get("name") == "input"]
+    assert input_param["schema"]["type"] == "string"
+    assert input_param["schema"]["contentSchema"] == body
+    assert goto["post"]["operationId"] == "demo_GotoPosition"
+    assert goto["get"]["operationId"] == "demo_GotoPosition_query"
+    speed = schemas["demo_SetSpeed_Input"]["properties"]["speedRef"]
+    assert "::demo::FAST" in speed["enum"] and "FAST" in speed["enum"]
+    assert schemas["countserver_CountFrom_Input"]["properties"]["initial_value"]["maximum"] == 32767
+    assert "::demo::TOO_FAR_AWAY" in goto["post"]["description"] and "400" in goto["post"]["responses"]
+    # A send's id leads to its status, wait, abort and clean.
+    links = goto["post"]["responses"]["200"]["links"]
+    assert {link["operationId"] for link in links.values()} == {"getStatus", "waitRequest", "abortRequest",
+                                                                 "cleanRequest"}
+    assert links["wait"]["parameters"] == {"module": "demo", "rqst": "$response.body#/id"}
+    # Ports read as typed objects.
+    mobile = document["paths"]["/module/demo/read/Mobile"]["get"]
+    assert mobile["responses"]["200"]["content"]["application/json"]["schema"] == {
+        "$ref": "#/components/schemas/demo_read_Mobile_Reply"}
+    assert schemas["demo_read_Mobile_Reply"]["properties"]["Mobile"] == {"$ref": "#/components/schemas/demo_state"}
+    assert schemas["demo_state"]["required"] == ["position", "speed"]
     assert "/module/kemar/send/MoveAbsolutePosition" in document["paths"]
+    operations = [op for path in document["paths"].values() for op in path.values()]
+    ids = [op["operationId"] for op in operations]
+    assert len(ids) == len(set(ids)) == len(operations)  # every operation has an id of its own
+    assert document["security"] == [{}]  # no token on this gateway
+    wait_timeout = document["paths"]["/module/{module}/wait/{rqst}"]["get"]["parameters"][2]["schema"]
+    assert wait_timeout["maximum"] == 3600
+
+
+async def test_with_a_token_every_operation_but_the_consoles_needs_it() -> None:
+    config = GatewayConfig(port=0, audio_socket_port=0, token="s3cret")
+    async with serve(config) as url, aiohttp.ClientSession() as http:
+        async with http.get(f"{url}/openapi.json", headers={"Authorization": "Bearer s3cret"}) as reply:
+            document = await reply.json()
+    assert document["security"] == [{"token": []}]
+    assert document["components"]["securitySchemes"]["token"] == {
+        "type": "http", "scheme": "bearer", "description": "The gateway's --token"}
+    open_paths = sorted(path for path, item in document["paths"].items() if item["get"].get("security") == [])
+    assert open_paths == ["/console", "/console/auth", "/console/login", "/docs"]
 
 
 @pytest.fixture
