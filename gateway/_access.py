@@ -16,7 +16,8 @@ nor ``Sec-Fetch-Site``, so these checks cost them nothing:
   and answers to its preflights, so that a web app or Swagger UI served
   elsewhere can use the gateway, its token included.  A request a browser marks as cross-site
   with no ``Origin`` (an image, a link, a form) is refused too, except a
-  navigation to the read-only pages ``/`` and ``/console``.
+  navigation to the read-only pages ``/``, ``/console`` and ``/docs``, and
+  Swagger UI's files.
 
 Every reply says ``X-Content-Type-Options: nosniff`` (in the headers every reply
 starts from, ``_replies.SERVER_HEADER``); the console page gets a
@@ -42,8 +43,9 @@ __all__ = ["AccessPolicy", "browser_refusal", "other_origin", "allow_origin", "p
 
 #: How many distinct Host headers the policy remembers its verdict on.
 _REMEMBERED_HOSTS = 256
-#: Pages a link from another site may open: they show, they do not act.
-_NAVIGABLE = frozenset({"/", "/console"})
+#: What another site may link to or load without asking (a navigation, a script or style tag): pages that
+#: show and do not act, and Swagger UI's files, which a page served elsewhere loads from here.
+_NAVIGABLE = frozenset({"/", "/console", "/docs", "/docs/swagger-ui-bundle.js", "/docs/swagger-ui.css"})
 
 
 def _hostname(host: str) -> str:

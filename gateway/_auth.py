@@ -28,8 +28,9 @@ LOGIN_PATH = "/console/login"
 #: Says whether a request carries credentials (``{"authorized": bool}``), so the console can ask first.
 AUTH_PATH = "/console/auth"
 #: Served without credentials: the console page, and the two requests it makes about the token
-#: (the login checks the token itself); Swagger UI's page and files (its requests carry the token).
-OPEN_PATHS = frozenset({"/console", AUTH_PATH, LOGIN_PATH, "/docs", "/docs/swagger-ui-bundle.js",
+#: (the login checks the token itself); the OpenAPI description, and Swagger UI's page and files, which
+#: read it before anyone can say the token (every operation it describes needs the token).
+OPEN_PATHS = frozenset({"/console", AUTH_PATH, LOGIN_PATH, "/openapi.json", "/docs", "/docs/swagger-ui-bundle.js",
                         "/docs/swagger-ui.css"})
 
 

@@ -22,6 +22,7 @@ import re
 from typing import Any
 
 from ._routes_modules import MAX_WAIT
+from ._sessions import MAX_NAME_LENGTH, NAME_FORBIDDEN
 
 __all__ = ["openapi_document", "type_schema"]
 
@@ -36,8 +37,10 @@ _INTEGER_RANGES = {
 _SCHEMAS = "#/components/schemas/"
 _ERROR = {"$ref": _SCHEMAS + "Error"}
 _TEXT = {"text/plain": {"schema": {"type": "string"}}}
+#: A session name (``_sessions``).
+_SESSION_NAME = {"type": "string", "maxLength": MAX_NAME_LENGTH, "pattern": f"^[^{NAME_FORBIDDEN}]*$"}
 #: Paths served without the token (the console asks for it itself).
-_OPEN = ("/console", "/console/auth", "/console/login", "/docs")
+_OPEN = ("/console", "/console/auth", "/console/login", "/openapi.json", "/docs")
 
 
 def _name(*parts: str) -> str:
@@ -62,7 +65,9 @@ class _Schemas:
             low, high = _INTEGER_RANGES[kind]
             return {"type": "integer", "minimum": low, "maximum": high}
         if kind in ("float", "double"):
-            return {"type": "number"}
+            # null is NaN, as genom3 writes it: taken, and refused by the components that check their
+            # numbers (their request ends in error).
+            return {"type": ["number", "null"]}
         if kind == "boolean":
             return {"type": "boolean"}  # genom3 reads 0 and 1 too
         if kind == "char":
@@ -74,7 +79,8 @@ class _Schemas:
             return {"type": "string", "enum": [*t["values"], *(v.rsplit("::", 1)[-1] for v in t["values"])]}
         if kind == "struct":
             return self.ref(_name(t["name"], "Input"), {
-                "type": "object", "title": t["name"], "additionalProperties": False,
+                "type": "object", "title": _name(t["name"], "Input"), "description": f"A {t['name']} as input",
+                "additionalProperties": False,
                 "properties": {m["name"]: self._member(m, self.input) for m in t["members"]}})
         if kind == "sequence":
             return {"type": "array", "items": self.input(t["element"]),
@@ -95,8 +101,10 @@ class _Schemas:
         if kind == "enum":
             return {"type": "string", "enum": list(t["values"])}
         if kind == "struct":
+            # Titled with the schema's own name: generators name their classes after it.
             return self.ref(_name(t["name"]), {
-                "type": "object", "title": t["name"], "required": [m["name"] for m in t["members"]],
+                "type": "object", "title": _name(t["name"]), "description": t["name"],
+                "required": [m["name"] for m in t["members"]],
                 "properties": {m["name"]: self._member(m, self.output) for m in t["members"]}})
         if kind in ("sequence", "array"):
             return {"type": "array", "items": self.output(t["element"])}
@@ -154,13 +162,16 @@ def _service_operations(instance: str, info: Json, service: Json, schemas: _Sche
         if "default" in p:
             schema["default"] = p["default"]
         properties[p["name"]] = schema
-    model = schemas.ref(f"{ident}_Input", {"type": "object", "title": f"{instance}.{service['name']} input",
-                                           "additionalProperties": False, "properties": properties})
+    # Wrappers are described, not titled: some generators name classes after titles, and these repeat.
+    model = schemas.ref(f"{ident}_Input", {"type": "object", "additionalProperties": False, "properties": properties,
+                                           "description": f"The inputs of {instance}.{service['name']}"})
     output = schemas.ref(f"{ident}_Output", {
-        "type": "object", "title": f"{instance}.{service['name']} output", "required": [p["name"] for p in outs],
+        "type": "object", "description": f"The outputs of {instance}.{service['name']}",
+        "required": [p["name"] for p in outs],
         "properties": {p["name"]: schemas.output(p["type"]) for p in outs}})
     status = schemas.ref(f"{ident}_Status", {
-        "type": "object", "title": f"{instance}.{service['name']} status", "required": ["id", "status"],
+        "type": "object", "description": f"The status of a request of {instance}.{service['name']}",
+        "required": ["id", "status"],
         "properties": {"id": {"type": "string", "pattern": f"^{re.escape(instance)}::[0-9]+$"},
                        "status": {"type": "string", "enum": ["sent", "done", "error"]},
                        "output": output, "exception": {"$ref": _SCHEMAS + "Exception"}}})
@@ -203,7 +214,7 @@ def _service_operations(instance: str, info: Json, service: Json, schemas: _Sche
 
 def _port_operation(instance: str, port: Json, schemas: _Schemas) -> Json:
     ident = _name(instance, "read", port["name"])
-    reply = schemas.ref(f"{ident}_Reply", {"type": "object", "title": f"{instance}/{port['name']}",
+    reply = schemas.ref(f"{ident}_Reply", {"type": "object", "description": f"A read of {instance}/{port['name']}",
                                            "required": [port["name"]],
                                            "properties": {port["name"]: schemas.output(port["type"])}})
     parameters: list[Json] = [{"name": "format", "in": "query", "required": False,
@@ -238,7 +249,7 @@ def _endpoints() -> Json:
     """The paths every gateway has (docs/protocol.md)."""
     session = {"$ref": "#/components/parameters/session"}
     named = {"name": "s", "in": "query", "required": True, "description": "The session",
-             "schema": {"type": "string", "minLength": 1, "maxLength": 128}}
+             "schema": {**_SESSION_NAME, "minLength": 1}}
     module, rq = _path_param("module", "The instance"), _path_param("rqst", "A request id, M::n or n")
     status = _json("The status object", {"$ref": _SCHEMAS + "Status"})
     stream = {"description": "Server-sent events: close-delimited, or chunked with ids for `Accept: "
@@ -350,7 +361,7 @@ def openapi_document(infos: dict[str, Json], server: str, version: str, token: b
                  *({"name": instance, "description": info.get("doc") or instance} for instance, info in infos.items())],
         "paths": paths,
         "components": {
-            "parameters": {"session": {"name": "s", "in": "query", "required": False, "schema": {"type": "string"},
+            "parameters": {"session": {"name": "s", "in": "query", "required": False, "schema": _SESSION_NAME,
                                        "description": "The session whose listen stream gets the events"}},
             "schemas": {
                 "Error": {"type": "object", "required": ["ex"], "properties": {

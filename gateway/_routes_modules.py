@@ -57,7 +57,15 @@ async def send_with_body(request: web.Request) -> web.Response:
     if request.content_type != "application/json":
         raise UnsupportedBody(f"a send's body is its input as JSON: Content-Type must be application/json, "
                               f"not {request.content_type!r}")
-    return await _send(request, parse_input(await request.text()))
+    try:
+        text = (await request.read()).decode("utf-8")  # JSON is UTF-8 (RFC 8259), whatever charset is said
+    except UnicodeDecodeError as exc:
+        raise BadQuery(f"the body is not UTF-8 text (byte {exc.start})") from None
+    raw = parse_input(text)
+    if not isinstance(raw, dict):
+        # The body is the input model (a bare value, as genomix's input= takes, stays the GET form's).
+        raise BadQuery("a send's body is a JSON object of the service's inputs, by name")
+    return await _send(request, raw)
 
 
 async def _send(request: web.Request, raw: object) -> web.Response:

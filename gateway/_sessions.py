@@ -9,13 +9,15 @@ when one attaches, so a client that listens just after sending loses nothing.
 Any client may name a session, so what sessions hold is bounded: a session
 nobody listens to is forgotten after an idle time (its requests run on and keep
 their status; only its undelivered events go), and there is a cap on their
-number.  Names are checked: printable text of at most 128 bytes.
+number.  Names are checked: at most 128 characters, none of them a control
+character or a line separator.
 """
 
 from __future__ import annotations
 
 import asyncio
 import itertools
+import re
 import time
 from collections import deque
 from collections.abc import Callable
@@ -26,25 +28,29 @@ from ..components.core import Request
 from ._errors import BadQuery, NoSuchSession, TooManySessions
 from ._sse import FINAL_ID, event_id, format_event
 
-__all__ = ["Listener", "Session", "SessionStore", "check_session_name", "MAX_NAME_BYTES"]
+__all__ = ["Listener", "Session", "SessionStore", "check_session_name", "MAX_NAME_LENGTH", "NAME_FORBIDDEN"]
 
 _JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 
-#: The longest session name, in UTF-8 bytes.
-MAX_NAME_BYTES = 128
+#: The longest session name, in characters.
+MAX_NAME_LENGTH = 128
+#: What a session name may not hold: control characters (C0, DEL, C1) and Unicode's line and paragraph
+#: separators.  A name travels back in events and logs, where a line end or a NUL would forge lines.
+#: (The same class is the name's pattern in /openapi.json, so that generated names are always taken.)
+NAME_FORBIDDEN = "\x00-\x1f\x7f-\x9f\u2028\u2029"
+_FORBIDDEN = re.compile(f"[{NAME_FORBIDDEN}]")
 
 
 def check_session_name(name: str) -> str:
     """Return *name* if it can name a session.
 
     Raises:
-        BadQuery: for control characters, other unprintable ones, or more than 128 bytes.
+        BadQuery: for control characters or line separators, or more than 128 characters.
     """
-    # A name travels back in events and logs: CR/LF or NUL in it would forge lines there.
-    if not name.isprintable():
-        raise BadQuery(f"session name {_shown(name)} holds control or unprintable characters")
-    if len(name.encode()) > MAX_NAME_BYTES:
-        raise BadQuery(f"session name {_shown(name)} is longer than {MAX_NAME_BYTES} bytes")
+    if _FORBIDDEN.search(name):
+        raise BadQuery(f"session name {_shown(name)} holds control characters or line separators")
+    if len(name) > MAX_NAME_LENGTH:
+        raise BadQuery(f"session name {_shown(name)} is longer than {MAX_NAME_LENGTH} characters")
     return name
 
 
