@@ -24,7 +24,7 @@ from typing import Any
 from ._routes_modules import MAX_WAIT
 from ._sessions import MAX_NAME_LENGTH, NAME_FORBIDDEN
 
-__all__ = ["openapi_document", "type_schema"]
+__all__ = ["openapi_document"]
 
 Json = dict[str, Any]
 
@@ -118,26 +118,6 @@ class _Schemas:
         if member.get("doc") and "$ref" not in schema:
             schema = {**schema, "description": member["doc"]}
         return schema
-
-
-def type_schema(t: Json) -> Json:
-    """The JSON Schema of the data of IDL type *t* (a type description of ``/info``), as a service accepts it.
-
-    Structs are given inline (the document itself names them in ``components``).
-    """
-    schemas = _Schemas()
-    schema = schemas.input(t)
-    return _inline(schema, schemas.named)
-
-
-def _inline(schema: Any, named: dict[str, Json]) -> Any:
-    if isinstance(schema, dict):
-        if "$ref" in schema:
-            return _inline(named[schema["$ref"].removeprefix(_SCHEMAS)], named)
-        return {key: _inline(value, named) for key, value in schema.items()}
-    if isinstance(schema, list):
-        return [_inline(item, named) for item in schema]
-    return schema
 
 
 def _errors(*codes: int) -> Json:
