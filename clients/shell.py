@@ -182,17 +182,20 @@ class ShellNamespace:
             # Sent from the sender thread: a Ctrl-C in this one never cancels a send half-way, which
             # would leave a request running that nobody knows.
             sending = self._sender.submit(service, *args, **kwargs)
-            request: Request | None = None
             try:
                 request = sending.result()
+            except KeyboardInterrupt:
+                request = self._reply_after_ctrl_c(sending, service.__name__)
                 if not blocking:
                     self.acked.append(request)
-                    return request
+                raise self._interrupted(request, kind, announced=not blocking) from None
+            if not blocking:
+                self.acked.append(request)
+                return request
+            try:
                 return request.result(kwargs.get("timeout", USE_CLIENT_DEFAULT))
             except KeyboardInterrupt:
-                if request is None:
-                    request = self._reply_after_ctrl_c(sending, service.__name__)
-                raise self._interrupted(request, kind) from None
+                raise self._interrupted(request, kind, announced=False) from None
 
         call.__signature__ = inspect.signature(service)  # type: ignore[attr-defined]
         return call
@@ -206,15 +209,22 @@ class ShellNamespace:
             raise CallInterrupted(f"Ctrl-C again: stopped waiting for the gateway's reply to {service}; "
                                   "it may run (g.pending() does not know it)") from None
 
-    def _interrupted(self, request: Request, kind: str) -> CallInterrupted:
-        """Do what Ctrl-C asks of a running request; the exception says in one line what became of it."""
+    def _interrupted(self, request: Request, kind: str, *, announced: bool) -> CallInterrupted:
+        """Do what Ctrl-C asks of a running request; the exception says in one line what became of it.
+
+        Args:
+            request: The request the interrupted call sent.
+            kind: Its service's kind.
+            announced: Whether its end is printed already (sent with ``ack=True``).
+        """
         what = f"{request.service} ({request.id})"
         if kind != "activity":
-            with self._detached_lock:
-                self._detached.add(request)
-            self.acked.append(request)
-            if request.done:  # it ended as the Ctrl-C came: print its end unless its callback did
-                self._detached_ended(request)
+            if not announced:
+                with self._detached_lock:
+                    self._detached.add(request)
+                self.acked.append(request)
+                if request.done:  # it ended as the Ctrl-C came: print its end unless its callback did
+                    self._detached_ended(request)
             return CallInterrupted(f"Ctrl-C: {what} is a {kind}, which genom cannot abort: it runs to its end, "
                                    "printed here when it comes")
         try:
