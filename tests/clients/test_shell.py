@@ -1,21 +1,33 @@
-"""``aiogenomix-shell`` through a pseudo-terminal (issue 13): complete, call, see the result and the events."""
+"""``aiogenomix-shell`` through a pseudo-terminal: complete, call, see results, errors in one line, Ctrl-C."""
 
 from __future__ import annotations
 
+import asyncio
+import concurrent.futures
+import contextlib
+import json
 import os
 import re
+import socket
 import sys
+import threading
 from collections.abc import Iterator
 from typing import Any
 
 import pytest
 
-from aiogenomix.gateway import GatewayConfig, serve_in_thread
+from aiogenomix.components.core import ComponentHost, Component, ScaledClock, function
+from aiogenomix.components.demo import Demo
+from aiogenomix.gateway import GatewayConfig, serve
 
 pexpect = pytest.importorskip("pexpect")
 pytest.importorskip("IPython")
-#: The prompt as IPython colours it: "In [", escapes, the number, escapes, "]".
-PROMPT = r"In \[\S{0,40}%d\S{0,40}\]"
+#: The prompt as IPython colours it: "In [", colours, the number, colours, "]".
+PROMPT = r"In \[(?:\x1b\[[0-9;]*m)*%d(?:\x1b\[[0-9;]*m)*\]"
+#: The session the shell joins, so that the test hears its events as the gateway sends them.
+SESSION = "shelltest"
+#: Terminal escapes (colours, cursor moves, modes).
+ESCAPES = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]|\x1b[=>]")
 
 
 def shown(text: str) -> str:
@@ -23,27 +35,129 @@ def shown(text: str) -> str:
     return r"(?:\x1b\[[0-9;?]*[A-Za-z])*".join(re.escape(c) for c in text)
 
 
-@pytest.fixture
-def shell(tmp_path: Any) -> Iterator[Any]:
-    config = GatewayConfig(port=0, time_scale=20.0, audio_socket_port=0, preload=["demo"])
-    with serve_in_thread(config) as url:
-        # A private IPython directory (no history or profile of the user's); no cursor-position queries.
-        # PAGER=cat: help (Service?) prints in place, whatever the test process's terminal size.
-        env = dict(os.environ, IPYTHONDIR=str(tmp_path), TERM="xterm", PROMPT_TOOLKIT_NO_CPR="1", PAGER="cat")
-        child = pexpect.spawn(sys.executable, ["-m", "aiogenomix.clients.shell", url.removeprefix("http://")],
-                              env=env, encoding="utf-8", timeout=30, dimensions=(40, 160))
-        log = open(tmp_path / "terminal.log", "w")  # what the terminal showed, for a failure's diagnosis
-        child.logfile_read = log
+class Slow(Component, name="slow"):
+    """A function that takes as long as the test wants: genom cannot abort a function."""
+
+    async def on_start(self) -> None:
+        self.released = asyncio.Event()
+
+    @function
+    async def Settle(self) -> None:
+        """Return once Release is called."""
+        await self.released.wait()
+
+    @function
+    def Release(self) -> None:
+        """Let Settle return."""
+        self.released.set()
+
+
+@contextlib.contextmanager
+def gateway_in_thread() -> Iterator[str]:
+    """A gateway hosting demo and slow on an event loop of its own thread (the shell is another process)."""
+    started: concurrent.futures.Future[tuple[str, asyncio.AbstractEventLoop, asyncio.Event]] = (
+        concurrent.futures.Future())
+
+    async def main() -> None:
+        config = GatewayConfig(port=0, time_scale=20.0, audio_socket_port=0, preload=["demo", "slow"])
+        # A short grace: Settle's send is answered "sent" (and announced) 0.1 s after it starts.
+        host = ComponentHost(clock=ScaledClock(20.0), settings=config.host_settings(),
+                             factories={"demo": Demo, "slow": Slow}, function_grace=0.1)
         try:
-            child.expect(r"Modules: demo")
-            child.expect(PROMPT % 1)
-            yield child
-            child.send("exit\r")
-            child.expect(pexpect.EOF)
-        finally:
-            child.close(force=True)
-            log.close()
+            async with host, serve(config, host) as url:
+                stop = asyncio.Event()
+                started.set_result((url, asyncio.get_running_loop(), stop))
+                await stop.wait()
+        except BaseException as exc:
+            if not started.done():
+                started.set_exception(exc)
+            raise
+
+    thread = threading.Thread(target=asyncio.run, args=(main(),), name="test-gateway")
+    thread.start()
+    try:
+        url, loop, stop = started.result(timeout=60)
+        yield url
+        loop.call_soon_threadsafe(stop.set)
+    finally:
+        thread.join(timeout=60)
+
+
+class SessionEvents:
+    """The ``request`` events of the shell's session, read from the gateway as genomix clients read them."""
+
+    def __init__(self, url: str) -> None:
+        host, port = url.removeprefix("http://").rsplit(":", 1)
+        self._socket = socket.create_connection((host, int(port)), timeout=30)
+        self._socket.sendall(f"GET /session/listen?s={SESSION} HTTP/1.1\r\nHost: {host}\r\n\r\n".encode())
+        self._buffer = b""
+        assert self._until(b"\r\n\r\n").startswith(b"HTTP/1.1 200")
+
+    def _until(self, end: bytes) -> bytes:
+        while end not in self._buffer:
+            received = self._socket.recv(65536)
+            assert received, "the event stream ended"
+            self._buffer += received
+        block, self._buffer = self._buffer.split(end, 1)
+        return block
+
+    def next_request(self, request_id: str | None = None) -> dict[str, Any]:
+        """The status object of the next ``request`` event (of *request_id*, when given)."""
+        while True:
+            block = self._until(b"\n\n")
+            if block.startswith(b"event: request\n"):
+                status: dict[str, Any] = json.loads(block.split(b"data: ", 1)[1])
+                if request_id in (None, status["id"]):
+                    return status
+
+    def close(self) -> None:
+        self._socket.close()
+
+
+@pytest.fixture
+def gateway() -> Iterator[str]:
+    with gateway_in_thread() as url:
+        yield url
+
+
+@pytest.fixture
+def events(gateway: str) -> Iterator[SessionEvents]:
+    # Listening first starts the session; the shell joins it with --session.
+    stream = SessionEvents(gateway)
+    yield stream
+    stream.close()
+
+
+@pytest.fixture
+def shell(gateway: str, events: SessionEvents, tmp_path: Any) -> Iterator[Any]:
+    # A private IPython directory (no history or profile of the user's); no cursor-position queries.
+    # PAGER=cat: help (Service?) prints in place, whatever the test process's terminal size.
+    env = dict(os.environ, IPYTHONDIR=str(tmp_path), TERM="xterm", PROMPT_TOOLKIT_NO_CPR="1", PAGER="cat")
+    child = pexpect.spawn(sys.executable,
+                          ["-m", "aiogenomix.clients.shell", gateway.removeprefix("http://"), "--session", SESSION],
+                          env=env, encoding="utf-8", timeout=30, dimensions=(40, 160))
+    log = open(tmp_path / "terminal.log", "w")  # what the terminal showed, for a failure's diagnosis
+    child.logfile_read = log
+    try:
+        child.expect(r"Modules: demo, slow")
+        child.expect(PROMPT % 1)
+        yield child
+        child.send("exit\r")
+        child.expect(pexpect.EOF)
+    finally:
+        child.close(force=True)
+        log.close()
     assert child.exitstatus == 0 or child.signalstatus is None
+
+
+def printed_until_prompt(child: Any, number: int) -> list[str]:
+    """The lines the terminal shows below a one-line command, up to prompt *number*; no escapes, no blank lines.
+
+    (The previous prompt was matched: what comes before this one starts with the rest of its line.)
+    """
+    child.expect(PROMPT % number)
+    _, *lines = ESCAPES.sub("", child.before).splitlines()
+    return [line.strip() for line in lines if line.strip()]
 
 
 def test_complete_call_and_see_the_result(shell: Any) -> None:
@@ -66,3 +180,42 @@ def test_complete_call_and_see_the_result(shell: Any) -> None:
     shell.send("demo.GotoPosition?\r")                  # the generated documentation
     shell.expect("Move the robot to an absolute position")
     shell.expect("posRef")
+
+
+def test_a_component_error_is_one_line_and_tb_shows_it_in_full(shell: Any) -> None:
+    shell.send("demo.GotoPosition(2)\r")
+    assert printed_until_prompt(shell, 2) == [
+        "TOO_FAR_AWAY: overshoot=1.0 (GotoPosition, request demo::0)   (%tb shows the traceback)"]
+    shell.send("demo.GotoPosition(posRef=-3)\r")        # the hint comes once
+    (line,) = printed_until_prompt(shell, 3)
+    # The client cleans the first request once it has its final event: its number may be reused.
+    assert re.fullmatch(r"TOO_FAR_AWAY: overshoot=2\.0 \(GotoPosition, request demo::[01]\)", line)
+    shell.send("%tb\r")                                 # the traceback, on demand
+    shell.expect("Traceback")
+    shell.expect("TOO_FAR_AWAY")
+    shell.expect(PROMPT % 4)
+
+
+def test_ctrl_c_in_a_blocking_activity_aborts_it_on_the_gateway(shell: Any, events: SessionEvents) -> None:
+    shell.send("demo.Monitor(0.9)\r")                   # the robot stands at 0: it never gets there
+    assert events.next_request() == {"id": "demo::0", "status": "sent"}
+    shell.sendintr()
+    assert printed_until_prompt(shell, 2) == [
+        "^CCtrl-C: asked the gateway to abort Monitor (demo::0): interrupted by abort   (%tb shows the traceback)"]
+    assert events.next_request() == {"id": "demo::0", "status": "error",
+                                     "exception": {"ex": "::genom::interrupted", "detail": {"by": "abort"}}}
+
+
+def test_ctrl_c_in_a_blocking_function_lets_it_run_to_its_end(shell: Any, events: SessionEvents) -> None:
+    shell.send("slow.Settle()\r")
+    assert events.next_request() == {"id": "slow::0", "status": "sent"}
+    shell.sendintr()
+    assert printed_until_prompt(shell, 2) == [
+        "^CCtrl-C: Settle (slow::0) is a function, which genom cannot abort: it runs to its end, printed here "
+        "when it comes   (%tb shows the traceback)"]
+    shell.send("slow.Release()\r")
+    assert events.next_request("slow::0") == {"id": "slow::0", "status": "done", "output": {}}
+    shell.expect(r"\[slow::0 Settle done\]")            # its end, printed when it came
+    shell.expect(PROMPT % 3)
+    shell.send("requests()\r")                          # and listed with the ack=True requests
+    shell.expect(r"slow::0\s+Settle\s+done")
