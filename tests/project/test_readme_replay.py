@@ -231,6 +231,8 @@ async def test_the_readme_answers_as_written(gateway: tuple[int, int], tmp_path:
     http_port, socket_port = gateway
 
     def here(code: str) -> str:
+        # The ports of this gateway, and the virtualenv's commands wherever the README names them.
+        code = code.replace(".venv/bin/", f"{Path(sys.executable).parent}/")
         return re.sub(r"\b8081\b", str(socket_port), re.sub(r"\b8080\b", str(http_port), code))
 
     terminal = await Terminal.open(tmp_path)
