@@ -16,7 +16,7 @@ import sys
 import time
 from typing import Any
 
-from . import fanout, load, memory, port_read, profile, remote, service, soak, sse_clients, world
+from . import fanout, load, memory, port_read, profile, remote, service, sessions, soak, sse_clients, world
 from ._common import ROOT
 from ._report import render
 
@@ -31,6 +31,7 @@ BENCHMARKS = {
     "remote": (remote.run, {"calls": 2000, "reads": 200, "seconds": 60.0},
                {"calls": 300, "reads": 40, "blocks": 4, "seconds": 4.0}),
     "sse_clients": (sse_clients.run, {"events": 50}, {"events": 5}),
+    "sessions": (sessions.run, {"sessions": 15_000, "sample": 500}, {"sessions": 1_000, "sample": 100}),
     "profile": (profile.run, {"reads": 100}, {"reads": 10}),
 }
 

@@ -52,8 +52,8 @@ async def listen(request: web.Request) -> web.StreamResponse:
     session = sessions.get_or_create(name)
     transport = request.transport
     stream = event_stream(request)
-    listener = session.attach(alive=lambda: transport is not None and not transport.is_closing(),
-                              standard=stream.standard)
+    listener = sessions.attach(session, alive=lambda: transport is not None and not transport.is_closing(),
+                               standard=stream.standard)
     ping_interval = request.app[CONFIG].ping_interval
     try:
         await stream.prepare(request)

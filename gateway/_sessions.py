@@ -19,7 +19,7 @@ import asyncio
 import itertools
 import re
 import time
-from collections import deque
+from collections import OrderedDict, deque
 from collections.abc import Callable
 
 import orjson
@@ -182,6 +182,9 @@ class SessionStore:
     def __init__(self, backlog: int = 1000, listener_limit: int = 10000, idle_timeout: float = 600.0,
                  max_sessions: int = 256, clock: Callable[[], float] = time.monotonic) -> None:
         self._sessions: dict[str, Session] = {}
+        # The sessions nobody listens to, least recently used first: expiry looks at the front only,
+        # so that starting a session costs the same with 15,000 of them as with one.
+        self._idle: OrderedDict[str, Session] = OrderedDict()
         self._numbers = itertools.count(1)
         self._backlog = backlog
         self._listener_limit = listener_limit
@@ -234,30 +237,47 @@ class SessionStore:
                     f"(/session/stop), or wait: a session nobody listens to ends after {self.idle_timeout:g} s unused"
                 )
             session = self._sessions[name] = Session(name, self._backlog, self._listener_limit)
-        session.used = self.clock()
+        self._used(session)
         return session
+
+    def _used(self, session: Session) -> None:
+        """A client used *session* now: its idle time starts again."""
+        session.used = self.clock()
+        if not session.listeners:
+            self._idle[session.name] = session
+            self._idle.move_to_end(session.name)
 
     def expire(self) -> None:
         """Forget the sessions that nobody listens to and no client used for ``idle_timeout`` seconds."""
-        for name in [name for name, session in self._sessions.items() if self._expired(session)]:
-            del self._sessions[name]
+        deadline = self.clock() - self.idle_timeout
+        while self._idle:
+            name, session = next(iter(self._idle.items()))
+            if session.used > deadline:
+                return
+            self._forget(name)
 
-    def _expired(self, session: Session) -> bool:
-        if session.prune():
-            session.used = self.clock()  # it was listened to until now
-        return not session.listeners and self.clock() - session.used >= self.idle_timeout
+    def _forget(self, name: str) -> None:
+        del self._sessions[name]
+        self._idle.pop(name, None)
 
     def _live(self, name: str) -> Session | None:
         session = self._sessions.get(name)
-        if session is not None and self._expired(session):
-            del self._sessions[name]
+        if session is not None and name in self._idle and self.clock() - session.used >= self.idle_timeout:
+            self._forget(name)
             return None
         return session
+
+    def attach(self, session: Session, alive: Callable[[], bool] = lambda: True, standard: bool = False) -> Listener:
+        """Open a listener of *session* (see :meth:`Session.attach`); a session listened to never expires."""
+        listener = session.attach(alive, standard)
+        self._idle.pop(session.name, None)
+        return listener
 
     def detach(self, session: Session, listener: Listener) -> None:
         """Forget a listener whose stream ended; the session's idle time starts when its last one goes."""
         session.detach(listener)
-        session.used = self.clock()
+        if self._sessions.get(session.name) is session:
+            self._used(session)
 
     def stop(self, name: str) -> None:
         """Stop and forget the session *name*.
@@ -266,7 +286,7 @@ class SessionStore:
             NoSuchSession: when there is none.
         """
         self.get(name).stop()
-        del self._sessions[name]
+        self._forget(name)
 
     def route_request(self, request: Request) -> None:
         """Deliver a ``request`` event to the request's session, if it has one (and it has not expired)."""
@@ -287,3 +307,4 @@ class SessionStore:
         for session in self._sessions.values():
             session.stop()
         self._sessions.clear()
+        self._idle.clear()
