@@ -35,7 +35,8 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
                         help="load a component at start (repeatable), e.g. demo or demo:-i demo2")
     parser.add_argument("--components", help="comma-separated allow-list of loadable components")
     parser.add_argument("--token", default=os.environ.get("AIOGENOMIX_TOKEN"),
-                        help="require 'Authorization: Bearer TOKEN' (default: $AIOGENOMIX_TOKEN, unset = open)")
+                        help="require 'Authorization: Bearer TOKEN'; better given as $AIOGENOMIX_TOKEN, which "
+                             "other users cannot read in the process list (unset: open)")
     parser.add_argument("--allowed-host", action="append", default=[], metavar="NAME",
                         help="a host name browsers may reach the gateway by, besides IP addresses, localhost and "
                              "this machine's names (repeatable; '*' for any)")
@@ -106,6 +107,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         config = parse_args(argv)
         print("aiogenomix gateway starting", file=sys.stderr, flush=True)
+        if any(arg == "--token" or arg.startswith("--token=") for arg in (sys.argv[1:] if argv is None else argv)):
+            # Every user of the machine can read a process's command line (/proc/PID/cmdline).
+            print("aiogenomix gateway: warning: a --token on the command line can be read by every user of this "
+                  "machine (ps, /proc); set AIOGENOMIX_TOKEN in the environment instead", file=sys.stderr, flush=True)
         from ._errors import ZenohSessionError
         from ._run import ListenError, run
 

@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import asyncio
+import os
+import signal
+import sys
+
 import aiohttp
 
 from aiogenomix.gateway import serve
@@ -30,3 +35,24 @@ async def test_the_audio_device_flag_is_the_default_shown_by_info() -> None:
         assert device["default"] == "hw:1,0"
         async with http.get(f"{url}/") as reply:
             assert (await reply.json())["loaded"] == {"capture": "capture", "demo2": "demo"}
+
+
+async def _first_lines_of_a_gateway(*args: str, env: dict[str, str] | None = None) -> tuple[str, str]:
+    """Start the command with *args*; its stdout's first line (once it listens) and what stderr said until then."""
+    process = await asyncio.create_subprocess_exec(
+        sys.executable, "-m", "aiogenomix.gateway", "--port", "0", "--audio-socket-port", "0", *args,
+        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, env=env)
+    assert process.stdout is not None and process.stderr is not None
+    try:
+        listening = (await asyncio.wait_for(process.stdout.readline(), 60)).decode()
+    finally:
+        process.send_signal(signal.SIGINT)
+        _, errors = await asyncio.wait_for(process.communicate(), 30)
+    return listening, errors.decode()
+
+
+async def test_a_token_on_the_command_line_is_warned_about_and_the_environment_is_not() -> None:
+    listening, errors = await _first_lines_of_a_gateway("--token", "s3cret")
+    assert "listening" in listening and "AIOGENOMIX_TOKEN" in errors and "warning" in errors
+    listening, errors = await _first_lines_of_a_gateway(env=dict(os.environ, AIOGENOMIX_TOKEN="s3cret"))
+    assert "listening" in listening and "warning" not in errors
