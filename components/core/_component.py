@@ -74,6 +74,7 @@ class Component:
         services: dict[str, ServiceSpec] = {}
         ports: dict[str, PortSpec] = {}
         tasks: dict[str, Task] = {}
+        owner = f"component {cls.genom_name!r} ({cls.__name__})"
         # Bases first, so a merged component lists its parts' declarations in order,
         # and the standard services (declared on Component) come last.
         for klass in reversed(cls.__mro__):
@@ -83,7 +84,11 @@ class Component:
                 elif isinstance(value, Task):
                     tasks[value.name] = value
                 elif getattr(value, "__genom_service__", None) is not None:
-                    spec = service_spec(value)
+                    try:
+                        spec = service_spec(value)
+                    except TypeError as exc:
+                        # Named like the ports' refusals: the user sees which class and which service.
+                        raise TypeError(f"{owner}, service {getattr(value, '__name__', value)}: {exc}") from None
                     assert spec is not None
                     services.pop(spec.name, None)
                     services[spec.name] = spec
@@ -91,7 +96,6 @@ class Component:
             services[standard] = services.pop(standard)
         ports["genom_state"] = ports.pop("genom_state")
         cls._services, cls._ports, cls._tasks = services, ports, tasks
-        owner = f"component {cls.genom_name!r} ({cls.__name__})"
         for port in ports.values():
             try:
                 port.type  # noqa: B018 -- resolved now: a port of no IDL type is refused with its class
