@@ -2,14 +2,13 @@
 
 ::
 
-    ComponentError                                 (components.core)
-    └── CaptureError                               anything capture refuses or fails at
-        ├── DeviceNotFound (LookupError)           no such sound device; says what exists
-        ├── BackendUnavailable (ImportError)       the backend's library is not installed
-        ├── DeviceError (OSError)                  the device failed while open or opening
-        │   └── FormatRefused                      it opened but refuses the rate, channels or format
-        ├── SceneError (ValueError)                a bad simulated-scene description or WAV file
-        └── RequestError (ValueError)              a malformed dedicated-socket request
+    CaptureError                               anything capture refuses or fails at
+    ├── DeviceNotFound (LookupError)           no such sound device; says what exists
+    ├── BackendUnavailable (ImportError)       the backend's library is not installed
+    ├── DeviceError (OSError)                  the device failed while open or opening
+    │   └── FormatRefused                      it opened but refuses the rate, channels or format
+    ├── SceneError (ValueError)                a bad simulated-scene description or WAV file
+    └── RequestError (ValueError)              a malformed dedicated-socket request
 
 The component turns these into its declared genom3 exceptions, so that a user
 sees ``::capture::NO_SUCH_DEVICE`` with the device and the available devices.
@@ -19,15 +18,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from aiogenomix.components.core import ComponentError
-
 __all__ = [
     "CaptureError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "FormatRefused", "SceneError",
     "RequestError",
 ]
 
 
-class CaptureError(ComponentError):
+class CaptureError(Exception):
     """Base of every error of the capture package."""
 
 

@@ -10,7 +10,7 @@ from ._exceptions import (
 )
 from ._host import RemoteFinder, TooManyInstances
 from ._ports import ComputedOutPortRuntime, PortSpec
-from ._public import show_as_public
+from ._public import show_as_public as _show_as_public
 from ._requests import Request, RequestStatus, RequestTracker
 from ._services import NO_DEFAULT, ParamSpec, ServiceDecorator, ServiceSpec
 from ._tasks import TaskRuntime
@@ -31,4 +31,4 @@ __all__ = [
     "RequestRunning",
 ]
 
-show_as_public(globals(), __all__, __name__, __name__.rsplit(".", 1)[0])
+_show_as_public(globals(), __all__, __name__, __name__.rsplit(".", 1)[0])

@@ -10,10 +10,10 @@ from typing import Annotated, Any
 import pytest
 
 from aiogenomix.components.core import (
-    Component, ComponentHost, Double, GenomException, InPort, InputError, ManualClock, NoSuchPort,
-    NoSuchRequest, Out, OutPort, RequestRunning, Short, String, Task, activity, attribute, describe,
-    function, idl_struct, port_io,
+    Component, ComponentHost, Double, GenomException, InPort, ManualClock, Out, OutPort, Short, String, Task,
+    activity, attribute, function, idl_struct, port_io,
 )
+from aiogenomix.components.core.runtime import InputError, NoSuchPort, NoSuchRequest, RequestRunning, describe
 
 
 class TOO_BIG(GenomException):

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from aiogenomix.components.bass import Bass
-from aiogenomix.components.core import ComponentHost, ScaledClock, describe
+from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.core.runtime import describe
 
 from .conftest import wait_for_frame
 
@@ -106,7 +107,7 @@ async def test_the_simulated_scene_follows_the_simulated_head(host: ComponentHos
 def test_port_members_say_what_they_are() -> None:
     """Issue 13: a curl user reads in /info what a port's members mean (what is ts?)."""
     from aiogenomix.components.capture import PortData
-    from aiogenomix.components.core import idl_type
+    from aiogenomix.components.core.runtime import idl_type
 
     capture = {m["name"]: m.get("doc", "") for m in idl_type(PortData).describe()["members"]}
     assert "capture started" in capture["ts"] and "does not change" in capture["ts"]

@@ -9,7 +9,8 @@ from aiogenomix.clients.audio_socket import AsyncAudioSocketClient
 from aiogenomix.components.capture import (
     ALREADY_CAPTURING, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, SOCKET_ERROR, Capture,
 )
-from aiogenomix.components.core import ComponentHost, ScaledClock, describe
+from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.core.runtime import describe
 
 
 async def wait_for_index(capture: Capture, index: int) -> None:

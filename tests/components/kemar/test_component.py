@@ -7,7 +7,8 @@ from typing import Any
 
 import pytest
 
-from aiogenomix.components.core import ComponentHost, Request, ScaledClock
+from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.core.runtime import Request
 from aiogenomix.components.kemar import (
     NOT_HOMED, RIG_KEY, BusError, Kemar, KemarState, MotorFault, SimulatedHarmonica, parse_bus, simulated_rig,
 )
