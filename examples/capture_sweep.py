@@ -30,7 +30,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from aiogenomix.clients.audio_socket import AsyncAudioSocketClient, AudioBlock
-from aiogenomix.components.capture import woodworth_itd
+from aiogenomix.components.audio import woodworth_itd
 from aiogenomix.components.core import ComponentHost, ScaledClock
 from aiogenomix.components.kemarcapture import KemarCapture
 

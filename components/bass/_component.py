@@ -6,10 +6,11 @@ import asyncio
 import logging
 from typing import Annotated, Any
 
-from ..capture import (
-    MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, Azimuth, CaptureBackend, CaptureError, FormatRefused,
-    list_capture_devices, open_backend, scene_azimuth, simulated_scene,
+from ..audio import (
+    MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, AudioError, Azimuth, CaptureBackend, FormatRefused,
+    list_capture_devices, open_backend,
 )
+from ..capture import scene_azimuth, simulated_scene
 from ..core import Component, ComponentHost, Out, OutPort, String, Task, ULong, activity, function
 from ._history import AudioSnapshot, ChunkHistory
 from ._socket_server import FrameSocketServer
@@ -120,7 +121,7 @@ class Bass(Component, name="bass", version="1.0"):
             await backend.open()
         except FormatRefused as exc:
             raise e_hwparams(device=device, what=str(exc)) from exc
-        except CaptureError as exc:  # no such device, library missing, device busy, bad scene/WAV file
+        except AudioError as exc:  # no such device, library missing, device busy, bad scene/WAV file
             raise e_device(device=device, what=str(exc)) from exc
         return backend
 
@@ -150,7 +151,7 @@ class Bass(Component, name="bass", version="1.0"):
                     log.warning("%s: %s lost %d frames before frame %d", self.instance, device,
                                 chunk.lost_frames, snapshot.last_frame_index - nFramesPerChunk + 1)
                 self.Audio.publish(snapshot)
-        except CaptureError as exc:
+        except AudioError as exc:
             raise e_device(device=device, what=str(exc)) from exc
         finally:
             await backend.aclose()

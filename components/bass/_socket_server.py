@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ..capture import CLOSE, LastReply, LineServer
+from ..audio import CLOSE, LastReply, LineServer
 from ._history import AudioSnapshot
 from ._socket_wire import FrameRequest, encode_snapshot_reply, parse_frame_request
 

@@ -7,34 +7,25 @@ import logging
 from collections.abc import Awaitable, Callable
 from typing import Annotated, Any, ClassVar
 
+from ..audio import (
+    DEFAULT_PORT, MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, AudioError, Azimuth, CaptureBackend, Chunk,
+    ChunkWindow, DedicatedSocketServer, DeviceNotFound, list_capture_devices, open_backend,
+)
 from ..core import Component, ComponentHost, OutPort, String, Task, ULong, activity, attribute, function
-from ._backend import Azimuth, CaptureBackend, Chunk, open_backend
-from ._devices import list_capture_devices
-from ._errors import CaptureError, DeviceNotFound
 from ._head_link import scene_azimuth, simulated_scene
-from ._socket_server import DEFAULT_PORT, DedicatedSocketServer
 from ._types import (
     ALREADY_CAPTURING, DEVICE_ERROR, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, NO_SUCH_DEVICE, SOCKET_ERROR,
     CaptureConfig, CaptureStatus, PortData,
 )
 from ._port_view import PortView
-from ._window import ChunkWindow
 
-__all__ = ["Capture", "HeadPositionSource", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK", "RATE_RANGE",
-           "frames_per_chunk"]
+__all__ = ["Capture", "HeadPositionSource", "frames_per_chunk"]
 
 #: Where the head azimuth published with each chunk comes from: awaited as each chunk
 #: arrives, it gives the azimuth in degrees (positive = left; NaN when unknown).
 HeadPositionSource = Callable[[], Awaitable[float]]
 
 log = logging.getLogger(__name__)
-
-#: The largest port accepted (both channels, int32): beyond, ERROR_SEQUENCE_ENOMEM.
-MAX_PORT_BYTES = 256 * 2**20
-#: Sample rates a capture may ask for, in Hz.
-RATE_RANGE = (1000, 384_000)
-#: The largest chunk, in frames (about 2.7 s at 384 kHz).
-MAX_FRAMES_PER_CHUNK = 2**20
 
 
 def _every_source(backend_devices: list[str]) -> list[str]:
@@ -176,7 +167,7 @@ class Capture(Component, name="capture", version="1.1"):
             # The backend knows only its own devices: the user needs every source this gateway opens.
             available = await asyncio.to_thread(_every_source, exc.available)
             raise NO_SUCH_DEVICE(device=device, available=available) from exc
-        except CaptureError as exc:  # library missing, device refusing the format, bad scene/WAV file
+        except AudioError as exc:  # library missing, device refusing the format, bad scene/WAV file
             raise DEVICE_ERROR(device=device, what=str(exc)) from exc
         return backend
 
@@ -207,7 +198,7 @@ class Capture(Component, name="capture", version="1.1"):
             else:
                 while (chunk := await backend.read()) is not None:
                     self._publish_chunk(window, chunk, None)
-        except CaptureError as exc:
+        except AudioError as exc:
             raise DEVICE_ERROR(device=device, what=str(exc)) from exc
         finally:
             self._backend = None

@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 from ..core import ComponentHost
-from ._backend import Azimuth, split_device
-from ._scene import Scene
+from ..audio import Azimuth, Scene, split_device
 
 __all__ = ["simulated_head_azimuth", "scene_azimuth", "simulated_scene"]
 

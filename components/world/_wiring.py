@@ -47,7 +47,7 @@ def marker_scene() -> Any:
     Each marker becomes a source in its direction from the KEMAR (degrees, positive to the left
     of the KEMAR's front at azimuth 0): the first a noise, the second a tone, the next clicks.
     """
-    from ..capture import Scene, Source
+    from ..audio import Scene, Source
     from ._mjcf import KEMAR_ORIGIN, SOUND_SOURCES
 
     kinds = (dict(type="noise", level=-26.0), dict(type="tone", level=-30.0, frequency=500.0),

@@ -10,7 +10,7 @@ import pytest
 
 from aiogenomix.components.basc import Basc
 from aiogenomix.components.bass import Bass
-from aiogenomix.components.capture import DEFAULT_SCENE, SphericalHeadRenderer
+from aiogenomix.components.audio import DEFAULT_SCENE, SphericalHeadRenderer
 from aiogenomix.components.core import ComponentHost, ScaledClock
 from aiogenomix.components.kemar import Kemar
 from aiogenomix.gateway import GatewayConfig, serve

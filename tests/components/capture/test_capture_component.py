@@ -109,7 +109,7 @@ async def test_the_alsa_backend_runs_in_the_component(capture: Capture) -> None:
 
 
 async def test_portaudio_without_devices_is_a_declared_error(capture: Capture) -> None:
-    from aiogenomix.components.capture._portaudio import portaudio_capture_devices
+    from aiogenomix.components.audio._portaudio import portaudio_capture_devices
     if portaudio_capture_devices():
         pytest.skip("this machine has PortAudio input devices")
     request = await capture.send("StartCapture", {"device": "pa:Babyface"})

@@ -24,7 +24,8 @@ import pytest
 
 from aiogenomix.clients import aconnect
 from aiogenomix.clients.audio_socket import AsyncAudioSocketClient, AudioBlock
-from aiogenomix.components.capture import DEFAULT_SCENE, Capture, SphericalHeadRenderer
+from aiogenomix.components.audio import DEFAULT_SCENE, SphericalHeadRenderer
+from aiogenomix.components.capture import Capture
 from aiogenomix.components.core import ComponentHost, ScaledClock
 from aiogenomix.gateway import GatewayConfig, serve
 

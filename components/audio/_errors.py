@@ -1,8 +1,8 @@
-"""The exception tree of the capture package (backends, scenes, the dedicated socket).
+"""The exception tree of the audio library (backends, scenes, the dedicated sockets).
 
 ::
 
-    CaptureError                               anything capture refuses or fails at
+    AudioError                                 anything the audio library refuses or fails at
     ├── DeviceNotFound (LookupError)           no such sound device; says what exists
     ├── BackendUnavailable (ImportError)       the backend's library is not installed
     ├── DeviceError (OSError)                  the device failed while open or opening
@@ -10,7 +10,7 @@
     ├── SceneError (ValueError)                a bad simulated-scene description or WAV file
     └── RequestError (ValueError)              a malformed dedicated-socket request
 
-The component turns these into its declared genom3 exceptions, so that a user
+The components turn these into their declared genom3 exceptions, so that a user
 sees ``::capture::NO_SUCH_DEVICE`` with the device and the available devices.
 """
 
@@ -19,16 +19,16 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 __all__ = [
-    "CaptureError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "FormatRefused", "SceneError",
+    "AudioError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "FormatRefused", "SceneError",
     "RequestError",
 ]
 
 
-class CaptureError(Exception):
-    """Base of every error of the capture package."""
+class AudioError(Exception):
+    """Base of every error of the audio library."""
 
 
-class DeviceNotFound(CaptureError, LookupError):
+class DeviceNotFound(AudioError, LookupError):
     """The named sound device does not exist.
 
     Args:
@@ -45,11 +45,11 @@ class DeviceNotFound(CaptureError, LookupError):
         super().__init__(f"no such {backend} capture device {device!r} (available: {listed})")
 
 
-class BackendUnavailable(CaptureError, ImportError):
+class BackendUnavailable(AudioError, ImportError):
     """The Python library a backend needs cannot be imported."""
 
 
-class DeviceError(CaptureError, OSError):
+class DeviceError(AudioError, OSError):
     """The sound device failed while opening, configuring or reading it."""
 
 
@@ -57,9 +57,9 @@ class FormatRefused(DeviceError):
     """The device opened but refuses the sample rate, channel count or sample format asked for."""
 
 
-class SceneError(CaptureError, ValueError):
+class SceneError(AudioError, ValueError):
     """A simulated scene description or a WAV source that cannot be used."""
 
 
-class RequestError(CaptureError, ValueError):
+class RequestError(AudioError, ValueError):
     """A dedicated-socket request that does not follow ``Read Port - Index <k>``."""
