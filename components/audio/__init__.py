@@ -16,6 +16,7 @@
 from ._backend import (
     BACKENDS, Azimuth, CaptureBackend, Chunk, PacedBackend, SourceOptions, backend_class, open_backend, split_device,
 )
+from ._capabilities import HeadAzimuth, SoundScene, open_for_host
 from ._devices import list_capture_devices
 from ._errors import (
     AudioError, BackendUnavailable, DeviceError, DeviceNotFound, FormatRefused, RequestError, SceneError,
@@ -31,7 +32,9 @@ from ._window import ChunkWindow, WindowRead, WindowState
 __all__ = [
     # Backends
     "CaptureBackend", "PacedBackend", "Chunk", "SourceOptions", "Azimuth", "BACKENDS", "backend_class",
-    "open_backend", "split_device", "list_capture_devices",
+    "open_backend", "open_for_host", "split_device", "list_capture_devices",
+    # What a simulated scene takes from the components around it, by type
+    "HeadAzimuth", "SoundScene",
     # Bounds of a capture
     "RATE_RANGE", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK",
     # Simulated scenes

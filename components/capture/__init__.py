@@ -6,7 +6,6 @@ publishes ``Port`` (a merged component that publishes its own port struct uses i
 """
 
 from ._component import Capture, HeadPositionSource, frames_per_chunk
-from ._head_link import scene_azimuth, simulated_head_azimuth, simulated_scene
 from ._port_view import PortView
 from ._types import (
     ALREADY_CAPTURING, DEVICE_ERROR, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, NO_SUCH_DEVICE, SOCKET_ERROR,
@@ -20,6 +19,4 @@ __all__ = [
     # Exceptions
     "INVALID_CHUNK_TIME", "ERROR_SEQUENCE_ENOMEM", "NO_SUCH_DEVICE", "DEVICE_ERROR", "ALREADY_CAPTURING",
     "SOCKET_ERROR",
-    # The simulated head the scene follows
-    "simulated_head_azimuth", "scene_azimuth", "simulated_scene",
 ]

@@ -8,11 +8,10 @@ from collections.abc import Awaitable, Callable
 from typing import Annotated, Any, ClassVar
 
 from ..audio import (
-    DEFAULT_PORT, MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, AudioError, Azimuth, CaptureBackend, Chunk,
-    ChunkWindow, DedicatedSocketServer, DeviceNotFound, list_capture_devices, open_backend,
+    MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, AudioError, Azimuth, CaptureBackend, Chunk, ChunkWindow,
+    DedicatedSocketServer, DeviceNotFound, list_capture_devices, open_for_host,
 )
 from ..core import Component, ComponentHost, OutPort, String, Task, ULong, activity, attribute, function
-from ._head_link import scene_azimuth, simulated_scene
 from ._types import (
     ALREADY_CAPTURING, DEVICE_ERROR, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, NO_SUCH_DEVICE, SOCKET_ERROR,
     CaptureConfig, CaptureStatus, PortData,
@@ -77,9 +76,9 @@ class Capture(Component, name="capture", version="1.1"):
 
     def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
         super().__init__(host, instance, argv)
-        #: Where the simulated scene reads the head azimuth (None: the simulated
-        #: KEMAR drive of the host if there is one, else 0°).  Set it to steer the
-        #: simulated head from a script or a test.
+        #: Where the simulated scene reads the head azimuth (None: the HeadAzimuth a
+        #: component of the host provides, such as kemar's simulated drive, else 0°).
+        #: Set it to steer the simulated head from a script or a test.
         self.head_azimuth: Azimuth | None = None
         self._config = CaptureConfig(device="", transfer_rate=44100, chunk_time=50, Port_chunks=20)
         self._window: ChunkWindow | None = None
@@ -96,7 +95,7 @@ class Capture(Component, name="capture", version="1.1"):
     def service_defaults(cls, host: ComponentHost) -> dict[str, dict[str, Any]]:
         """StartCapture's default device comes from the host (``--audio-device``; ``sim`` by default)."""
         defaults = super().service_defaults(host)
-        defaults.setdefault("StartCapture", {})["device"] = host.settings.get("audio_device", "sim")
+        defaults.setdefault("StartCapture", {})["device"] = host.settings.audio_device
         return defaults
 
     async def on_stop(self) -> None:
@@ -158,10 +157,7 @@ class Capture(Component, name="capture", version="1.1"):
 
     async def _open(self, device: str, rate: int, frames: int) -> CaptureBackend:
         try:
-            backend = open_backend(device, rate, frames, self.clock,
-                                   azimuth=scene_azimuth(self.host, device, self.head_azimuth),
-                                   roots=self.host.settings.get("audio_files"),
-                                   scene=simulated_scene(self.host, device))
+            backend = open_for_host(self.host, device, rate, frames, self.clock, azimuth=self.head_azimuth)
             await backend.open()
         except DeviceNotFound as exc:
             # The backend knows only its own devices: the user needs every source this gateway opens.
@@ -289,10 +285,9 @@ class Capture(Component, name="capture", version="1.1"):
         The port is the gateway's ``--audio-socket-port`` (8081 by default); read it with GetCaptureStatus.
         """
         settings = self.host.settings
-        server = DedicatedSocketServer(lambda: self._window, host=settings.get("audio_socket_host", "127.0.0.1"),
-                                       port=settings.get("audio_socket_port", DEFAULT_PORT),
-                                       with_positions=self.port_positions,
-                                       token=settings.get("audio_socket_token"))
+        server = DedicatedSocketServer(lambda: self._window, host=settings.audio_socket_host,
+                                       port=settings.audio_socket_port, with_positions=self.port_positions,
+                                       token=settings.audio_socket_token)
         try:
             await server.start()
         except OSError as exc:

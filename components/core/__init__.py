@@ -14,6 +14,7 @@ from ._exceptions import (
     serialization, syserr, too_many_activities, unkex,
 )
 from ._host import ComponentHost, LoadError
+from ._settings import HostSettings
 from ._ports import ComputedOutPort, Incremental, InPort, InPortRuntime, OutPort, OutPortRuntime
 from ._public import show_as_public as _show_as_public
 from ._services import Out, activity, attribute, function, redeclare
@@ -38,7 +39,7 @@ from .runtime import TooManyInstances as TooManyInstances
 
 __all__ = [
     # The component and what hosts it
-    "Component", "ComponentHost", "LoadError",
+    "Component", "ComponentHost", "HostSettings", "LoadError",
     # Services
     "function", "activity", "attribute", "redeclare", "Out",
     # Ports and tasks

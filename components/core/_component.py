@@ -12,7 +12,7 @@ import asyncio
 import datetime
 import inspect
 import logging
-from typing import TYPE_CHECKING, Annotated, Any, ClassVar
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, TypeVar
 
 from ._exceptions import (
     GenomException, InputError, NoSuchPort, NoSuchService, disallowed, interrupted,
@@ -30,6 +30,8 @@ if TYPE_CHECKING:
     from ._host import ComponentHost
 
 __all__ = ["Component"]
+
+T = TypeVar("T")
 
 log = logging.getLogger(__name__)
 
@@ -210,6 +212,10 @@ class Component:
         for runtime in self._task_runtimes.values():
             await runtime.stop()
         await self.on_stop()
+
+    def provide(self, kind: type[T], value: T) -> None:
+        """Offer *value* as the host's *kind* while this instance is loaded (see :meth:`ComponentHost.provide`)."""
+        self.host.provide(kind, value, by=self.instance)
 
     async def on_start(self) -> None:
         """Hook run when the component starts (open hardware, publish initial data)."""

@@ -7,6 +7,7 @@ import math
 from collections.abc import Iterator
 from typing import Annotated
 
+from ..audio import HeadAzimuth
 from ..core import Component, ComponentHost, Double, Out, OutPort, Task, activity, function
 from ._driver import HarmonicaDriver
 from ._errors import (
@@ -40,10 +41,10 @@ from ._types import (
     Timestamp,
 )
 
-__all__ = ["Kemar", "simulated_rig", "parse_bus", "RIG_KEY"]
+__all__ = ["Kemar", "simulated_rig", "parse_bus", "SIMULATED_BUS"]
 
-#: The key of the simulated drive among the host's shared objects.
-RIG_KEY = "kemar.rig"
+#: The ``can`` setting of a simulated drive in-process, on a python-can virtual bus.
+SIMULATED_BUS = "virtual"
 
 #: The services that move the head; each interrupts the others.
 MOTIONS = ("Homing", "MoveAbsolutePosition", "MoveRelativePosition", "ControlInSpeed")
@@ -60,7 +61,7 @@ def parse_bus(setting: str) -> tuple[str, str | None]:
     Raises:
         BusError: The setting has no ``interface:channel`` form.
     """
-    if setting == "virtual":
+    if setting == SIMULATED_BUS:
         return "virtual", None
     interface, sep, channel = setting.partition(":")
     if not sep or not interface or not channel:
@@ -71,14 +72,12 @@ def parse_bus(setting: str) -> tuple[str, str | None]:
 def simulated_rig(host: ComponentHost) -> SimulatedHarmonica | None:
     """The host's simulated KEMAR drive (started on first use), or None on a real bus.
 
-    The capture simulation reads ``simulated_rig(host).head_azimuth`` (degrees,
-    positive = left, thread-safe) to turn the sound scene with the head.
+    One per host, shared by every component that drives the head (``kemar``,
+    ``kemarcapture``): one simulated head, as on the rig.
     """
-    if host.settings.get("can", "virtual") != "virtual":
+    if host.settings.can != SIMULATED_BUS:
         return None
-    rig = host.shared(RIG_KEY, lambda: SimulatedHarmonica(clock=host.clock).start())
-    assert isinstance(rig, SimulatedHarmonica)
-    return rig
+    return host.shared(SimulatedHarmonica, lambda: SimulatedHarmonica(clock=host.clock).start())
 
 
 @contextlib.contextmanager
@@ -118,8 +117,10 @@ class Kemar(Component, name="kemar", version="1.0"):
         self._head: KemarHead | None = None
         self._driver: HarmonicaDriver | None = None
         self.currentState.publish(KemarState())
-        if self.host.settings.get("can", "virtual") == "virtual":
-            # Start the simulated rig at load time, so the sound scene has a head to follow.
+        rig = simulated_rig(self.host)
+        if rig is not None:
+            # The simulated sound scene turns with the simulated head, whoever captures it.
+            self.provide(HeadAzimuth, HeadAzimuth(lambda: rig.head_azimuth))
             self.head()
 
     async def on_stop(self) -> None:
@@ -135,14 +136,13 @@ class Kemar(Component, name="kemar", version="1.0"):
         """
         if self._head is None:
             with _as_genom_exceptions():
-                interface, channel = parse_bus(self.host.settings.get("can", "virtual"))
+                interface, channel = parse_bus(self.host.settings.can)
                 if channel is None:
                     rig = simulated_rig(self.host)
                     assert rig is not None
                     channel = rig.channel
                 assert channel is not None  # the simulated rig always names its virtual channel
-                timeout = float(self.host.settings.get("can_timeout", 0.5))
-                driver = HarmonicaDriver.open(interface, channel, timeout=timeout)
+                driver = HarmonicaDriver.open(interface, channel, timeout=self.host.settings.can_timeout)
                 driver.start()
             self._driver = driver
             self._head = KemarHead(driver, self.clock, self.config, on_state=self._publish)

@@ -13,7 +13,7 @@ import math
 from typing import Any
 
 
-from ..core import Component, InPort, InPortRuntime, LoadError, OutPort, Task
+from ..core import Component, InPort, InPortRuntime, LoadError, OutPort, OutPortRuntime, Task
 from ._mjcf import KEMAR_CAMERAS, KEMAR_ORIGIN, PR2_CAMERAS, scene_xml
 from ._render import LASER, RenderError, SensorRenderer
 from ._sim import PR2_JOINTS, Simulation
@@ -187,8 +187,6 @@ class World(Component, name="world", version="1.0"):
         self.pr2_joints.publish(JointState(self._header("base_footprint"), list(PR2_JOINTS),
                                            sim.joint_positions(PR2_JOINTS), sim.joint_speeds(PR2_JOINTS)))
         yaw = sim.kemar_yaw()
-        #: The KEMAR head's azimuth in degrees (positive = left), for the simulated sound scene.
-        self.kemar_azimuth = math.degrees(yaw)
         pose = Pose(Point(KEMAR_ORIGIN[0], KEMAR_ORIGIN[1], 1.47),
                     Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)))
         self.kemar_pose.publish(PoseStamped(self._header("map"), pose))
@@ -239,9 +237,12 @@ class World(Component, name="world", version="1.0"):
         """
         for robot_port, world_port in pairs.items():
             mine, theirs = self.port(world_port), robot.port(robot_port)
-            if isinstance(mine, InPortRuntime):
-                mine.connect(theirs, f"{robot.instance}/{robot_port}")  # type: ignore[arg-type]
+            if isinstance(mine, InPortRuntime) and isinstance(theirs, OutPortRuntime):
+                mine.connect(theirs, f"{robot.instance}/{robot_port}")
+            elif isinstance(theirs, InPortRuntime) and isinstance(mine, OutPortRuntime):
+                theirs.connect(mine, f"{self.instance}/{world_port}")
             else:
-                theirs.connect(mine, f"{self.instance}/{world_port}")  # type: ignore[union-attr]
+                raise TypeError(f"{robot.instance}/{robot_port} and {self.instance}/{world_port} "
+                                "are not an in port and an out port")
 
 

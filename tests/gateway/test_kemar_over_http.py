@@ -10,7 +10,7 @@ import aiohttp
 import pytest
 
 from aiogenomix.clients import Interrupted, RemoteError, aconnect
-from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
 from aiogenomix.components.kemar import MotorFault, simulated_rig
 from aiogenomix.gateway import GatewayConfig, serve
 
@@ -18,7 +18,7 @@ from aiogenomix.gateway import GatewayConfig, serve
 @pytest.fixture
 async def rig() -> AsyncIterator[tuple[ComponentHost, str]]:
     """A gateway on a 50× clock whose host we can reach (to inject drive faults)."""
-    async with ComponentHost(clock=ScaledClock(50), settings={"can": "virtual", "audio_socket_port": 0}) as host:
+    async with ComponentHost(clock=ScaledClock(50), settings=HostSettings(can="virtual", audio_socket_port=0)) as host:
         async with serve(GatewayConfig(port=0), host=host) as url:
             yield host, url
 

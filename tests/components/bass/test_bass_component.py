@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 from aiogenomix.components.bass import Bass
-from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
 from aiogenomix.components.core.runtime import describe
 
 from .conftest import wait_for_frame
 
 
 def test_info_declares_the_interface_of_bass_gen() -> None:
-    host = ComponentHost(clock=ScaledClock(1), settings={"audio_device": "hw:1,0"}, factories={})
+    host = ComponentHost(clock=ScaledClock(1), settings=HostSettings(audio_device="hw:1,0"), factories={})
     info = describe(Bass(host, "bass"))
     services = {s["name"]: s for s in info["services"]}
     assert list(services)[:5] == ["ListDevices", "Acquire", "Stop", "DedicatedSocket", "CloseSocket"]

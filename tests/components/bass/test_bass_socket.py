@@ -6,7 +6,7 @@ import aiohttp
 import numpy as np
 
 from aiogenomix.components.bass import Bass
-from aiogenomix.components.core import ComponentHost
+from aiogenomix.components.core import ComponentHost, HostSettings
 
 from .conftest import MatlabSocket, wait_for_frame
 
@@ -102,7 +102,7 @@ async def test_bad_requests_get_an_error_line_and_the_server_goes_on(bass: Bass)
 
 
 async def test_with_a_token_the_socket_needs_it_first() -> None:
-    async with ComponentHost(settings={"audio_socket_port": 0, "audio_socket_token": "s3cret"},
+    async with ComponentHost(settings=HostSettings(audio_socket_port=0, audio_socket_token="s3cret"),
                              factories={"bass": Bass}) as host:
         bass = await host.load("bass")
         assert isinstance(bass, Bass)

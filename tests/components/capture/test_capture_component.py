@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -9,7 +11,7 @@ from aiogenomix.clients.audio_socket import AsyncAudioSocketClient
 from aiogenomix.components.capture import (
     ALREADY_CAPTURING, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, SOCKET_ERROR, Capture,
 )
-from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
 from aiogenomix.components.core.runtime import describe
 
 
@@ -19,7 +21,7 @@ async def wait_for_index(capture: Capture, index: int) -> None:
 
 
 def test_info_shows_the_default_device_of_the_host() -> None:
-    for settings, device in (({}, "sim"), ({"audio_device": "hw:1,0"}, "hw:1,0")):
+    for settings, device in ((HostSettings(), "sim"), (HostSettings(audio_device="hw:1,0"), "hw:1,0")):
         component = Capture(ComponentHost(clock=ScaledClock(1), settings=settings, factories={}), "capture")
         start = next(s for s in describe(component)["services"] if s["name"] == "StartCapture")
         defaults = {p["name"]: p.get("default") for p in start["parameters"]}
@@ -142,7 +144,7 @@ async def test_dedicated_socket_open_serve_and_close(capture: Capture) -> None:
 
 async def test_socket_port_in_use_is_a_declared_error(host: ComponentHost, capture: Capture) -> None:
     first = await capture.send("DedicatedSocket")
-    host.settings["audio_socket_port"] = await capture.wait_socket()
+    host.settings = dataclasses.replace(host.settings, audio_socket_port=await capture.wait_socket())
     other = await host.load("capture", ["-i", "capture2"])
     second = await other.send("DedicatedSocket")
     await second.ended.wait()

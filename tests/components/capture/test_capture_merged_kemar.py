@@ -12,7 +12,7 @@ import pytest
 
 from aiogenomix.clients.audio_socket import AsyncAudioSocketClient
 from aiogenomix.components.capture import Capture
-from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
 from aiogenomix.components.kemar import Kemar
 from aiogenomix.components.kemarcapture import KemarCapture, MoveIndexes
 
@@ -30,7 +30,7 @@ async def rig() -> AsyncIterator[ComponentHost]:
     waits for a time-out: the tests of time-outs are in tests/components/kemar.
     """
     async with ComponentHost(clock=ScaledClock(TIME_SCALE),
-                             settings={"can": "virtual", "can_timeout": 5.0, "audio_socket_port": 0},
+                             settings=HostSettings(can="virtual", can_timeout=5.0, audio_socket_port=0),
                              factories={"kemarcapture": KemarCapture, "capture": Capture, "kemar": Kemar}) as host:
         yield host
 

@@ -6,7 +6,7 @@ from collections.abc import AsyncIterator
 
 import pytest
 
-from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
 from aiogenomix.components.kemar import HarmonicaDriver, Kemar, KemarHead, SimulatedHarmonica
 
 #: Default speed-up of the simulated rig: homing (about 9 s of rig time) takes about 0.1 s.
@@ -49,7 +49,7 @@ async def homed_head(head: KemarHead) -> KemarHead:
 @pytest.fixture
 async def host(clock: ScaledClock) -> AsyncIterator[ComponentHost]:
     """A host with the kemar component loadable, on the virtual bus (simulated drive)."""
-    async with ComponentHost(clock=clock, settings={"can": "virtual", "can_timeout": 0.3},
+    async with ComponentHost(clock=clock, settings=HostSettings(can="virtual", can_timeout=0.3),
                              factories={"kemar": Kemar}) as running:
         yield running
 

@@ -7,10 +7,11 @@ from typing import Any
 
 import pytest
 
-from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.audio import HeadAzimuth
+from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
 from aiogenomix.components.core.runtime import Request
 from aiogenomix.components.kemar import (
-    NOT_HOMED, RIG_KEY, BusError, Kemar, KemarState, MotorFault, SimulatedHarmonica, parse_bus, simulated_rig,
+    NOT_HOMED, BusError, Kemar, KemarState, MotorFault, SimulatedHarmonica, parse_bus, simulated_rig,
 )
 
 
@@ -169,19 +170,21 @@ async def test_current_position_publishes_until_stopped(homed: Kemar) -> None:
 
 
 async def test_the_rig_is_shared_and_closed_with_the_host(clock: ScaledClock) -> None:
-    async with ComponentHost(clock=clock, settings={"can": "virtual"}, factories={"kemar": Kemar}) as host:
+    async with ComponentHost(clock=clock, settings=HostSettings(can="virtual"), factories={"kemar": Kemar}) as host:
         kemar = await host.load("kemar")
         drive = rig(host)
-        assert host.shared(RIG_KEY, lambda: None) is drive
+        assert host.shared(SimulatedHarmonica, lambda: SimulatedHarmonica()) is drive  # one per host
+        head = host.require(HeadAzimuth)  # what the sound scene follows
         assert (await call(kemar, "Homing")).status == "done"
         assert (await call(kemar, "MoveAbsolutePosition", {"target": -25})).status == "done"
-        assert drive.head_azimuth == pytest.approx(-25.0, abs=0.1)  # what the sound scene follows
+        assert head.read() == drive.head_azimuth == pytest.approx(-25.0, abs=0.1)
     assert drive.closed
+    assert host.find(HeadAzimuth) is None  # withdrawn with the instance
 
 
 @pytest.mark.parametrize("setting", ["socketcan:no-such-can", "nonsense"])
 async def test_a_bad_bus_ends_requests_with_bus_error(clock: ScaledClock, setting: str) -> None:
-    async with ComponentHost(clock=clock, settings={"can": setting}, factories={"kemar": Kemar}) as host:
+    async with ComponentHost(clock=clock, settings=HostSettings(can=setting), factories={"kemar": Kemar}) as host:
         kemar = await host.load("kemar")
         assert simulated_rig(host) is None
         request = await call(kemar, "GetPosition")

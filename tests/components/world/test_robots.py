@@ -93,23 +93,35 @@ async def test_connect_port_rewires_a_robot_to_another_camera(host: ComponentHos
 
 
 async def test_the_simulated_sound_scene_follows_the_virtual_kemar(host: ComponentHost) -> None:
-    from aiogenomix.components.capture import scene_azimuth
+    from aiogenomix.components.audio import HeadAzimuth, open_for_host
+    from aiogenomix.components.audio._sim_backend import SimulatedSceneBackend
 
+    assert host.find(HeadAzimuth) is None
     kemar = await host.load("morse_kemar")
-    azimuth = scene_azimuth(host, "sim", None)
-    assert azimuth is not None and azimuth() == pytest.approx(0.0, abs=0.1)
+    backend = open_for_host(host, "sim", 44100, 2205, host.clock)
+    assert isinstance(backend, SimulatedSceneBackend)
+    assert backend.azimuth() == pytest.approx(0.0, abs=0.1)
     await _run(kemar, "MoveAbsolutePosition", target=30.0, velocity=200.0)
-    assert azimuth() == pytest.approx(30.0, abs=0.15)
+    assert backend.azimuth() == pytest.approx(30.0, abs=0.15)
+    assert host.require(HeadAzimuth).read() == pytest.approx(30.0, abs=0.15)
 
 
 async def test_the_simulated_sound_sources_are_the_worlds_markers(host: ComponentHost) -> None:
-    from aiogenomix.components.capture import simulated_scene
+    from aiogenomix.components.audio import DEFAULT_SCENE, Scene, open_for_host
+    from aiogenomix.components.audio._sim_backend import SimulatedSceneBackend
 
-    assert simulated_scene(host, "sim") is None                  # no virtual KEMAR yet: the default scene
+    def scene(device: str) -> Scene | None:
+        backend = open_for_host(host, device, 44100, 2205, host.clock)
+        assert isinstance(backend, SimulatedSceneBackend)
+        return backend.scene
+
+    assert scene("sim") is DEFAULT_SCENE                          # no virtual KEMAR yet: the default scene
     await host.load("morse_kemar")
-    scene = simulated_scene(host, "sim")
-    assert scene is not None
+    markers = scene("sim")
+    assert markers is not None
     # source_1 at (2.0, 2.5) and source_2 at (-1.0, -2.5), heard from the KEMAR at (-2.0, 1.5), facing +x.
-    assert [round(s.azimuth, 2) for s in scene.sources] == [14.04, -75.96]
-    assert [s.type for s in scene.sources] == ["noise", "tone"]
-    assert simulated_scene(host, "sim:my_scene.json") is None    # a scene file of the user's wins
+    assert [round(s.azimuth, 2) for s in markers.sources] == [14.04, -75.96]
+    assert [s.type for s in markers.sources] == ["noise", "tone"]
+    assert scene("sim:my_scene.json") is None                     # a scene file of the user's wins
+    await host.unload("morse_kemar")
+    assert scene("sim") is DEFAULT_SCENE                          # gone with the component that provided it

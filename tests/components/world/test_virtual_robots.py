@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from aiogenomix.clients import Interrupted, aconnect
-from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
 from aiogenomix.gateway import GatewayConfig, serve
 
 # Not imported here: the world imports MuJoCo itself, after choosing offscreen rendering.
@@ -26,7 +26,7 @@ SCALE = 3.0
 @pytest.fixture
 async def rig() -> AsyncIterator[tuple[ComponentHost, str]]:
     """A gateway on a 3× clock whose host we can reach (to await camera publications)."""
-    async with ComponentHost(clock=ScaledClock(SCALE), settings={"audio_socket_port": 0}) as host:
+    async with ComponentHost(clock=ScaledClock(SCALE), settings=HostSettings(audio_socket_port=0)) as host:
         async with serve(GatewayConfig(port=0), host=host) as url:
             yield host, url
 
@@ -34,7 +34,7 @@ async def rig() -> AsyncIterator[tuple[ComponentHost, str]]:
 @pytest.fixture
 async def real_time_rig() -> AsyncIterator[tuple[ComponentHost, str]]:
     """A gateway on the real clock, for a duration seen from the client (HTTP latency is not scaled up)."""
-    async with ComponentHost(clock=ScaledClock(1.0), settings={"audio_socket_port": 0}) as host:
+    async with ComponentHost(clock=ScaledClock(1.0), settings=HostSettings(audio_socket_port=0)) as host:
         async with serve(GatewayConfig(port=0), host=host) as url:
             yield host, url
 
