@@ -341,7 +341,8 @@ class ComponentHost:
         if self._background:
             await asyncio.gather(*self._background, return_exceptions=True)
         shared, self._shared = self._shared, {}
-        for key, resource in shared.items():
+        # Last made, first closed: a resource made from another (a driver on a drive's bus) goes first.
+        for key, resource in reversed(shared.items()):
             closer = getattr(resource, "aclose", None)
             if closer is not None:
                 try:

@@ -159,3 +159,25 @@ async def test_plain_capture_follows_the_kemar_component_head(rig: ComponentHost
     assert interaural_delay(np.stack([port.left, port.right], axis=1)) >= 19
     await capture.send("StopCapture")
     await capturing.ended.wait()
+
+
+async def test_one_head_moving_kemar_updates_the_state_kemarcapture_shows(rig: ComponentHost,
+                                                                          merged: KemarCapture) -> None:
+    kemar = await rig.load("kemar")
+    assert isinstance(kemar, Kemar)
+    moved = await kemar.send("MoveAbsolutePosition", {"target": -30})
+    await moved.ended.wait()
+    assert moved.status == "done", moved.exception
+    # One head: the merged component's port shows where kemar turned it, read at the same time.
+    mine, theirs = kemar.currentState.read(), merged.currentState.read()
+    assert theirs.position == pytest.approx(-30.0, abs=0.1)
+    assert theirs == mine
+    position = await merged.send("GetPosition")
+    await position.ended.wait()
+    assert position.output is not None and position.output["position"] == pytest.approx(-30.0, abs=0.1)
+    # And the other way round: a reading by the merged component shows on kemar's port.
+    assert kemar.currentState.read() == merged.currentState.read()
+    await rig.unload("kemar")
+    moved = await merged.send("MoveAbsolutePosition", {"target": 10})
+    await moved.ended.wait()
+    assert merged.currentState.read().position == pytest.approx(10.0, abs=0.1)
