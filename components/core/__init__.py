@@ -7,7 +7,7 @@ client functions; ``components/demo`` is a complete one.
 """
 
 from ._chunked import Chunk, Chunked, ChunkedArray
-from ._clock import Clock, ManualClock, RealClock, ScaledClock
+from ._clock import Clock, ManualClock, RealClock, ScaledClock, VirtualClock
 from ._component import Component
 from ._exceptions import (
     GenomException, disallowed, interrupted, no_such_inport, no_such_outport, no_such_service, port_io,
@@ -50,7 +50,7 @@ __all__ = [
     "idl_struct", "idl_enum", "Bound", "Length", "Boolean", "Octet", "Char", "Short", "UShort", "Long", "ULong",
     "LongLong", "ULongLong", "Float", "Double", "String", "sequence", "array", "optional", "string", "Timestamp",
     # Clocks
-    "Clock", "RealClock", "ScaledClock", "ManualClock",
+    "Clock", "RealClock", "ScaledClock", "ManualClock", "VirtualClock",
     # Exceptions: the base of declared ones, and the standard ::genom:: ones
     "GenomException", "interrupted", "too_many_activities", "unkex", "syserr", "no_such_service",
     "no_such_outport", "no_such_inport", "port_io", "serialization", "disallowed",

@@ -340,6 +340,7 @@ class ComponentHost:
                 pass
         if self._background:
             await asyncio.gather(*self._background, return_exceptions=True)
+        await self.clock.aclose()
         shared, self._shared = self._shared, {}
         # Last made, first closed: a resource made from another (a driver on a drive's bus) goes first.
         for key, resource in reversed(shared.items()):

@@ -172,7 +172,7 @@ class Kemar(Component, name="kemar", version="1.0"):
             assert rig is not None
             channel = rig.channel
         assert channel is not None  # the simulated rig always names its virtual channel
-        driver = HarmonicaDriver.open(interface, channel, timeout=self.host.settings.can_timeout)
+        driver = HarmonicaDriver.open(interface, channel, timeout=self.host.settings.can_timeout, clock=self.clock)
         driver.start()
         return KemarHead(driver, self.clock, self.config, on_state=self._listeners.publish)
 

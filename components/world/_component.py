@@ -107,8 +107,10 @@ class World(Component, name="world", version="1.0"):
         # Importing MuJoCo and compiling the scene take about half a second, here off the event loop
         # (a thread) and in the render process at the same time.  The tasks already run meanwhile;
         # they wait for ``_running``.
-        sim, opened = await asyncio.gather(asyncio.to_thread(Simulation, width, height), self.renderer.open(),
-                                           return_exceptions=True)  # both end before the load does
+        # On a simulated clock that moves when the rig is idle, time waits for the world to exist.
+        with self.clock.holding():
+            sim, opened = await asyncio.gather(asyncio.to_thread(Simulation, width, height), self.renderer.open(),
+                                               return_exceptions=True)  # both end before the load does
         if isinstance(opened, RenderError):
             raise LoadError(f"the world cannot render its cameras ({opened}); MuJoCo renders offscreen "
                             "with MUJOCO_GL=osmesa and Debian's libosmesa6") from opened
@@ -204,7 +206,10 @@ class World(Component, name="world", version="1.0"):
         self._next_frame = max(self._next_frame + self.frame_period, now)
         assert self.sim is not None and self.renderer is not None  # set before _running
         try:
-            frames, ranges = await self.renderer.render(self.sim.snapshot())
+            # A frame shows its instant: on a simulated clock that moves when the rig is idle, time
+            # waits for the render process (real time on a rig, where holding changes nothing).
+            with self.clock.holding():
+                frames, ranges = await self.renderer.render(self.sim.snapshot())
         except RenderError as exc:
             await self._restart_renderer(exc)
             return

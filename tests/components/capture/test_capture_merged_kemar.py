@@ -12,25 +12,28 @@ import pytest
 
 from aiogenomix.clients.audio_socket import AsyncAudioSocketClient
 from aiogenomix.components.capture import Capture
-from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
+from aiogenomix.components.core import ComponentHost, HostSettings, VirtualClock
 from aiogenomix.components.kemar import Kemar
 from aiogenomix.components.kemarcapture import KemarCapture, MoveIndexes
 
-from .conftest import TIME_SCALE
 from .test_capture_binaural import interaural_delay
+
+
+#: Real seconds the simulated drive has to answer (as in tests/components/kemar: a bound for a busy machine).
+CAN_TIMEOUT = 10.0
 
 
 @pytest.fixture
 async def rig() -> AsyncIterator[ComponentHost]:
-    """A host with the simulated KEMAR drive on a virtual CAN bus.
+    """A host with the simulated KEMAR drive on a virtual CAN bus, on simulated time.
 
-    The drive's replies are allowed 5 s of real time, not the 0.5 s of a real bus: the simulated
-    drive answers from a thread of this process, which shares the interpreter with the audio
-    rendering, and a loaded machine held a reply back past 0.5 s (BUS_TIMEOUT). Nothing here
-    waits for a time-out: the tests of time-outs are in tests/components/kemar.
+    The clock moves when the rig has nothing else to do, and stands still while the drive
+    answers from its thread: the head and the sound are where the tests expect them however
+    busy the machine.  The drive's replies are allowed the kemar tests' real-time bound, not the
+    0.5 s of a real bus.  Nothing here waits for a time-out: those tests are in tests/components/kemar.
     """
-    async with ComponentHost(clock=ScaledClock(TIME_SCALE),
-                             settings=HostSettings(can="virtual", can_timeout=5.0, audio_socket_port=0),
+    async with ComponentHost(clock=VirtualClock(),
+                             settings=HostSettings(can="virtual", can_timeout=CAN_TIMEOUT, audio_socket_port=0),
                              factories={"kemarcapture": KemarCapture, "capture": Capture, "kemar": Kemar}) as host:
         yield host
 
