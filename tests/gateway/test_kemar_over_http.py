@@ -38,7 +38,9 @@ async def homed_head_moves_and_reports_its_state(kemar: Any) -> None:
     await kemar.MoveRelativePosition(-50)
     assert (await kemar.currentState()).position == pytest.approx(-20, abs=0.1)
 
-    first = await kemar.MoveAbsolutePosition(80, ack=True)
+    # Slow enough (100 degrees at 1 degree/s: 2 s of real time at 50x) for the next request to arrive
+    # during it, however busy the machine.
+    first = await kemar.MoveAbsolutePosition(80, 1, ack=True)
     await kemar.MoveAbsolutePosition(-10)
     with pytest.raises(Interrupted) as interrupted:
         await first.result()
