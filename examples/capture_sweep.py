@@ -30,8 +30,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from aiogenomix.clients.audio_socket import AsyncAudioSocketClient, AudioBlock
-from aiogenomix.components.capture import woodworth_itd
-from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.audio import woodworth_itd
+from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
 from aiogenomix.components.kemarcapture import KemarCapture
 
 RATE, CHUNK_MS = 44100, 50
@@ -54,7 +54,7 @@ def interaural_delay_ms(frames: np.ndarray) -> float:
 async def record_sweep(device: str, amplitude: float, speed: float, sweeps: int,
                        time_scale: float) -> list[AudioBlock]:
     """Run the rig, sweep the head, and return every block the socket client received."""
-    settings = {"can": "virtual", "audio_device": device, "audio_socket_port": 0}
+    settings = HostSettings(can="virtual", audio_device=device, audio_socket_port=0)
     async with ComponentHost(clock=ScaledClock(time_scale), settings=settings,
                              factories={"kemarcapture": KemarCapture}) as host:
         rig = await host.load("kemarcapture")

@@ -70,7 +70,7 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
     args = parser.parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     return GatewayConfig(
-        host=args.host, port=args.port, time_scale=args.time_scale, can=args.can,
+        host=args.host, port=args.port, time_scale=args.time_scale, can=args.can, can_timeout=args.can_timeout,
         audio_device=args.audio_device, audio_socket_port=args.audio_socket_port, audio_files=args.audio_files,
         token=args.token or None, allowed_hosts=args.allowed_host, allowed_origins=args.allow_origin,
         components=args.components.split(",") if args.components else None, preload=args.load,

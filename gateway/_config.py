@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+
+from ..components.core import HostSettings
 
 __all__ = ["GatewayConfig"]
+
+#: The rig's defaults: each setting has one, in HostSettings.
+_RIG = HostSettings()
 
 
 @dataclasses.dataclass
@@ -18,6 +22,7 @@ class GatewayConfig:
         time_scale: Runtime seconds per real second (1 on a rig; more to run a simulation faster).
         can: The CAN bus of the KEMAR head: ``virtual`` (a simulated drive in-process) or
             ``<interface>:<channel>`` such as ``socketcan:can0``.
+        can_timeout: Seconds of real time the drive has to answer a request on the bus.
         audio_device: Default capture device shown by ``StartCapture`` (``sim``, ``hw:1,0``...).
         audio_socket_port: TCP port of the dedicated audio socket (0 picks a free one).
         audio_files: Directories from which clients may name WAV files (``file:PATH``) and scene
@@ -48,9 +53,10 @@ class GatewayConfig:
     host: str = "127.0.0.1"
     port: int = 8080
     time_scale: float = 1.0
-    can: str = "virtual"
-    audio_device: str = "sim"
-    audio_socket_port: int = 8081
+    can: str = _RIG.can
+    can_timeout: float = _RIG.can_timeout
+    audio_device: str = _RIG.audio_device
+    audio_socket_port: int = _RIG.audio_socket_port
     audio_files: list[str] = dataclasses.field(default_factory=list)
     token: str | None = None
     allowed_hosts: list[str] = dataclasses.field(default_factory=list)
@@ -70,18 +76,18 @@ class GatewayConfig:
     zenoh_listen: list[str] = dataclasses.field(default_factory=list)
     zenoh_timeout: float = 5.0
 
-    def host_settings(self) -> dict[str, Any]:
-        """The settings handed to the components."""
+    def host_settings(self) -> HostSettings:
+        """The settings handed to the components: the rig, and the dedicated socket beside the HTTP port."""
         kind, _, path = self.audio_device.partition(":")
         operator_file = [path] if kind in ("file", "sim") and path else []
-        return {"can": self.can, "audio_device": self.audio_device, "audio_socket_port": self.audio_socket_port,
-                "audio_socket_host": self.host, "audio_socket_token": self.token,
-                "audio_files": [*self.audio_files, *operator_file]}
+        return HostSettings(can=self.can, can_timeout=self.can_timeout, audio_device=self.audio_device,
+                            audio_socket_port=self.audio_socket_port, audio_socket_host=self.host,
+                            audio_socket_token=self.token, audio_files=(*self.audio_files, *operator_file))
 
     def simulated_parts(self) -> list[str]:
         """Plain words for the parts of the rig that are simulated."""
         parts = []
-        if self.can == "virtual":
+        if self.can == _RIG.can:
             parts.append("KEMAR drive on a virtual CAN bus")
         if self.audio_device.startswith("sim"):
             parts.append(f"binaural audio scene ({self.audio_device})")

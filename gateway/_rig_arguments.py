@@ -9,15 +9,24 @@ from ._config import GatewayConfig
 __all__ = ["add_rig_arguments"]
 
 
+def _positive(text: str) -> float:
+    value = float(text)
+    if not value > 0:  # NaN too
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, not {text}")
+    return value
+
+
 def add_rig_arguments(parser: argparse.ArgumentParser, defaults: GatewayConfig) -> None:
     """Add the options of the components' hardware and clock to *parser*, wherever they run.
 
-    They are ``--log-level``, ``--can``, ``--audio-device``, ``--audio-socket-port``,
+    They are ``--log-level``, ``--can``, ``--can-timeout``, ``--audio-device``, ``--audio-socket-port``,
     ``--audio-files`` and ``--time-scale``, with *defaults* from the gateway's configuration.
     """
     parser.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error"])
     parser.add_argument("--can", default=defaults.can,
                         help="KEMAR bus: 'virtual' (simulated drive) or INTERFACE:CHANNEL, e.g. socketcan:can0")
+    parser.add_argument("--can-timeout", type=_positive, default=defaults.can_timeout, metavar="SECONDS",
+                        help="real time the KEMAR drive has to answer a request on the bus (default %(default)s)")
     parser.add_argument("--audio-device", default=defaults.audio_device,
                         help="default capture device: sim, sim:SCENE.json, hw:1,0, file:PATH.wav (default %(default)s)")
     parser.add_argument("--audio-socket-port", type=int, default=defaults.audio_socket_port,

@@ -17,7 +17,7 @@ from collections.abc import Awaitable, Callable
 
 from aiohttp import web
 
-from ..components.core import Request
+from ..components.core.runtime import Request
 from ._keys import HOST, SESSIONS, SHUTDOWN
 from ._replies import json_reply
 

@@ -6,9 +6,9 @@ import asyncio
 import logging
 from typing import Annotated, Any
 
-from ..capture import (
-    MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, Azimuth, CaptureBackend, CaptureError, FormatRefused,
-    list_capture_devices, open_backend, scene_azimuth, simulated_scene,
+from ..audio import (
+    MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, AudioError, Azimuth, CaptureBackend, FormatRefused,
+    list_capture_devices, open_for_host,
 )
 from ..core import Component, ComponentHost, Out, OutPort, String, Task, ULong, activity, function
 from ._history import AudioSnapshot, ChunkHistory
@@ -18,8 +18,6 @@ from ._types import AudioPortData, DeviceList, e_device, e_hwparams, e_nodevice,
 __all__ = ["Bass"]
 
 log = logging.getLogger(__name__)
-
-DEFAULT_SOCKET_PORT = 8081
 
 
 class Bass(Component, name="bass", version="1.0"):
@@ -43,8 +41,8 @@ class Bass(Component, name="bass", version="1.0"):
 
     def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
         super().__init__(host, instance, argv)
-        #: Where the simulated scene reads the head azimuth (None: the host's simulated
-        #: KEMAR head if there is one, else 0°).  Set it to steer the scene from a script.
+        #: Where the simulated scene reads the head azimuth (None: the HeadAzimuth a
+        #: component of the host provides, else 0°).  Set it to steer the scene from a script.
         self.head_azimuth: Azimuth | None = None
         self._server: FrameSocketServer | None = None
         self._socket_open = asyncio.Event()
@@ -64,7 +62,7 @@ class Bass(Component, name="bass", version="1.0"):
     def service_defaults(cls, host: ComponentHost) -> dict[str, dict[str, Any]]:
         """Acquire's default device comes from the host (``--audio-device``; ``sim`` by default)."""
         defaults = super().service_defaults(host)
-        defaults.setdefault("Acquire", {})["device"] = host.settings.get("audio_device", "sim")
+        defaults.setdefault("Acquire", {})["device"] = host.settings.audio_device
         return defaults
 
     # -- reading the state from Python ------------------------------------------------------
@@ -113,14 +111,11 @@ class Bass(Component, name="bass", version="1.0"):
 
     async def _open(self, device: str, rate: int, frames: int) -> CaptureBackend:
         try:
-            backend = open_backend(device, rate, frames, self.clock,
-                                   azimuth=scene_azimuth(self.host, device, self.head_azimuth),
-                                   roots=self.host.settings.get("audio_files"),
-                                   scene=simulated_scene(self.host, device))
+            backend = open_for_host(self.host, device, rate, frames, self.clock, azimuth=self.head_azimuth)
             await backend.open()
         except FormatRefused as exc:
             raise e_hwparams(device=device, what=str(exc)) from exc
-        except CaptureError as exc:  # no such device, library missing, device busy, bad scene/WAV file
+        except AudioError as exc:  # no such device, library missing, device busy, bad scene/WAV file
             raise e_device(device=device, what=str(exc)) from exc
         return backend
 
@@ -150,7 +145,7 @@ class Bass(Component, name="bass", version="1.0"):
                     log.warning("%s: %s lost %d frames before frame %d", self.instance, device,
                                 chunk.lost_frames, snapshot.last_frame_index - nFramesPerChunk + 1)
                 self.Audio.publish(snapshot)
-        except CaptureError as exc:
+        except AudioError as exc:
             raise e_device(device=device, what=str(exc)) from exc
         finally:
             await backend.aclose()
@@ -172,9 +167,8 @@ class Bass(Component, name="bass", version="1.0"):
         CloseSocket ends this request normally (done), as in bass.
         """
         settings = self.host.settings
-        server = FrameSocketServer(lambda: self.snapshot, host=settings.get("audio_socket_host", "127.0.0.1"),
-                                   port=settings.get("audio_socket_port", DEFAULT_SOCKET_PORT),
-                                   token=settings.get("audio_socket_token"))
+        server = FrameSocketServer(lambda: self.snapshot, host=settings.audio_socket_host,
+                                   port=settings.audio_socket_port, token=settings.audio_socket_token)
         try:
             await server.start()
         except OSError as exc:

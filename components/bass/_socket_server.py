@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from ..capture import CLOSE, LastReply, LineServer
+from ..audio import CLOSE, DEFAULT_PORT, LastReply, LineServer
+from ..core import HostSettings
 from ._history import AudioSnapshot
 from ._socket_wire import FrameRequest, encode_snapshot_reply, parse_frame_request
 
@@ -34,8 +35,8 @@ class FrameSocketServer(LineServer):
         token: When set, every client must first send ``Token <token>``.
     """
 
-    def __init__(self, snapshot: Callable[[], AudioSnapshot], *, host: str = "127.0.0.1",
-                 port: int = 8081, token: str | None = None) -> None:
+    def __init__(self, snapshot: Callable[[], AudioSnapshot], *, host: str = HostSettings().audio_socket_host,
+                 port: int = DEFAULT_PORT, token: str | None = None) -> None:
         super().__init__(lambda: _FrameConversation(self), host=host, port=port, token=token)
         self._snapshot = snapshot
         self._last = LastReply()

@@ -30,7 +30,7 @@ import struct
 
 import numpy as np
 
-from ..capture import RequestError, split_lines
+from ..audio import RequestError, split_lines
 from ._history import AudioSnapshot, FrameRead
 
 __all__ = ["FrameRequest", "CLOSE_REQUEST", "FrameRequestParser", "parse_frame_request", "encode_frame_request",

@@ -7,34 +7,24 @@ import logging
 from collections.abc import Awaitable, Callable
 from typing import Annotated, Any, ClassVar
 
+from ..audio import (
+    MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, AudioError, Azimuth, CaptureBackend, Chunk, ChunkWindow,
+    DedicatedSocketServer, DeviceNotFound, list_capture_devices, open_for_host,
+)
 from ..core import Component, ComponentHost, OutPort, String, Task, ULong, activity, attribute, function
-from ._backend import Azimuth, CaptureBackend, Chunk, open_backend
-from ._devices import list_capture_devices
-from ._errors import CaptureError, DeviceNotFound
-from ._head_link import scene_azimuth, simulated_scene
-from ._socket_server import DEFAULT_PORT, DedicatedSocketServer
 from ._types import (
     ALREADY_CAPTURING, DEVICE_ERROR, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, NO_SUCH_DEVICE, SOCKET_ERROR,
     CaptureConfig, CaptureStatus, PortData,
 )
 from ._port_view import PortView
-from ._window import ChunkWindow
 
-__all__ = ["Capture", "HeadPositionSource", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK", "RATE_RANGE",
-           "frames_per_chunk"]
+__all__ = ["Capture", "HeadPositionSource", "frames_per_chunk"]
 
 #: Where the head azimuth published with each chunk comes from: awaited as each chunk
 #: arrives, it gives the azimuth in degrees (positive = left; NaN when unknown).
 HeadPositionSource = Callable[[], Awaitable[float]]
 
 log = logging.getLogger(__name__)
-
-#: The largest port accepted (both channels, int32): beyond, ERROR_SEQUENCE_ENOMEM.
-MAX_PORT_BYTES = 256 * 2**20
-#: Sample rates a capture may ask for, in Hz.
-RATE_RANGE = (1000, 384_000)
-#: The largest chunk, in frames (about 2.7 s at 384 kHz).
-MAX_FRAMES_PER_CHUNK = 2**20
 
 
 def _every_source(backend_devices: list[str]) -> list[str]:
@@ -86,9 +76,9 @@ class Capture(Component, name="capture", version="1.1"):
 
     def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
         super().__init__(host, instance, argv)
-        #: Where the simulated scene reads the head azimuth (None: the simulated
-        #: KEMAR drive of the host if there is one, else 0°).  Set it to steer the
-        #: simulated head from a script or a test.
+        #: Where the simulated scene reads the head azimuth (None: the HeadAzimuth a
+        #: component of the host provides, such as kemar's simulated drive, else 0°).
+        #: Set it to steer the simulated head from a script or a test.
         self.head_azimuth: Azimuth | None = None
         self._config = CaptureConfig(device="", transfer_rate=44100, chunk_time=50, Port_chunks=20)
         self._window: ChunkWindow | None = None
@@ -105,7 +95,7 @@ class Capture(Component, name="capture", version="1.1"):
     def service_defaults(cls, host: ComponentHost) -> dict[str, dict[str, Any]]:
         """StartCapture's default device comes from the host (``--audio-device``; ``sim`` by default)."""
         defaults = super().service_defaults(host)
-        defaults.setdefault("StartCapture", {})["device"] = host.settings.get("audio_device", "sim")
+        defaults.setdefault("StartCapture", {})["device"] = host.settings.audio_device
         return defaults
 
     async def on_stop(self) -> None:
@@ -167,16 +157,13 @@ class Capture(Component, name="capture", version="1.1"):
 
     async def _open(self, device: str, rate: int, frames: int) -> CaptureBackend:
         try:
-            backend = open_backend(device, rate, frames, self.clock,
-                                   azimuth=scene_azimuth(self.host, device, self.head_azimuth),
-                                   roots=self.host.settings.get("audio_files"),
-                                   scene=simulated_scene(self.host, device))
+            backend = open_for_host(self.host, device, rate, frames, self.clock, azimuth=self.head_azimuth)
             await backend.open()
         except DeviceNotFound as exc:
             # The backend knows only its own devices: the user needs every source this gateway opens.
             available = await asyncio.to_thread(_every_source, exc.available)
             raise NO_SUCH_DEVICE(device=device, available=available) from exc
-        except CaptureError as exc:  # library missing, device refusing the format, bad scene/WAV file
+        except AudioError as exc:  # library missing, device refusing the format, bad scene/WAV file
             raise DEVICE_ERROR(device=device, what=str(exc)) from exc
         return backend
 
@@ -207,7 +194,7 @@ class Capture(Component, name="capture", version="1.1"):
             else:
                 while (chunk := await backend.read()) is not None:
                     self._publish_chunk(window, chunk, None)
-        except CaptureError as exc:
+        except AudioError as exc:
             raise DEVICE_ERROR(device=device, what=str(exc)) from exc
         finally:
             self._backend = None
@@ -298,10 +285,9 @@ class Capture(Component, name="capture", version="1.1"):
         The port is the gateway's ``--audio-socket-port`` (8081 by default); read it with GetCaptureStatus.
         """
         settings = self.host.settings
-        server = DedicatedSocketServer(lambda: self._window, host=settings.get("audio_socket_host", "127.0.0.1"),
-                                       port=settings.get("audio_socket_port", DEFAULT_PORT),
-                                       with_positions=self.port_positions,
-                                       token=settings.get("audio_socket_token"))
+        server = DedicatedSocketServer(lambda: self._window, host=settings.audio_socket_host,
+                                       port=settings.audio_socket_port, with_positions=self.port_positions,
+                                       token=settings.audio_socket_token)
         try:
             await server.start()
         except OSError as exc:

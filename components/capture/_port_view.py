@@ -22,7 +22,7 @@ import numpy as np
 
 from ..core import ChunkedArray
 from ._types import PortData, Timestamp
-from ._window import ChunkWindow, WindowRead, WindowState
+from ..audio import ChunkWindow, WindowRead, WindowState
 
 __all__ = ["PortView"]
 

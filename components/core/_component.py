@@ -12,7 +12,7 @@ import asyncio
 import datetime
 import inspect
 import logging
-from typing import TYPE_CHECKING, Annotated, Any, ClassVar
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, TypeVar
 
 from ._exceptions import (
     GenomException, InputError, NoSuchPort, NoSuchService, disallowed, interrupted,
@@ -30,6 +30,8 @@ if TYPE_CHECKING:
     from ._host import ComponentHost
 
 __all__ = ["Component"]
+
+T = TypeVar("T")
 
 log = logging.getLogger(__name__)
 
@@ -74,6 +76,7 @@ class Component:
         services: dict[str, ServiceSpec] = {}
         ports: dict[str, PortSpec] = {}
         tasks: dict[str, Task] = {}
+        owner = f"component {cls.genom_name!r} ({cls.__name__})"
         # Bases first, so a merged component lists its parts' declarations in order,
         # and the standard services (declared on Component) come last.
         for klass in reversed(cls.__mro__):
@@ -83,7 +86,11 @@ class Component:
                 elif isinstance(value, Task):
                     tasks[value.name] = value
                 elif getattr(value, "__genom_service__", None) is not None:
-                    spec = service_spec(value)
+                    try:
+                        spec = service_spec(value)
+                    except TypeError as exc:
+                        # Named like the ports' refusals: the user sees which class and which service.
+                        raise TypeError(f"{owner}, service {getattr(value, '__name__', value)}: {exc}") from None
                     assert spec is not None
                     services.pop(spec.name, None)
                     services[spec.name] = spec
@@ -91,7 +98,6 @@ class Component:
             services[standard] = services.pop(standard)
         ports["genom_state"] = ports.pop("genom_state")
         cls._services, cls._ports, cls._tasks = services, ports, tasks
-        owner = f"component {cls.genom_name!r} ({cls.__name__})"
         for port in ports.values():
             try:
                 port.type  # noqa: B018 -- resolved now: a port of no IDL type is refused with its class
@@ -206,6 +212,10 @@ class Component:
         for runtime in self._task_runtimes.values():
             await runtime.stop()
         await self.on_stop()
+
+    def provide(self, kind: type[T], value: T) -> None:
+        """Offer *value* as the host's *kind* while this instance is loaded (see :meth:`ComponentHost.provide`)."""
+        self.host.provide(kind, value, by=self.instance)
 
     async def on_start(self) -> None:
         """Hook run when the component starts (open hardware, publish initial data)."""

@@ -1,8 +1,10 @@
-"""The component host: which components can be loaded, the loaded instances, the shared clock.
+"""The component host: which components can be loaded, the loaded instances, the shared clock and rig.
 
 The gateway owns one host; tests and scripts can use one directly.  Loadable
 components are the ``aiogenomix.components`` entry points (plus any factory
-registered explicitly) — never an arbitrary path.
+registered explicitly) — never an arbitrary path.  Components that meet on
+one host find each other's capabilities by type (:meth:`ComponentHost.provide`,
+:meth:`ComponentHost.find`), never by a component's name.
 """
 
 from __future__ import annotations
@@ -13,14 +15,17 @@ import contextvars
 import importlib.metadata
 import logging
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeVar, overload
 
 from ._clock import Clock, RealClock
 from ._component import Component
 from ._exceptions import ComponentError, NoSuchModule
 from ._requests import Request
+from ._settings import HostSettings
 
-__all__ = ["ComponentHost", "LoadError", "TooManyInstances", "RemoteFinder"]
+__all__ = ["ComponentHost", "LoadError", "TooManyInstances", "RemoteFinder", "NoCapability"]
+
+T = TypeVar("T")
 
 log = logging.getLogger(__name__)
 
@@ -38,6 +43,10 @@ class LoadError(ComponentError, ValueError):
 
 class TooManyInstances(ComponentError):
     """The host already runs as many instances as it may."""
+
+
+class NoCapability(ComponentError, LookupError):
+    """No component of the host provides the capability asked for."""
 
 
 class RemoteFinder(Protocol):
@@ -59,22 +68,26 @@ class ComponentHost:
 
     Args:
         clock: The clock of every component (default: real time).
-        settings: Host-wide settings read by components (``can``, ``audio_device``, ...).
+        settings: The rig the components drive (default: every setting's default, a simulated rig).
         factories: Loadable components by name; default: the installed entry points.
         function_grace: How long a send waits for a function to end before replying ``sent``.
         max_instances: How many instances may be loaded at once (each runs tasks and may hold hardware).
     """
 
-    def __init__(self, clock: Clock | None = None, settings: dict[str, Any] | None = None,
+    def __init__(self, clock: Clock | None = None, settings: HostSettings | None = None,
                  factories: dict[str, Callable[..., Component]] | None = None,
                  function_grace: float = 2.0, max_instances: int = 64) -> None:
         self.clock = clock or RealClock()
-        self.settings: dict[str, Any] = dict(settings or {})
+        if settings is not None and not isinstance(settings, HostSettings):
+            raise TypeError(f"settings are a HostSettings, not {type(settings).__name__}: "
+                            "HostSettings(can=..., audio_device=...)")
+        self.settings = settings or HostSettings()
         self.function_grace = function_grace
         self.max_instances = max_instances
         self._factories = factories if factories is not None else self._entry_points()
         self._instances: dict[str, Component] = {}
-        self._shared: dict[str, Any] = {}
+        self._shared: dict[object, Any] = {}
+        self._capabilities: dict[type, list[tuple[str, object]]] = {}
         self._request_listeners: list[Callable[[Request], None]] = []
         self._unload_listeners: list[Callable[[str], None]] = []
         self._background: set[asyncio.Task[Any]] = set()
@@ -185,6 +198,9 @@ class ComponentHost:
             token = _LOADING.set((self, asyncio.current_task()))
             try:
                 await component.start()
+            except BaseException:
+                self.withdraw(instance)  # what it offered before failing goes with it
+                raise
             finally:
                 _LOADING.reset(token)
             self._instances[instance] = component
@@ -224,6 +240,7 @@ class ComponentHost:
             component = self.get(instance)
             del self._instances[instance]
         await component.stop()
+        self.withdraw(instance)
         for listener in list(self._unload_listeners):
             listener(instance)
 
@@ -235,15 +252,71 @@ class ComponentHost:
 
     # -- shared resources and events ---------------------------------------------------------
 
-    def shared(self, key: str, factory: Callable[[], Any]) -> Any:
-        """One object per host for *key*, created by *factory* on first use.
+    @overload
+    def shared(self, key: type[T], factory: Callable[[], T]) -> T: ...
 
-        Simulated hardware lives here so that several components see the same
-        rig (the simulated sound scene follows the simulated head).
+    @overload
+    def shared(self, key: str, factory: Callable[[], Any]) -> Any: ...
+
+    def shared(self, key: type[T] | str, factory: Callable[[], Any]) -> Any:
+        """One object per host for *key* (its class), created by *factory* on first use.
+
+        Simulated hardware lives here so that several components drive the same
+        rig (``kemar`` and ``kemarcapture`` turn one simulated head).  The host
+        closes it last (its ``aclose``, if it has one).  A string key is for a
+        resource the host only closes (the gateway's Zenoh session).
         """
         if key not in self._shared:
-            self._shared[key] = factory()
+            made = factory()
+            if isinstance(key, type) and not isinstance(made, key):
+                raise TypeError(f"the shared {key.__name__} was made as a {type(made).__name__}")
+            self._shared[key] = made
         return self._shared[key]
+
+    # -- capabilities, offered and found by type ----------------------------------------------
+
+    def provide(self, kind: type[T], value: T, *, by: str) -> None:
+        """Offer *value* as this host's *kind*, on behalf of the instance *by*.
+
+        Components find each other this way, by what they offer, never by name:
+        a simulated head provides a ``HeadAzimuth`` that a simulated sound scene
+        follows, whichever component turns it.  The offer made last is found
+        first; an instance's offers are withdrawn when it is unloaded.
+
+        Raises:
+            TypeError: when *value* is not a *kind*.
+        """
+        if not isinstance(value, kind):
+            raise TypeError(f"{by} provides a {type(value).__name__} as a {kind.__name__}")
+        self._capabilities.setdefault(kind, []).append((by, value))
+
+    def find(self, kind: type[T]) -> T | None:
+        """The *kind* a component of this host provides (the last offer), or None."""
+        offers = self._capabilities.get(kind)
+        if not offers:
+            return None
+        value = offers[-1][1]
+        assert isinstance(value, kind)  # provide checked it
+        return value
+
+    def require(self, kind: type[T]) -> T:
+        """The *kind* a component of this host provides (the last offer).
+
+        Raises:
+            NoCapability: when no loaded component provides one.
+        """
+        value = self.find(kind)
+        if value is None:
+            raise NoCapability(f"no component of this host provides a {kind.__name__}")
+        return value
+
+    def withdraw(self, by: str, kind: type | None = None) -> None:
+        """Withdraw the offers of the instance *by* (of *kind* only, when given)."""
+        for offered, offers in list(self._capabilities.items()):
+            if kind is None or offered is kind:
+                offers[:] = [(who, value) for who, value in offers if who != by]
+                if not offers:
+                    del self._capabilities[offered]
 
     def add_request_listener(self, listener: Callable[[Request], None]) -> None:
         """Call *listener* with every request whose status changed."""
@@ -267,8 +340,10 @@ class ComponentHost:
                 pass
         if self._background:
             await asyncio.gather(*self._background, return_exceptions=True)
+        await self.clock.aclose()
         shared, self._shared = self._shared, {}
-        for key, resource in shared.items():
+        # Last made, first closed: a resource made from another (a driver on a drive's bus) goes first.
+        for key, resource in reversed(shared.items()):
             closer = getattr(resource, "aclose", None)
             if closer is not None:
                 try:

@@ -220,13 +220,17 @@ def _build_spec(func: Callable[..., Any], declaration: _Declaration) -> ServiceS
     inputs = []
     for name, param in list(inspect.signature(source).parameters.items())[1:]:
         if param.kind in (param.VAR_POSITIONAL, param.VAR_KEYWORD):
-            raise TypeError(f"service {source.__name__}: *args and **kwargs have no IDL meaning")
+            raise TypeError("*args and **kwargs have no IDL meaning")
         if name not in hints:
-            raise TypeError(f"service {source.__name__}: parameter {name!r} needs a type annotation")
+            raise TypeError(f"parameter {name!r} needs a type annotation")
         hint = hints[name]
         doc = _doc_of(hint.__metadata__) if typing.get_origin(hint) is Annotated else ""
         default = NO_DEFAULT if param.default is param.empty else param.default
-        inputs.append(ParamSpec(name, "in", idl_type(hint), doc, default))
+        try:
+            param_type = idl_type(hint)
+        except TypeError as exc:
+            raise TypeError(f"parameter {name!r}: {exc}") from None
+        inputs.append(ParamSpec(name, "in", param_type, doc, default))
     outputs, style = _outputs_of(hints.get("return", inspect.Signature.empty))
     task = options.get("task")
     return ServiceSpec(
@@ -467,7 +471,12 @@ def check_redeclaration(spec: ServiceSpec, owner: str) -> None:
 
 
 def service_spec(func: Callable[..., Any]) -> ServiceSpec | None:
-    """The ServiceSpec of a decorated method (None for an ordinary method)."""
+    """The ServiceSpec of a decorated method (None for an ordinary method).
+
+    Raises:
+        TypeError: for a declaration with no IDL meaning (an unannotated parameter, a type or a
+            return annotation of no IDL type); the class that holds the method adds its name.
+    """
     declaration = getattr(func, "__genom_service__", None)
     if not isinstance(declaration, _Declaration):
         return None

@@ -8,9 +8,9 @@ from ._describe import describe
 from ._exceptions import (
     ComponentError, InputError, NoSuchModule, NoSuchPort, NoSuchRequest, NoSuchService, RequestRunning,
 )
-from ._host import RemoteFinder, TooManyInstances
+from ._host import NoCapability, RemoteFinder, TooManyInstances
 from ._ports import ComputedOutPortRuntime, PortSpec
-from ._public import show_as_public
+from ._public import show_as_public as _show_as_public
 from ._requests import Request, RequestStatus, RequestTracker
 from ._services import NO_DEFAULT, ParamSpec, ServiceDecorator, ServiceSpec
 from ._tasks import TaskRuntime
@@ -28,7 +28,7 @@ __all__ = [
     "idl_type",
     # What the runtime refuses
     "ComponentError", "InputError", "NoSuchModule", "NoSuchService", "NoSuchPort", "NoSuchRequest",
-    "RequestRunning",
+    "RequestRunning", "NoCapability",
 ]
 
-show_as_public(globals(), __all__, __name__, __name__.rsplit(".", 1)[0])
+_show_as_public(globals(), __all__, __name__, __name__.rsplit(".", 1)[0])

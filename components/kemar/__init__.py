@@ -11,7 +11,7 @@ handles are the driver's commands (:class:`NmtCommand`), its emergency reports
 """
 
 from ._codec import Emergency, MotorFault, NmtCommand, NmtState
-from ._component import RIG_KEY, Kemar, parse_bus, simulated_rig
+from ._component import SIMULATED_BUS, Kemar, parse_bus, simulated_rig
 from ._driver import EmergencyListener, HarmonicaDriver
 from ._errors import (
     BusError, CodecError, DriveCommandError, DriveFault, DriveTimeout, HomingFailed, InvalidCommand, KemarError,
@@ -26,7 +26,7 @@ from ._types import (
 
 __all__ = [
     # The component and its wire types
-    "Kemar", "KemarState", "Timestamp", "simulated_rig", "parse_bus", "RIG_KEY",
+    "Kemar", "KemarState", "Timestamp", "simulated_rig", "parse_bus", "SIMULATED_BUS",
     "NOT_HOMED", "INVALID_TARGET", "INVALID_VELOCITY", "DRIVE_FAULT", "BUS_TIMEOUT", "BUS_ERROR", "DRIVE_ERROR",
     "HOMING_FAILED", "MOTION_STOPPED",
     # Head logic

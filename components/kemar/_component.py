@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import contextlib
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Annotated
 
+from ..audio import HeadAzimuth
 from ..core import Component, ComponentHost, Double, Out, OutPort, Task, activity, function
 from ._driver import HarmonicaDriver
 from ._errors import (
@@ -40,10 +41,10 @@ from ._types import (
     Timestamp,
 )
 
-__all__ = ["Kemar", "simulated_rig", "parse_bus", "RIG_KEY"]
+__all__ = ["Kemar", "simulated_rig", "parse_bus", "SIMULATED_BUS"]
 
-#: The key of the simulated drive among the host's shared objects.
-RIG_KEY = "kemar.rig"
+#: The ``can`` setting of a simulated drive in-process, on a python-can virtual bus.
+SIMULATED_BUS = "virtual"
 
 #: The services that move the head; each interrupts the others.
 MOTIONS = ("Homing", "MoveAbsolutePosition", "MoveRelativePosition", "ControlInSpeed")
@@ -60,7 +61,7 @@ def parse_bus(setting: str) -> tuple[str, str | None]:
     Raises:
         BusError: The setting has no ``interface:channel`` form.
     """
-    if setting == "virtual":
+    if setting == SIMULATED_BUS:
         return "virtual", None
     interface, sep, channel = setting.partition(":")
     if not sep or not interface or not channel:
@@ -71,14 +72,38 @@ def parse_bus(setting: str) -> tuple[str, str | None]:
 def simulated_rig(host: ComponentHost) -> SimulatedHarmonica | None:
     """The host's simulated KEMAR drive (started on first use), or None on a real bus.
 
-    The capture simulation reads ``simulated_rig(host).head_azimuth`` (degrees,
-    positive = left, thread-safe) to turn the sound scene with the head.
+    One per host, shared by every component that drives the head (``kemar``,
+    ``kemarcapture``): one simulated head, as on the rig.
     """
-    if host.settings.get("can", "virtual") != "virtual":
+    if host.settings.can != SIMULATED_BUS:
         return None
-    rig = host.shared(RIG_KEY, lambda: SimulatedHarmonica(clock=host.clock).start())
-    assert isinstance(rig, SimulatedHarmonica)
-    return rig
+    return host.shared(SimulatedHarmonica, lambda: SimulatedHarmonica(clock=host.clock).start())
+
+
+class HeadListeners:
+    """Who shows the host's one head: every component that drives it publishes each state any of them reads.
+
+    ``kemar`` and ``kemarcapture`` loaded together turn one head (the simulated drive is
+    shared, a real one is one device): a move made through one updates the other's
+    ``currentState`` too, with the same reading and time, so no port shows an old azimuth as new.
+    """
+
+    def __init__(self) -> None:
+        self._listeners: list[Callable[[HeadState], None]] = []
+
+    def add(self, listener: Callable[[HeadState], None]) -> None:
+        """Call *listener* with every state read from the head, by any component."""
+        self._listeners.append(listener)
+
+    def discard(self, listener: Callable[[HeadState], None]) -> None:
+        """Stop calling *listener* (nothing happens if it was not called)."""
+        if listener in self._listeners:
+            self._listeners.remove(listener)
+
+    def publish(self, state: HeadState) -> None:
+        """Hand *state* to every listener."""
+        for listener in list(self._listeners):
+            listener(state)
 
 
 @contextlib.contextmanager
@@ -115,38 +140,41 @@ class Kemar(Component, name="kemar", version="1.0"):
     config: HeadConfig = HeadConfig()
 
     async def on_start(self) -> None:
-        self._head: KemarHead | None = None
-        self._driver: HarmonicaDriver | None = None
         self.currentState.publish(KemarState())
-        if self.host.settings.get("can", "virtual") == "virtual":
-            # Start the simulated rig at load time, so the sound scene has a head to follow.
+        self._listeners = self.host.shared(HeadListeners, HeadListeners)
+        self._listeners.add(self._publish)
+        rig = simulated_rig(self.host)
+        if rig is not None:
+            # The simulated sound scene turns with the simulated head, whoever captures it.
+            self.provide(HeadAzimuth, HeadAzimuth(lambda: rig.head_azimuth))
             self.head()
 
     async def on_stop(self) -> None:
-        driver, self._driver, self._head = self._driver, None, None
-        if driver is not None:
-            await driver.aclose()
+        # The head stays open with the host (another component may drive it): the host closes it.
+        self._listeners.discard(self._publish)
 
     def head(self) -> KemarHead:
-        """The head logic, opening the bus on first use.
+        """The host's one head, its bus opened on first use (by whichever component needs it first).
+
+        Every component that drives the head shares it, as they share the drive: homing
+        through one homes it for all, and every state read shows on each one's currentState.
 
         Raises:
             BUS_ERROR: The bus cannot be opened.
         """
-        if self._head is None:
-            with _as_genom_exceptions():
-                interface, channel = parse_bus(self.host.settings.get("can", "virtual"))
-                if channel is None:
-                    rig = simulated_rig(self.host)
-                    assert rig is not None
-                    channel = rig.channel
-                assert channel is not None  # the simulated rig always names its virtual channel
-                timeout = float(self.host.settings.get("can_timeout", 0.5))
-                driver = HarmonicaDriver.open(interface, channel, timeout=timeout)
-                driver.start()
-            self._driver = driver
-            self._head = KemarHead(driver, self.clock, self.config, on_state=self._publish)
-        return self._head
+        with _as_genom_exceptions():
+            return self.host.shared(KemarHead, self._open_head)
+
+    def _open_head(self) -> KemarHead:
+        interface, channel = parse_bus(self.host.settings.can)
+        if channel is None:
+            rig = simulated_rig(self.host)
+            assert rig is not None
+            channel = rig.channel
+        assert channel is not None  # the simulated rig always names its virtual channel
+        driver = HarmonicaDriver.open(interface, channel, timeout=self.host.settings.can_timeout, clock=self.clock)
+        driver.start()
+        return KemarHead(driver, self.clock, self.config, on_state=self._listeners.publish)
 
     def _publish(self, state: HeadState) -> None:
         self.currentState.publish(

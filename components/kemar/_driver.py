@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import collections
+import contextlib
 import logging
 from typing import Any
 from types import TracebackType
@@ -32,6 +33,7 @@ from ._codec import (
     encode_sdo_upload_request,
     error_code_meaning,
 )
+from ..core import Clock
 from ._errors import BusError, DriveCommandError, DriveTimeout, SdoAbortError
 
 __all__ = ["HarmonicaDriver", "EmergencyListener"]
@@ -65,6 +67,9 @@ class HarmonicaDriver:
         node_id: The drive's CANopen node id.
         timeout: Seconds to wait for each reply (real time: bus latency does not
             follow a simulated clock).
+        clock: The runtime clock of a simulation: a reply is awaited holding it
+            (:meth:`Clock.holding`), so simulated time stands still while the drive
+            answers from its thread.  None for a drive on a real bus.
         expect_set_echo: Wait for the drive's echo of set commands (the drives in
             the field echo them; without echo a set is fire-and-forget).
         own_bus: Shut the bus down on close.
@@ -78,8 +83,10 @@ class HarmonicaDriver:
         timeout: float = 0.5,
         expect_set_echo: bool = True,
         own_bus: bool = False,
+        clock: Clock | None = None,
     ) -> None:
         self.bus = bus
+        self._clock = clock
         self.cob = CobIds(node_id)
         self.timeout = timeout
         self.expect_set_echo = expect_set_echo
@@ -298,8 +305,9 @@ class HarmonicaDriver:
 
     async def _wait(self, future: asyncio.Future[Any], what: str) -> Any:
         try:
-            async with asyncio.timeout(self.timeout):
-                return await future
+            with self._clock.holding() if self._clock is not None else contextlib.nullcontext():
+                async with asyncio.timeout(self.timeout):
+                    return await future
         except TimeoutError:
             raise DriveTimeout(
                 f"drive {self.cob.node} did not answer {what} within {self.timeout * 1000:.0f} ms"

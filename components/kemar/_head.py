@@ -154,6 +154,10 @@ class KemarHead:
         self._saved_mi: int | None = None
         self._generation = 0
 
+    async def aclose(self) -> None:
+        """Close the driver and its bus (the host does, with the shared head)."""
+        await self.driver.aclose()
+
     # ------------------------------------------------------------------ conversions and settings
 
     def to_counts(self, degrees: float) -> int:

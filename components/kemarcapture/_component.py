@@ -6,8 +6,7 @@ import logging
 import math
 from typing import Any
 
-from ..capture import Capture, HeadPositionSource
-from ..capture._port_view import PortView
+from ..capture import Capture, HeadPositionSource, PortView
 from ..core import OutPort, redeclare
 from ..kemar import BUS_ERROR, Kemar, KemarError
 from ._types import KemarPortData, MoveIndexes

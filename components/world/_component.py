@@ -13,7 +13,7 @@ import math
 from typing import Any
 
 
-from ..core import Component, InPort, InPortRuntime, LoadError, OutPort, Task
+from ..core import Component, InPort, InPortRuntime, LoadError, OutPort, OutPortRuntime, Task
 from ._mjcf import KEMAR_CAMERAS, KEMAR_ORIGIN, PR2_CAMERAS, scene_xml
 from ._render import LASER, RenderError, SensorRenderer
 from ._sim import PR2_JOINTS, Simulation
@@ -107,8 +107,10 @@ class World(Component, name="world", version="1.0"):
         # Importing MuJoCo and compiling the scene take about half a second, here off the event loop
         # (a thread) and in the render process at the same time.  The tasks already run meanwhile;
         # they wait for ``_running``.
-        sim, opened = await asyncio.gather(asyncio.to_thread(Simulation, width, height), self.renderer.open(),
-                                           return_exceptions=True)  # both end before the load does
+        # On a simulated clock that moves when the rig is idle, time waits for the world to exist.
+        with self.clock.holding():
+            sim, opened = await asyncio.gather(asyncio.to_thread(Simulation, width, height), self.renderer.open(),
+                                               return_exceptions=True)  # both end before the load does
         if isinstance(opened, RenderError):
             raise LoadError(f"the world cannot render its cameras ({opened}); MuJoCo renders offscreen "
                             "with MUJOCO_GL=osmesa and Debian's libosmesa6") from opened
@@ -187,8 +189,6 @@ class World(Component, name="world", version="1.0"):
         self.pr2_joints.publish(JointState(self._header("base_footprint"), list(PR2_JOINTS),
                                            sim.joint_positions(PR2_JOINTS), sim.joint_speeds(PR2_JOINTS)))
         yaw = sim.kemar_yaw()
-        #: The KEMAR head's azimuth in degrees (positive = left), for the simulated sound scene.
-        self.kemar_azimuth = math.degrees(yaw)
         pose = Pose(Point(KEMAR_ORIGIN[0], KEMAR_ORIGIN[1], 1.47),
                     Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)))
         self.kemar_pose.publish(PoseStamped(self._header("map"), pose))
@@ -206,7 +206,10 @@ class World(Component, name="world", version="1.0"):
         self._next_frame = max(self._next_frame + self.frame_period, now)
         assert self.sim is not None and self.renderer is not None  # set before _running
         try:
-            frames, ranges = await self.renderer.render(self.sim.snapshot())
+            # A frame shows its instant: on a simulated clock that moves when the rig is idle, time
+            # waits for the render process (real time on a rig, where holding changes nothing).
+            with self.clock.holding():
+                frames, ranges = await self.renderer.render(self.sim.snapshot())
         except RenderError as exc:
             await self._restart_renderer(exc)
             return
@@ -239,9 +242,12 @@ class World(Component, name="world", version="1.0"):
         """
         for robot_port, world_port in pairs.items():
             mine, theirs = self.port(world_port), robot.port(robot_port)
-            if isinstance(mine, InPortRuntime):
-                mine.connect(theirs, f"{robot.instance}/{robot_port}")  # type: ignore[arg-type]
+            if isinstance(mine, InPortRuntime) and isinstance(theirs, OutPortRuntime):
+                mine.connect(theirs, f"{robot.instance}/{robot_port}")
+            elif isinstance(theirs, InPortRuntime) and isinstance(mine, OutPortRuntime):
+                theirs.connect(mine, f"{self.instance}/{world_port}")
             else:
-                theirs.connect(mine, f"{self.instance}/{world_port}")  # type: ignore[union-attr]
+                raise TypeError(f"{robot.instance}/{robot_port} and {self.instance}/{world_port} "
+                                "are not an in port and an out port")
 
 

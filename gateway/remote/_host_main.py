@@ -57,7 +57,8 @@ async def serve(args: argparse.Namespace, stop: asyncio.Event) -> None:
     from ._exporter import ComponentExporter
     from ._session import ZenohEndpoints
 
-    config = GatewayConfig(can=args.can, audio_device=args.audio_device, audio_socket_port=args.audio_socket_port,
+    config = GatewayConfig(can=args.can, can_timeout=args.can_timeout, audio_device=args.audio_device,
+                           audio_socket_port=args.audio_socket_port,
                            host=args.audio_socket_host, audio_files=args.audio_files, token=args.token)
     host = ComponentHost(clock=ScaledClock(args.time_scale), settings=config.host_settings())
     loop = asyncio.get_running_loop()

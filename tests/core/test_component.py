@@ -10,10 +10,10 @@ from typing import Annotated, Any
 import pytest
 
 from aiogenomix.components.core import (
-    Component, ComponentHost, Double, GenomException, InPort, InputError, ManualClock, NoSuchPort,
-    NoSuchRequest, Out, OutPort, RequestRunning, Short, String, Task, activity, attribute, describe,
-    function, idl_struct, port_io,
+    Component, ComponentHost, Double, GenomException, HostSettings, InPort, ManualClock, Out, OutPort, Short, String,
+    Task, activity, attribute, function, idl_struct, port_io,
 )
+from aiogenomix.components.core.runtime import InputError, NoSuchPort, NoSuchRequest, RequestRunning, describe
 
 
 class TOO_BIG(GenomException):
@@ -31,6 +31,13 @@ class Reading:
 class Pair:
     low: Annotated[Short, "The lower one"]
     high: Annotated[Short, "The higher one"]
+
+
+@dataclasses.dataclass(frozen=True)
+class GadgetSettings:
+    """The settings of the gadget, one default each: given to a host in HostSettings(extra=...)."""
+
+    default_amount: float = 1.0
 
 
 class Gadget(Component, name="gadget", version="2.0"):
@@ -95,13 +102,14 @@ class Gadget(Component, name="gadget", version="2.0"):
 
     @classmethod
     def service_defaults(cls, host: ComponentHost) -> dict[str, dict[str, Any]]:
-        return {"Fill": {"amount": host.settings.get("default_amount", 1.0)}}
+        return {"Fill": {"amount": host.settings.of(GadgetSettings).default_amount}}
 
 
 @pytest.fixture
 async def host() -> Any:
     events: list[dict[str, Any]] = []
-    async with ComponentHost(clock=ManualClock(), settings={"default_amount": 2.0},
+    settings = HostSettings(extra=(GadgetSettings(default_amount=2.0),))
+    async with ComponentHost(clock=ManualClock(), settings=settings,
                              factories={"gadget": Gadget}, function_grace=0.01) as host:
         host.add_request_listener(lambda r: events.append(r.status_object()))
         host.events = events  # type: ignore[attr-defined]

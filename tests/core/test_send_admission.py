@@ -17,8 +17,9 @@ from typing import Annotated, Any
 import pytest
 
 from aiogenomix.components.core import (
-    Component, ComponentHost, Double, GenomException, Long, ManualClock, Request, activity, function,
+    Component, ComponentHost, Double, GenomException, Long, ManualClock, activity, function,
 )
+from aiogenomix.components.core.runtime import Request
 from aiogenomix.components.demo import Demo
 
 

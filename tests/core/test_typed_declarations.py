@@ -52,6 +52,31 @@ def test_a_port_of_no_idl_type_is_refused_with_its_class() -> None:
             Where = OutPort(complex, doc="Not an IDL type")
 
 
+def test_a_parameter_of_no_idl_type_is_refused_with_its_class_and_service() -> None:
+    with pytest.raises(TypeError, match=r"'rover' \(Rover\), service Aim: parameter 'angle': .*has no IDL type"):
+        class Rover(Component, name="rover"):
+            @function
+            def Aim(self, angle: complex) -> None:
+                """Aim."""
+
+
+def test_a_return_annotation_of_no_idl_meaning_is_refused_with_its_class_and_service() -> None:
+    with pytest.raises(TypeError, match=r"component 'rover' \(Rover\), service Where: return annotation .*use None"):
+        class Rover(Component, name="rover"):
+            @function
+            def Where(self) -> complex:
+                """Where."""
+                return 0j
+
+
+def test_an_unannotated_parameter_is_refused_with_its_class_and_service() -> None:
+    with pytest.raises(TypeError, match=r"component 'rover' \(Rover\), service Go: parameter 'x' needs a type"):
+        class Rover(Component, name="rover"):
+            @function
+            def Go(self, x) -> None:  # type: ignore[no-untyped-def]
+                """Go."""
+
+
 @idl_struct("rover::pose")
 class Pose:
     x: Double = 0.0

@@ -11,9 +11,10 @@ import orjson
 import pytest
 
 from aiogenomix.components.core import (
-    Boolean, Char, Double, InputError, Long, Octet, Short, String, ULong, array, idl_enum, idl_struct,
-    idl_type, optional, sequence, string,
+    Boolean, Char, Double, Long, Octet, Short, String, ULong, array, idl_enum, idl_struct, optional, sequence,
+    string,
 )
+from aiogenomix.components.core.runtime import InputError, idl_type
 
 
 @idl_enum("test::color")

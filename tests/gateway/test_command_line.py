@@ -20,7 +20,7 @@ def test_flags_make_the_configuration() -> None:
     assert (config.host, config.port, config.can, config.audio_device) == ("0.0.0.0", 0, "socketcan:can0", "hw:1,0")
     assert (config.audio_socket_port, config.time_scale) == (9000, 4.0)
     assert config.preload == ["demo", "demo:-i demo2"] and config.components == ["demo", "kemar"]
-    assert config.host_settings()["audio_socket_host"] == "0.0.0.0"
+    assert config.host_settings().audio_socket_host == "0.0.0.0"
     assert config.simulated_parts() == []  # a real bus and a real sound card
 
 

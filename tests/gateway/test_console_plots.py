@@ -19,7 +19,7 @@ import pytest
 from aiogenomix.components.core import ComponentHost, ScaledClock
 from aiogenomix.gateway import GatewayConfig, serve
 
-from ..conftest import TEST_TIME_SCALE
+from ..conftest import TEST_CAN_TIMEOUT, TEST_TIME_SCALE
 from ._console_camera import Camera
 from ._browser import browser_page, needs_browser
 
@@ -30,7 +30,7 @@ WAIT = 20_000
 
 @pytest.fixture
 async def gateway_with_camera() -> AsyncIterator[str]:
-    config = GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0)
+    config = GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, can_timeout=TEST_CAN_TIMEOUT)
     async with ComponentHost(clock=ScaledClock(TEST_TIME_SCALE), settings=config.host_settings()) as host:
         host.register("camera", Camera)
         async with serve(config, host) as url:

@@ -13,6 +13,7 @@ import aiohttp
 import numpy as np
 import pytest
 
+from aiogenomix.components.core import HostSettings
 from aiogenomix.gateway import GatewayConfig
 
 from ..conftest import TEST_TIME_SCALE
@@ -123,8 +124,11 @@ def test_the_flags_reach_the_components() -> None:
     from aiogenomix.gateway.__main__ import parse_args
 
     config = parse_args(["--audio-files", "/srv/sounds", "--audio-files", "/srv/scenes", "--audio-device",
-                         "file:/srv/rig/take1.wav", "--allowed-host", "robot.lab", "--allow-origin", "https://nb.lab"])
+                         "file:/srv/rig/take1.wav", "--allowed-host", "robot.lab", "--allow-origin", "https://nb.lab",
+                         "--can-timeout", "2.5"])
     settings = config.host_settings()
-    assert settings["audio_files"] == ["/srv/sounds", "/srv/scenes", "/srv/rig/take1.wav"]   # and the default file
+    assert settings.audio_files == ("/srv/sounds", "/srv/scenes", "/srv/rig/take1.wav")   # and the default file
+    assert settings.can_timeout == 2.5
     assert config.allowed_hosts == ["robot.lab"] and config.allowed_origins == ["https://nb.lab"]
-    assert parse_args([]).host_settings()["audio_files"] == []
+    assert parse_args([]).host_settings().audio_files == ()
+    assert parse_args([]).host_settings().can_timeout == HostSettings().can_timeout

@@ -10,15 +10,20 @@ import aiohttp
 import pytest
 
 from aiogenomix.clients import Interrupted, RemoteError, aconnect
-from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.core import ComponentHost, HostSettings, VirtualClock
 from aiogenomix.components.kemar import MotorFault, simulated_rig
 from aiogenomix.gateway import GatewayConfig, serve
 
 
 @pytest.fixture
 async def rig() -> AsyncIterator[tuple[ComponentHost, str]]:
-    """A gateway on a 50× clock whose host we can reach (to inject drive faults)."""
-    async with ComponentHost(clock=ScaledClock(50), settings={"can": "virtual", "audio_socket_port": 0}) as host:
+    """A gateway whose host we can reach (to inject drive faults).
+
+    Its simulated time runs at most 50× real time, and only when the rig has nothing else to do;
+    the drive has a real-time bound for its replies that holds on a busy machine.
+    """
+    settings = HostSettings(can="virtual", can_timeout=10.0, audio_socket_port=0)
+    async with ComponentHost(clock=VirtualClock(50), settings=settings) as host:
         async with serve(GatewayConfig(port=0), host=host) as url:
             yield host, url
 
@@ -33,7 +38,9 @@ async def homed_head_moves_and_reports_its_state(kemar: Any) -> None:
     await kemar.MoveRelativePosition(-50)
     assert (await kemar.currentState()).position == pytest.approx(-20, abs=0.1)
 
-    first = await kemar.MoveAbsolutePosition(80, ack=True)
+    # Slow enough (100 degrees at 1 degree/s: 2 s of real time at 50x) for the next request to arrive
+    # during it, however busy the machine.
+    first = await kemar.MoveAbsolutePosition(80, 1, ack=True)
     await kemar.MoveAbsolutePosition(-10)
     with pytest.raises(Interrupted) as interrupted:
         await first.result()
@@ -65,6 +72,7 @@ async def test_faults_end_requests_clearly_and_nothing_else_is_disturbed(rig: tu
         assert fault.value.ex == "::kemar::DRIVE_FAULT"
         assert "tracking" in str(fault.value).lower()
 
+        host.get("kemar").head().driver.timeout = 0.2  # type: ignore[attr-defined]  # no need to wait 10 s
         drive.set_silent(True)
         with pytest.raises(RemoteError) as silent:
             await asyncio.wait_for(kemar.GetPosition(), 30)  # an error, never a hang

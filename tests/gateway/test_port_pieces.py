@@ -20,11 +20,10 @@ import numpy as np
 import orjson
 import pytest
 
-from aiogenomix.components.capture._port_view import PortView
-from aiogenomix.components.capture._window import ChunkWindow
-from aiogenomix.components.core import (
-    Chunk, ChunkedArray, Component, ComponentHost, OutPort, ScaledClock, idl_type,
-)
+from aiogenomix.components.audio import ChunkWindow
+from aiogenomix.components.capture import PortView
+from aiogenomix.components.core import Chunk, ChunkedArray, Component, ComponentHost, OutPort, ScaledClock
+from aiogenomix.components.core.runtime import idl_type
 from aiogenomix.components.kemarcapture import KemarPortData
 from aiogenomix.gateway import GatewayConfig, serve
 from aiogenomix.gateway._binary import encode_binary

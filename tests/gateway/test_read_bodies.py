@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from aiogenomix.components.capture._port_view import PortView
+from aiogenomix.components.capture import PortView
 from aiogenomix.components.core import ComponentHost, ScaledClock
 from aiogenomix.components.kemarcapture import KemarPortData
 from aiogenomix.gateway._read_bodies import IDLE_PUBLICATIONS, ReadBodies

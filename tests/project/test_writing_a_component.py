@@ -43,6 +43,7 @@ def test_the_page_runs_from_nothing_to_generated_client_functions(
     assert "async Point(" in shown and "pan: float = 0.0" in shown and "ack: bool = False" in shown
     assert "OUT_OF_RANGE: ::pantilt::OUT_OF_RANGE." in shown and "\ntilt 30.0\n" in shown
     assert "@function has no option 'interupts' (did you mean 'interrupts'?)" in shown
+    assert "pointed at 60.0 after True" in shown
 
     async def point_twice_on_a_gateway() -> list[float]:
         factories = {"pantilt": page["PanTilt"], "counting_pantilt": page["CountingPanTilt"]}

@@ -14,7 +14,8 @@ from ._processes import Process, start_host_and_gateway
 
 
 async def test_homing_and_moves_of_a_remote_head(started: list[Process]) -> None:
-    _, url, _ = await start_host_and_gateway(started, ["kemar"], extra=["--time-scale", "50"])
+    # A reply bound for a busy machine: the simulated drive answers from a thread of the host process.
+    _, url, _ = await start_host_and_gateway(started, ["kemar"], extra=["--time-scale", "50", "--can-timeout", "10"])
     async with aconnect(url, timeout=30) as client:
         kemar = await client.load("kemar")
         with pytest.raises(kemar.NOT_HOMED):  # the component's own exception class, generated from /info

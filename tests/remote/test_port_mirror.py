@@ -10,10 +10,9 @@ import pytest
 
 from aiogenomix.components.bass._history import ChunkHistory
 from aiogenomix.components.bass._types import AudioPortData
-from aiogenomix.components.capture._port_view import PortView
-from aiogenomix.components.capture._types import PortData
-from aiogenomix.components.capture._window import ChunkWindow
-from aiogenomix.components.core import idl_type
+from aiogenomix.components.audio import ChunkWindow
+from aiogenomix.components.capture import PortData, PortView
+from aiogenomix.components.core.runtime import idl_type
 from aiogenomix.components.core._ports import OutPort
 from aiogenomix.components.kemarcapture._types import KemarPortData
 from aiogenomix.gateway._pieces import json_pieces

@@ -10,8 +10,8 @@ import pytest
 
 from aiogenomix.components.basc import Basc
 from aiogenomix.components.bass import Bass
-from aiogenomix.components.capture import DEFAULT_SCENE, SphericalHeadRenderer
-from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.audio import DEFAULT_SCENE, SphericalHeadRenderer
+from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
 from aiogenomix.components.kemar import Kemar
 from aiogenomix.gateway import GatewayConfig, serve
 
@@ -22,7 +22,7 @@ TIME_SCALE = 10.0
 @pytest.fixture
 async def host() -> AsyncIterator[ComponentHost]:
     """A host with bass, basc and kemar loadable; the dedicated socket takes a free port."""
-    async with ComponentHost(clock=ScaledClock(TIME_SCALE), settings={"audio_socket_port": 0, "audio_device": "sim"},
+    async with ComponentHost(clock=ScaledClock(TIME_SCALE), settings=HostSettings(audio_socket_port=0),
                              factories={"bass": Bass, "basc": Basc, "kemar": Kemar}) as running:
         yield running
 

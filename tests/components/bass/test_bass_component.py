@@ -5,13 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 from aiogenomix.components.bass import Bass
-from aiogenomix.components.core import ComponentHost, ScaledClock, describe
+from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
+from aiogenomix.components.core.runtime import describe
 
 from .conftest import wait_for_frame
 
 
 def test_info_declares_the_interface_of_bass_gen() -> None:
-    host = ComponentHost(clock=ScaledClock(1), settings={"audio_device": "hw:1,0"}, factories={})
+    host = ComponentHost(clock=ScaledClock(1), settings=HostSettings(audio_device="hw:1,0"), factories={})
     info = describe(Bass(host, "bass"))
     services = {s["name"]: s for s in info["services"]}
     assert list(services)[:5] == ["ListDevices", "Acquire", "Stop", "DedicatedSocket", "CloseSocket"]
@@ -106,7 +107,7 @@ async def test_the_simulated_scene_follows_the_simulated_head(host: ComponentHos
 def test_port_members_say_what_they_are() -> None:
     """Issue 13: a curl user reads in /info what a port's members mean (what is ts?)."""
     from aiogenomix.components.capture import PortData
-    from aiogenomix.components.core import idl_type
+    from aiogenomix.components.core.runtime import idl_type
 
     capture = {m["name"]: m.get("doc", "") for m in idl_type(PortData).describe()["members"]}
     assert "capture started" in capture["ts"] and "does not change" in capture["ts"]

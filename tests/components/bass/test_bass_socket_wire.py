@@ -10,7 +10,7 @@ from aiogenomix.components.bass import (
     parse_frame_request,
 )
 from aiogenomix.components.bass._socket_wire import encode_snapshot_reply
-from aiogenomix.components.capture import RequestError
+from aiogenomix.components.audio import RequestError
 
 
 def test_the_matlab_request_line() -> None:

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aiogenomix.components.capture import Capture, DEFAULT_SCENE, SphericalHeadRenderer, woodworth_itd
+from aiogenomix.components.audio import DEFAULT_SCENE, SphericalHeadRenderer, woodworth_itd
+from aiogenomix.components.capture import Capture
 
 RATE = 44100
 MAX_LAG = 40  # samples; more than the largest ITD (29 samples)

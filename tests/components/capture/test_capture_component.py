@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -9,7 +11,8 @@ from aiogenomix.clients.audio_socket import AsyncAudioSocketClient
 from aiogenomix.components.capture import (
     ALREADY_CAPTURING, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, SOCKET_ERROR, Capture,
 )
-from aiogenomix.components.core import ComponentHost, ScaledClock, describe
+from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
+from aiogenomix.components.core.runtime import describe
 
 
 async def wait_for_index(capture: Capture, index: int) -> None:
@@ -18,7 +21,7 @@ async def wait_for_index(capture: Capture, index: int) -> None:
 
 
 def test_info_shows_the_default_device_of_the_host() -> None:
-    for settings, device in (({}, "sim"), ({"audio_device": "hw:1,0"}, "hw:1,0")):
+    for settings, device in ((HostSettings(), "sim"), (HostSettings(audio_device="hw:1,0"), "hw:1,0")):
         component = Capture(ComponentHost(clock=ScaledClock(1), settings=settings, factories={}), "capture")
         start = next(s for s in describe(component)["services"] if s["name"] == "StartCapture")
         defaults = {p["name"]: p.get("default") for p in start["parameters"]}
@@ -108,7 +111,7 @@ async def test_the_alsa_backend_runs_in_the_component(capture: Capture) -> None:
 
 
 async def test_portaudio_without_devices_is_a_declared_error(capture: Capture) -> None:
-    from aiogenomix.components.capture._portaudio import portaudio_capture_devices
+    from aiogenomix.components.audio._portaudio import portaudio_capture_devices
     if portaudio_capture_devices():
         pytest.skip("this machine has PortAudio input devices")
     request = await capture.send("StartCapture", {"device": "pa:Babyface"})
@@ -141,7 +144,7 @@ async def test_dedicated_socket_open_serve_and_close(capture: Capture) -> None:
 
 async def test_socket_port_in_use_is_a_declared_error(host: ComponentHost, capture: Capture) -> None:
     first = await capture.send("DedicatedSocket")
-    host.settings["audio_socket_port"] = await capture.wait_socket()
+    host.settings = dataclasses.replace(host.settings, audio_socket_port=await capture.wait_socket())
     other = await host.load("capture", ["-i", "capture2"])
     second = await other.send("DedicatedSocket")
     await second.ended.wait()

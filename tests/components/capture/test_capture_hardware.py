@@ -7,8 +7,8 @@ import os
 import numpy as np
 import pytest
 
-from aiogenomix.components.capture import open_backend
-from aiogenomix.components.capture._portaudio import portaudio_capture_devices
+from aiogenomix.components.audio import open_backend
+from aiogenomix.components.audio._portaudio import portaudio_capture_devices
 from aiogenomix.components.core import RealClock
 
 pytestmark = pytest.mark.hardware

@@ -12,25 +12,28 @@ import pytest
 
 from aiogenomix.clients.audio_socket import AsyncAudioSocketClient
 from aiogenomix.components.capture import Capture
-from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.core import ComponentHost, HostSettings, VirtualClock
 from aiogenomix.components.kemar import Kemar
 from aiogenomix.components.kemarcapture import KemarCapture, MoveIndexes
 
-from .conftest import TIME_SCALE
 from .test_capture_binaural import interaural_delay
+
+
+#: Real seconds the simulated drive has to answer (as in tests/components/kemar: a bound for a busy machine).
+CAN_TIMEOUT = 10.0
 
 
 @pytest.fixture
 async def rig() -> AsyncIterator[ComponentHost]:
-    """A host with the simulated KEMAR drive on a virtual CAN bus.
+    """A host with the simulated KEMAR drive on a virtual CAN bus, on simulated time.
 
-    The drive's replies are allowed 5 s of real time, not the 0.5 s of a real bus: the simulated
-    drive answers from a thread of this process, which shares the interpreter with the audio
-    rendering, and a loaded machine held a reply back past 0.5 s (BUS_TIMEOUT). Nothing here
-    waits for a time-out: the tests of time-outs are in tests/components/kemar.
+    The clock moves when the rig has nothing else to do, and stands still while the drive
+    answers from its thread: the head and the sound are where the tests expect them however
+    busy the machine.  The drive's replies are allowed the kemar tests' real-time bound, not the
+    0.5 s of a real bus.  Nothing here waits for a time-out: those tests are in tests/components/kemar.
     """
-    async with ComponentHost(clock=ScaledClock(TIME_SCALE),
-                             settings={"can": "virtual", "can_timeout": 5.0, "audio_socket_port": 0},
+    async with ComponentHost(clock=VirtualClock(),
+                             settings=HostSettings(can="virtual", can_timeout=CAN_TIMEOUT, audio_socket_port=0),
                              factories={"kemarcapture": KemarCapture, "capture": Capture, "kemar": Kemar}) as host:
         yield host
 
@@ -159,3 +162,25 @@ async def test_plain_capture_follows_the_kemar_component_head(rig: ComponentHost
     assert interaural_delay(np.stack([port.left, port.right], axis=1)) >= 19
     await capture.send("StopCapture")
     await capturing.ended.wait()
+
+
+async def test_one_head_moving_kemar_updates_the_state_kemarcapture_shows(rig: ComponentHost,
+                                                                          merged: KemarCapture) -> None:
+    kemar = await rig.load("kemar")
+    assert isinstance(kemar, Kemar)
+    moved = await kemar.send("MoveAbsolutePosition", {"target": -30})
+    await moved.ended.wait()
+    assert moved.status == "done", moved.exception
+    # One head: the merged component's port shows where kemar turned it, read at the same time.
+    mine, theirs = kemar.currentState.read(), merged.currentState.read()
+    assert theirs.position == pytest.approx(-30.0, abs=0.1)
+    assert theirs == mine
+    position = await merged.send("GetPosition")
+    await position.ended.wait()
+    assert position.output is not None and position.output["position"] == pytest.approx(-30.0, abs=0.1)
+    # And the other way round: a reading by the merged component shows on kemar's port.
+    assert kemar.currentState.read() == merged.currentState.read()
+    await rig.unload("kemar")
+    moved = await merged.send("MoveAbsolutePosition", {"target": 10})
+    await moved.ended.wait()
+    assert merged.currentState.read().position == pytest.approx(10.0, abs=0.1)

@@ -24,8 +24,9 @@ import pytest
 
 from aiogenomix.clients import aconnect
 from aiogenomix.clients.audio_socket import AsyncAudioSocketClient, AudioBlock
-from aiogenomix.components.capture import DEFAULT_SCENE, Capture, SphericalHeadRenderer
-from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.components.audio import DEFAULT_SCENE, SphericalHeadRenderer
+from aiogenomix.components.capture import Capture
+from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
 from aiogenomix.gateway import GatewayConfig, serve
 
 # 60 chunks (3 s) on the port: 300 ms of real time for a reader delayed by a busy machine.
@@ -69,7 +70,7 @@ async def pause_then_read(capture: Capture, port: int) -> tuple[AudioBlock, Audi
 @pytest.fixture
 async def served() -> AsyncIterator[tuple[Capture, str]]:
     """The capture component on a 10× clock, also served by a gateway on a free port."""
-    async with ComponentHost(clock=ScaledClock(10), settings={"audio_socket_port": 0, "audio_device": "sim"},
+    async with ComponentHost(clock=ScaledClock(10), settings=HostSettings(audio_socket_port=0),
                              factories={"capture": Capture}) as host:
         capture = await host.load("capture")
         assert isinstance(capture, Capture)

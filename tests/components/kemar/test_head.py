@@ -6,7 +6,7 @@ import asyncio
 
 import pytest
 
-from aiogenomix.components.core import ScaledClock
+from aiogenomix.components.core import VirtualClock
 from aiogenomix.components.kemar import (
     COUNTS_PER_DEGREE, DriveFault, DriveTimeout, HarmonicaDriver, HeadConfig, HeadState, HomingFailed,
     InvalidCommand, KemarHead, MotionTimeout, MotorFault, NotHomed, SimulatedHarmonica,
@@ -26,7 +26,7 @@ async def test_homing_finds_both_limits_and_centres_the_head(head: KemarHead, si
     assert snapshot.motor_on and snapshot.unit_mode == 5 and snapshot.position == 0
 
 
-async def test_homing_from_an_offset_start_with_asymmetric_switches(clock: ScaledClock) -> None:
+async def test_homing_from_an_offset_start_with_asymmetric_switches(clock: VirtualClock) -> None:
     async with SimulatedHarmonica(clock=clock, start_azimuth=-70.0, limits=(-80.0, 86.0)) as sim, \
             HarmonicaDriver.open("virtual", sim.channel) as driver:
         head = KemarHead(driver, clock)
@@ -36,7 +36,7 @@ async def test_homing_from_an_offset_start_with_asymmetric_switches(clock: Scale
         assert sim.head_azimuth == pytest.approx(3.0, abs=4 * COUNT)  # the physical midpoint
 
 
-async def test_homing_starting_on_the_forward_switch(clock: ScaledClock) -> None:
+async def test_homing_starting_on_the_forward_switch(clock: VirtualClock) -> None:
     async with SimulatedHarmonica(clock=clock, start_azimuth=89.99) as sim, \
             HarmonicaDriver.open("virtual", sim.channel) as driver:
         head = KemarHead(driver, clock)
@@ -45,7 +45,7 @@ async def test_homing_starting_on_the_forward_switch(clock: ScaledClock) -> None
         assert head.max_left == pytest.approx(90.0, abs=COUNT)
 
 
-async def test_homing_gives_up_when_a_switch_is_out_of_reach(driver: HarmonicaDriver, clock: ScaledClock) -> None:
+async def test_homing_gives_up_when_a_switch_is_out_of_reach(driver: HarmonicaDriver, clock: VirtualClock) -> None:
     # 90 deg at 1 deg/s takes 90 s: far out of reach of the 1 s allowed, even if the process stalls
     # (at 48.8 deg/s, 1.8 s, a stall of 8 ms of real time let the head reach the switch in time).
     head = KemarHead(driver, clock, HeadConfig(homing_timeout=1.0, homing_speed=round(COUNTS_PER_DEGREE)))
@@ -98,7 +98,7 @@ async def test_set_speed_is_checked_and_used(homed_head: KemarHead) -> None:
 
 async def test_a_cancelled_move_stops_the_head_and_a_new_one_goes_to_its_target(homed_head: KemarHead,
                                                                                 sim: SimulatedHarmonica,
-                                                                                clock: ScaledClock) -> None:
+                                                                                clock: VirtualClock) -> None:
     first = asyncio.create_task(homed_head.move_absolute(80.0, speed=50.0))
     while sim.head_azimuth < 10.0:
         await clock.sleep(0.05)
@@ -112,7 +112,7 @@ async def test_a_cancelled_move_stops_the_head_and_a_new_one_goes_to_its_target(
 
 
 async def test_velocity_control_then_zero_stops(homed_head: KemarHead, sim: SimulatedHarmonica,
-                                                clock: ScaledClock) -> None:
+                                                clock: VirtualClock) -> None:
     turning = asyncio.create_task(homed_head.control_in_speed(-40.0))
     while sim.head_azimuth > -20.0:
         await clock.sleep(0.05)
@@ -149,7 +149,7 @@ async def test_states_are_published(homed_head: KemarHead) -> None:
 
 
 async def test_latched_fault_during_a_move_then_homing_recovers(homed_head: KemarHead, sim: SimulatedHarmonica,
-                                                               clock: ScaledClock) -> None:
+                                                               clock: VirtualClock) -> None:
     move = asyncio.create_task(homed_head.move_absolute(-80.0))
     while sim.head_azimuth > -10.0:
         await clock.sleep(0.02)

@@ -1,35 +1,28 @@
-"""Timing-sensitive head behaviour on a gently sped-up clock: move durations and velocity-control stops.
+"""Timing of the head on simulated time: move durations and velocity-control stops.
 
-These tests skip homing (a minute of rig time at this speed-up): the simulated
-drive powers up with the head at azimuth 0 and PX = 0, which is the homed frame
-for switches at ±90°, so the head is told so directly.
+The clock is the conftest's discrete-event one: a move takes the same clock time, and the states
+read during it are the same, however busy the machine.  These tests skip homing: the simulated
+drive powers up with the head at azimuth 0 and PX = 0, which is the homed frame for switches
+at ±90°, so the head is told so directly.
 """
 
 from __future__ import annotations
 
 import pytest
 
-from aiogenomix.components.core import ScaledClock
+from aiogenomix.components.core import VirtualClock
 from aiogenomix.components.kemar import COUNTS_PER_DEGREE, HarmonicaDriver, HeadState, KemarHead, SimulatedHarmonica
 from aiogenomix.components.kemar._profile import move_duration
 
-TIME_SCALE = 10.0
-
-
 @pytest.fixture
-def clock() -> ScaledClock:
-    return ScaledClock(TIME_SCALE)
-
-
-@pytest.fixture
-def head(driver: HarmonicaDriver, clock: ScaledClock) -> KemarHead:
+def head(driver: HarmonicaDriver, clock: VirtualClock) -> KemarHead:
     head = KemarHead(driver, clock)
     head.homed, head.max_left, head.max_right = True, 90.0, -90.0
     return head
 
 
 async def test_move_duration_follows_speed_and_acceleration(head: KemarHead, sim: SimulatedHarmonica,
-                                                            clock: ScaledClock) -> None:
+                                                            clock: VirtualClock) -> None:
     await head.move_absolute(0.0)  # puts the drive in position mode
     speeds: list[float] = []
     head.on_state = lambda state: speeds.append(state.speed)
@@ -46,7 +39,7 @@ async def test_move_duration_follows_speed_and_acceleration(head: KemarHead, sim
     assert max(speeds) == pytest.approx(100.0, abs=0.5)
 
 
-async def test_a_faster_move_is_shorter(head: KemarHead, clock: ScaledClock) -> None:
+async def test_a_faster_move_is_shorter(head: KemarHead, clock: VirtualClock) -> None:
     await head.move_absolute(0.0)
     started = clock.now()
     await head.move_absolute(-60.0, speed=400.0)

@@ -9,7 +9,7 @@ import threading
 
 import pytest
 
-from aiogenomix.components.core import ScaledClock
+from aiogenomix.components.core import VirtualClock
 from aiogenomix.components.kemar import (
     COUNTS_PER_DEGREE, DriveCommandError, HarmonicaDriver, MotorFault, NmtCommand, NmtState, SimulatedHarmonica,
 )
@@ -27,13 +27,13 @@ async def drive(driver: HarmonicaDriver) -> HarmonicaDriver:
     return driver
 
 
-async def wait_until_still(driver: HarmonicaDriver, clock: ScaledClock) -> None:
+async def wait_until_still(driver: HarmonicaDriver, clock: VirtualClock) -> None:
     while await driver.query("VX") != 0 or (await driver.status()).motion_status == 2:
         await clock.sleep(0.02)
 
 
 async def test_jog_stops_on_the_forward_switch(drive: HarmonicaDriver, sim: SimulatedHarmonica,
-                                               clock: ScaledClock) -> None:
+                                               clock: VirtualClock) -> None:
     await drive.set("JV", 20000)
     await drive.execute("BG")
     while not await drive.query_int("IP") & INPUT_FORWARD_LIMIT:
@@ -54,7 +54,7 @@ async def test_jog_stops_on_the_forward_switch(drive: HarmonicaDriver, sim: Simu
 
 
 async def test_homing_on_the_fly_loads_px_at_the_reverse_switch(drive: HarmonicaDriver,
-                                                               clock: ScaledClock) -> None:
+                                                               clock: VirtualClock) -> None:
     for index, value in ((2, 1000), (3, 7), (4, 0), (5, 0), (1, 1)):
         await drive.set("HM", value, index)
     assert (await drive.status()).homing
@@ -78,7 +78,7 @@ async def test_immediate_homing_event_loads_px_now(drive: HarmonicaDriver) -> No
 
 
 async def test_position_move_in_position_mode(drive: HarmonicaDriver, sim: SimulatedHarmonica,
-                                              clock: ScaledClock) -> None:
+                                              clock: VirtualClock) -> None:
     await drive.set("MO", 0)
     await drive.set("UM", 5)
     await drive.set("MO", 1)
@@ -133,7 +133,7 @@ async def test_latched_fault_switches_the_motor_off_until_mo_1(drive: HarmonicaD
 
 
 async def test_stuck_motor_latches_a_fault_with_an_emergency(drive: HarmonicaDriver, sim: SimulatedHarmonica,
-                                                             clock: ScaledClock) -> None:
+                                                             clock: VirtualClock) -> None:
     sim.set_stuck(True)
     await drive.set("JV", 10000)
     await drive.execute("BG")
@@ -146,7 +146,7 @@ async def test_stuck_motor_latches_a_fault_with_an_emergency(drive: HarmonicaDri
 
 
 async def test_head_azimuth_is_readable_from_another_thread(drive: HarmonicaDriver, sim: SimulatedHarmonica,
-                                                            clock: ScaledClock) -> None:
+                                                            clock: VirtualClock) -> None:
     await drive.set("JV", -20480)
     await drive.execute("BG")
     await clock.sleep(0.5)
@@ -158,7 +158,7 @@ async def test_head_azimuth_is_readable_from_another_thread(drive: HarmonicaDriv
     assert -90.0 <= seen[-1] < -40.0
 
 
-async def test_nmt_reset_node_reboots_the_drive(drive: HarmonicaDriver, clock: ScaledClock) -> None:
+async def test_nmt_reset_node_reboots_the_drive(drive: HarmonicaDriver, clock: VirtualClock) -> None:
     await drive.nmt(NmtCommand.RESET_NODE)
     while drive.nmt_state != NmtState.BOOT_UP:
         await clock.sleep(0.01)
@@ -168,7 +168,7 @@ async def test_nmt_reset_node_reboots_the_drive(drive: HarmonicaDriver, clock: S
     assert await drive.query("UM") == 5
 
 
-async def test_drive_without_set_echo(clock: ScaledClock) -> None:
+async def test_drive_without_set_echo(clock: VirtualClock) -> None:
     async with SimulatedHarmonica(clock=clock, echo_sets=False) as sim, HarmonicaDriver.open(
         "virtual", sim.channel, expect_set_echo=False
     ) as driver:

@@ -9,7 +9,7 @@ from collections.abc import AsyncIterator
 import numpy as np
 import pytest
 
-from aiogenomix.components.core import ComponentHost, LoadError, ScaledClock
+from aiogenomix.components.core import ComponentHost, LoadError, VirtualClock
 from aiogenomix.components.morse_kemar import yaw_of
 
 pytestmark = pytest.mark.skipif(importlib.util.find_spec("mujoco") is None, reason="mujoco is not installed")
@@ -19,7 +19,11 @@ WORLD_OPTIONS = ["-size", "32x32", "-rate", "2"]
 
 @pytest.fixture
 async def host() -> AsyncIterator[ComponentHost]:
-    async with ComponentHost(clock=ScaledClock(4)) as host:
+    """A host whose simulated time moves whenever the world and its robots have nothing else to do.
+
+    Where a head or an arm stops is then the same on a quiet machine and on a busy one.
+    """
+    async with ComponentHost(clock=VirtualClock()) as host:
         await host.load("world", WORLD_OPTIONS)
         yield host
 
@@ -43,7 +47,7 @@ async def test_the_base_laser_sees_the_stand_ahead_and_not_the_robot(host: Compo
 
 @pytest.mark.parametrize("options", [["-size", "4x4"], ["-size", "big"], ["-rate", "0"], ["-rate", "nan"]])
 async def test_bad_load_options_are_refused(options: list[str]) -> None:
-    async with ComponentHost(clock=ScaledClock(4)) as host:
+    async with ComponentHost(clock=VirtualClock()) as host:
         with pytest.raises(LoadError):
             await host.load("world", ["-i", "other", *options])
         assert "other" not in host.instances
@@ -67,9 +71,9 @@ async def test_morse_kemar_speed_control_stops_before_the_limit(host: ComponentH
     kemar = await host.load("morse_kemar")
     request = await _run(kemar, "ControlInSpeed", velocity=200.0)
     assert request.status == "done"
-    # It stops 3° before the limit, give or take what the head turns between two poses on a busy
-    # machine (the clock runs 4× here); never past the limit switch.
-    assert 85.0 <= kemar.currentPosition <= 90.05
+    # It stops 3° before the limit, give or take what the head turns in one physics step (4° at
+    # 200°/s); never past the limit switch.
+    assert 87.0 <= kemar.currentPosition <= 90.0
     assert kemar.RobotMotion.read().angular.z == 0.0  # stopped
     rotate = await _run(kemar, "Rotate", z=-30.0)
     assert rotate.status == "done" and kemar.RobotMotion.read().angular.z == pytest.approx(math.radians(-30))
@@ -93,23 +97,35 @@ async def test_connect_port_rewires_a_robot_to_another_camera(host: ComponentHos
 
 
 async def test_the_simulated_sound_scene_follows_the_virtual_kemar(host: ComponentHost) -> None:
-    from aiogenomix.components.capture import scene_azimuth
+    from aiogenomix.components.audio import HeadAzimuth, open_for_host
+    from aiogenomix.components.audio._sim_backend import SimulatedSceneBackend
 
+    assert host.find(HeadAzimuth) is None
     kemar = await host.load("morse_kemar")
-    azimuth = scene_azimuth(host, "sim", None)
-    assert azimuth is not None and azimuth() == pytest.approx(0.0, abs=0.1)
+    backend = open_for_host(host, "sim", 44100, 2205, host.clock)
+    assert isinstance(backend, SimulatedSceneBackend)
+    assert backend.azimuth() == pytest.approx(0.0, abs=0.1)
     await _run(kemar, "MoveAbsolutePosition", target=30.0, velocity=200.0)
-    assert azimuth() == pytest.approx(30.0, abs=0.15)
+    assert backend.azimuth() == pytest.approx(30.0, abs=0.15)
+    assert host.require(HeadAzimuth).read() == pytest.approx(30.0, abs=0.15)
 
 
 async def test_the_simulated_sound_sources_are_the_worlds_markers(host: ComponentHost) -> None:
-    from aiogenomix.components.capture import simulated_scene
+    from aiogenomix.components.audio import DEFAULT_SCENE, Scene, open_for_host
+    from aiogenomix.components.audio._sim_backend import SimulatedSceneBackend
 
-    assert simulated_scene(host, "sim") is None                  # no virtual KEMAR yet: the default scene
+    def scene(device: str) -> Scene | None:
+        backend = open_for_host(host, device, 44100, 2205, host.clock)
+        assert isinstance(backend, SimulatedSceneBackend)
+        return backend.scene
+
+    assert scene("sim") is DEFAULT_SCENE                          # no virtual KEMAR yet: the default scene
     await host.load("morse_kemar")
-    scene = simulated_scene(host, "sim")
-    assert scene is not None
+    markers = scene("sim")
+    assert markers is not None
     # source_1 at (2.0, 2.5) and source_2 at (-1.0, -2.5), heard from the KEMAR at (-2.0, 1.5), facing +x.
-    assert [round(s.azimuth, 2) for s in scene.sources] == [14.04, -75.96]
-    assert [s.type for s in scene.sources] == ["noise", "tone"]
-    assert simulated_scene(host, "sim:my_scene.json") is None    # a scene file of the user's wins
+    assert [round(s.azimuth, 2) for s in markers.sources] == [14.04, -75.96]
+    assert [s.type for s in markers.sources] == ["noise", "tone"]
+    assert scene("sim:my_scene.json") is None                     # a scene file of the user's wins
+    await host.unload("morse_kemar")
+    assert scene("sim") is DEFAULT_SCENE                          # gone with the component that provided it

@@ -16,7 +16,7 @@ import stat
 from collections.abc import Sequence
 from typing import BinaryIO
 
-from ._errors import CaptureError, SceneError
+from ._errors import AudioError, SceneError
 
 __all__ = ["PathRefused", "confined_path", "open_regular_file", "read_regular_file", "MAX_SCENE_BYTES"]
 
@@ -24,7 +24,7 @@ __all__ = ["PathRefused", "confined_path", "open_regular_file", "read_regular_fi
 MAX_SCENE_BYTES = 1 << 20
 
 
-class PathRefused(CaptureError, PermissionError):
+class PathRefused(AudioError, PermissionError):
     """A file path outside the directories the operator allowed (or files disabled altogether)."""
 
 

@@ -10,13 +10,13 @@ from __future__ import annotations
 import asyncio
 import wave
 from collections.abc import Sequence
-from typing import BinaryIO
+from typing import BinaryIO, Self
 
 import numpy as np
 import numpy.typing as npt
 
 from ..core import Clock
-from ._backend import PacedBackend
+from ._backend import PacedBackend, SourceOptions
 from ._errors import SceneError
 from ._paths import confined_path, open_regular_file
 
@@ -60,6 +60,12 @@ class WavFileBackend(PacedBackend):
     """
 
     kind = "WAV file"
+
+    @classmethod
+    def for_device(cls, device: str, argument: str, rate: int, frames_per_chunk: int, clock: Clock,
+                   options: SourceOptions) -> Self:
+        """The WAV file at the path *argument*, if it lies under the allowed roots."""
+        return cls(device, rate, frames_per_chunk, clock, path=argument, roots=options.roots)
 
     def __init__(self, device: str, rate: int, frames_per_chunk: int, clock: Clock, *, path: str,
                  roots: Sequence[str] | None = None) -> None:

@@ -14,12 +14,12 @@ import asyncio
 import errno
 import logging
 import threading
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 
 from ..core import Clock
-from ._backend import CaptureBackend, Chunk
+from ._backend import CaptureBackend, Chunk, SourceOptions
 from ._errors import BackendUnavailable, DeviceError, DeviceNotFound, FormatRefused
 from ._handoff import ThreadHandoff
 
@@ -69,6 +69,12 @@ class AlsaBackend(CaptureBackend):
     """
 
     kind = "ALSA"
+
+    @classmethod
+    def for_device(cls, device: str, argument: str, rate: int, frames_per_chunk: int, clock: Clock,
+                   options: SourceOptions) -> Self:
+        """The PCM *argument* (``hw:1,0``, ``default``, ...)."""
+        return cls(device, rate, frames_per_chunk, clock, pcm_name=argument)
 
     def __init__(self, device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
                  pcm_name: str, depth: int = 8) -> None:

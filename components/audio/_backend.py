@@ -1,4 +1,4 @@
-"""The capture backend interface, the clock-paced base, and backend selection by device string.
+"""The capture backend interface, the clock-paced base, and the table of backends by device string.
 
 Device strings::
 
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import abc
 import dataclasses
+import importlib
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, ClassVar, Self
 
@@ -28,10 +29,29 @@ from ..core import Clock
 if TYPE_CHECKING:
     from ._scene import Scene
 
-__all__ = ["Chunk", "CaptureBackend", "PacedBackend", "open_backend", "split_device", "Azimuth"]
+__all__ = [
+    "Chunk", "CaptureBackend", "PacedBackend", "SourceOptions", "BACKENDS", "backend_class", "open_backend",
+    "split_device", "Azimuth",
+]
 
 #: A callable giving the current head azimuth in degrees (positive to the left).
 Azimuth = Callable[[], float]
+
+
+@dataclasses.dataclass(frozen=True)
+class SourceOptions:
+    """What a backend may use besides its device string.
+
+    Attributes:
+        azimuth: Head azimuth source of a simulated scene (None: 0°).
+        roots: The directories WAV and scene files may come from (the gateway's
+            ``--audio-files``); None allows any path (a host built in code).
+        scene: The scene of plain ``sim`` (None: :data:`DEFAULT_SCENE`).
+    """
+
+    azimuth: Azimuth | None = None
+    roots: Sequence[str] | None = None
+    scene: Scene | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,6 +97,12 @@ class CaptureBackend(abc.ABC):
 
     #: The backend's name in messages (``ALSA``, ``PortAudio``, ...).
     kind: ClassVar[str] = "capture"
+
+    @classmethod
+    @abc.abstractmethod
+    def for_device(cls, device: str, argument: str, rate: int, frames_per_chunk: int, clock: Clock,
+                   options: SourceOptions) -> Self:
+        """The backend (not yet open) for *device*, whose part after the backend's prefix is *argument*."""
 
     def __init__(self, device: str, rate: int, frames_per_chunk: int, clock: Clock) -> None:
         self.device = device
@@ -185,18 +211,40 @@ class PacedBackend(CaptureBackend):
         pass
 
 
+#: The backends by the kind of device they open, as ``module:class``, imported on first use (as
+#: python-can's table of interfaces): a capture loads the library of its own backend only.
+BACKENDS: dict[str, str] = {
+    "sim": "._sim_backend:SimulatedSceneBackend",
+    "file": "._wav_backend:WavFileBackend",
+    "portaudio": "._portaudio:PortAudioBackend",
+    "alsa": "._alsa:AlsaBackend",
+}
+
+#: Device string prefixes and the kind of backend they name (a string with none is an ALSA name).
+_PREFIXES = {"sim": "sim", "file": "file", "alsa": "alsa", "pa": "portaudio", "portaudio": "portaudio"}
+
+
 def split_device(device: str) -> tuple[str, str]:
     """Split a device string into ``(backend, argument)``.
 
     >>> split_device("hw:1,0"), split_device("sim"), split_device("pa:2")
     (('alsa', 'hw:1,0'), ('sim', ''), ('portaudio', '2'))
     """
-    head, sep, tail = device.partition(":")
-    if head in ("sim", "file", "alsa"):
-        return head, tail
-    if head in ("pa", "portaudio"):
-        return "portaudio", tail
-    return "alsa", device
+    head, _, tail = device.partition(":")
+    kind = _PREFIXES.get(head)
+    return (kind, tail) if kind is not None else ("alsa", device)
+
+
+def backend_class(kind: str) -> type[CaptureBackend]:
+    """The backend class of *kind* (a key of :data:`BACKENDS`), imported now if it was not yet.
+
+    Raises:
+        KeyError: for a kind the table does not have.
+    """
+    module, _, name = BACKENDS[kind].partition(":")
+    cls = getattr(importlib.import_module(module, __package__), name)
+    assert isinstance(cls, type) and issubclass(cls, CaptureBackend)
+    return cls
 
 
 def open_backend(device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
@@ -218,23 +266,5 @@ def open_backend(device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
     off the event loop.
     """
     kind, argument = split_device(device)
-    backend: CaptureBackend
-    if kind == "sim":
-        from ._sim_backend import SimulatedSceneBackend
-
-        backend = SimulatedSceneBackend(device, rate, frames_per_chunk, clock,
-                                        scene_file=argument or None, scene=None if argument else scene,
-                                        azimuth=azimuth, roots=roots)
-    elif kind == "file":
-        from ._wav_backend import WavFileBackend
-
-        backend = WavFileBackend(device, rate, frames_per_chunk, clock, path=argument, roots=roots)
-    elif kind == "portaudio":
-        from ._portaudio import PortAudioBackend
-
-        backend = PortAudioBackend(device, rate, frames_per_chunk, clock, name=argument)
-    else:
-        from ._alsa import AlsaBackend
-
-        backend = AlsaBackend(device, rate, frames_per_chunk, clock, pcm_name=argument)
-    return backend
+    return backend_class(kind).for_device(device, argument, rate, frames_per_chunk, clock,
+                                          SourceOptions(azimuth, roots, scene))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from aiogenomix.components.capture import ChunkWindow
+from aiogenomix.components.audio import ChunkWindow
 
 FPC = 4
 
@@ -101,7 +101,7 @@ def test_bad_chunks_are_refused() -> None:
 
 def test_a_published_port_view_keeps_the_chunks_of_its_publication() -> None:
     """Issue 14, defect 1: a port value read late must hold the data of the publication it names."""
-    from aiogenomix.components.capture._port_view import PortView
+    from aiogenomix.components.capture import PortView
 
     window = filled(5)
     published = PortView(window, 16000, 0.0)
@@ -117,7 +117,7 @@ def test_a_published_port_view_keeps_the_chunks_of_its_publication() -> None:
 
 
 def test_a_port_view_hands_out_its_chunks_without_copying_them() -> None:
-    from aiogenomix.components.capture._port_view import PortView
+    from aiogenomix.components.capture import PortView
 
     window = ChunkWindow(4, 3)
     for i in range(6):

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from aiogenomix.components.capture import (
+from aiogenomix.components.audio import (
     ChunkWindow, RequestError, RequestParser, encode_error, encode_reply, encode_request, parse_request, reply_size,
 )
-from aiogenomix.components.capture._socket_wire import encode_state_reply
+from aiogenomix.components.audio._socket_wire import encode_state_reply
 
 FPC = 2205  # 50 ms at 44.1 kHz
 

@@ -3,18 +3,20 @@
 from __future__ import annotations
 
 import asyncio
+import subprocess
+import sys
 import wave
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from aiogenomix.components.capture import (
+from aiogenomix.components.audio import (
     DeviceNotFound, SceneError, SphericalHeadRenderer, DEFAULT_SCENE, open_backend, split_device,
 )
-from aiogenomix.components.capture._alsa import AlsaBackend, alsa_capture_devices
-from aiogenomix.components.capture._handoff import ThreadHandoff
-from aiogenomix.components.capture._portaudio import portaudio_capture_devices
+from aiogenomix.components.audio._alsa import AlsaBackend, alsa_capture_devices
+from aiogenomix.components.audio._handoff import ThreadHandoff
+from aiogenomix.components.audio._portaudio import portaudio_capture_devices
 from aiogenomix.components.core import ManualClock, ScaledClock
 
 FPC = 2205
@@ -27,6 +29,23 @@ FPC = 2205
 ])
 def test_device_strings_pick_the_backend(device: str, expected: tuple[str, str]) -> None:
     assert split_device(device) == expected
+
+
+def test_a_backend_and_its_library_are_imported_when_a_capture_first_uses_it() -> None:
+    # A fresh interpreter: this one has imported every backend already.
+    code = (
+        "import sys\n"
+        "from aiogenomix.components.audio import BACKENDS, backend_class, open_backend\n"
+        "from aiogenomix.components.core import ManualClock\n"
+        "backend = open_backend('sim', 44100, 2205, ManualClock())\n"
+        "loaded = {kind for kind, where in BACKENDS.items()\n"
+        "          if 'aiogenomix.components.audio' + where.split(':')[0] in sys.modules}\n"
+        "print(type(backend).__name__, sorted(loaded), 'sounddevice' in sys.modules, 'alsaaudio' in sys.modules)\n"
+        "print(backend_class('alsa').__name__, 'alsaaudio' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split("\n")
+    assert out[0] == "SimulatedSceneBackend ['sim'] False False"
+    assert out[1] == "AlsaBackend False"  # the class is there; the library is loaded when a device opens
 
 
 async def test_simulated_scene_is_paced_by_the_clock() -> None:

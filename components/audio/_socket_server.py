@@ -6,13 +6,16 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..core import HostSettings
+
 from ._line_server import LastReply, LineServer
 from ._socket_wire import encode_reply, encode_state_reply, parse_request
 from ._window import ChunkWindow, WindowRead
 
 __all__ = ["DedicatedSocketServer", "DEFAULT_PORT"]
 
-DEFAULT_PORT = 8081
+#: The dedicated socket's port unless told otherwise (the host's default).
+DEFAULT_PORT = HostSettings().audio_socket_port
 _NO_CHUNKS = WindowRead(left=np.zeros((0, 0), np.int32), right=np.zeros((0, 0), np.int32),
                         positions=np.zeros(0), first_index=1, last_index=0, lost=0)
 
@@ -39,7 +42,7 @@ class DedicatedSocketServer(LineServer):
         token: When set, every client must first send ``Token <token>``.
     """
 
-    def __init__(self, window: Callable[[], ChunkWindow | None], *, host: str = "127.0.0.1",
+    def __init__(self, window: Callable[[], ChunkWindow | None], *, host: str = HostSettings().audio_socket_host,
                  port: int = DEFAULT_PORT, with_positions: bool = False, token: str | None = None) -> None:
         super().__init__(lambda: _ChunkConversation(self), host=host, port=port, token=token)
         self._window = window

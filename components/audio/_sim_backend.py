@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import Sequence
+from typing import Self
 
 import numpy as np
 import numpy.typing as npt
 
 from ..core import Clock
-from ._backend import Azimuth, PacedBackend
+from ._backend import Azimuth, PacedBackend, SourceOptions
 from ._head_model import SphericalHeadRenderer
 from ._paths import confined_path
 from ._scene import DEFAULT_SCENE, Scene, load_scene
@@ -41,6 +42,13 @@ class SimulatedSceneBackend(PacedBackend):
     """
 
     kind = "simulated scene"
+
+    @classmethod
+    def for_device(cls, device: str, argument: str, rate: int, frames_per_chunk: int, clock: Clock,
+                   options: SourceOptions) -> Self:
+        """The scene file *argument* (``sim:PATH``), or the options' scene for plain ``sim``."""
+        return cls(device, rate, frames_per_chunk, clock, scene_file=argument or None,
+                   scene=None if argument else options.scene, azimuth=options.azimuth, roots=options.roots)
 
     def __init__(self, device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
                  scene_file: str | None = None, scene: Scene | None = None,

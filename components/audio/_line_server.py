@@ -28,6 +28,7 @@ import socket
 from collections.abc import Callable, Hashable
 from typing import Protocol
 
+from ..core import HostSettings
 from ._errors import RequestError
 
 __all__ = ["Conversation", "LineServer", "LastReply", "CLOSE", "TOKEN_PREFIX", "ERROR_PREFIX", "MAX_REQUEST_LINE",
@@ -104,6 +105,10 @@ class LastReply:
         return reply
 
 
+#: The host's defaults give the socket's (one default each, in HostSettings).
+_RIG = HostSettings()
+
+
 class LineServer:
     """Serve a line-request protocol to any number of TCP clients.
 
@@ -114,8 +119,8 @@ class LineServer:
         token: When set, every client must first send ``Token <token>``.
     """
 
-    def __init__(self, conversation: Callable[[], Conversation], *, host: str = "127.0.0.1", port: int = 8081,
-                 token: str | None = None) -> None:
+    def __init__(self, conversation: Callable[[], Conversation], *, host: str = _RIG.audio_socket_host,
+                 port: int = _RIG.audio_socket_port, token: str | None = None) -> None:
         self._conversation = conversation
         self.host = host
         self.requested_port = port

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from aiogenomix.clients.audio_socket import AsyncAudioSocketClient, AudioSocketClient, AudioSocketError
-from aiogenomix.components.capture import ChunkWindow, DedicatedSocketServer
+from aiogenomix.components.audio import ChunkWindow, DedicatedSocketServer
 
 FPC = 8
 

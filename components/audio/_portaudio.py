@@ -9,12 +9,12 @@ the clock and reported with the next chunk.
 from __future__ import annotations
 
 import asyncio
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 
 from ..core import Clock
-from ._backend import CaptureBackend, Chunk
+from ._backend import CaptureBackend, Chunk, SourceOptions
 from ._errors import BackendUnavailable, DeviceError, DeviceNotFound
 from ._handoff import ThreadHandoff
 
@@ -59,6 +59,12 @@ class PortAudioBackend(CaptureBackend):
     """
 
     kind = "PortAudio"
+
+    @classmethod
+    def for_device(cls, device: str, argument: str, rate: int, frames_per_chunk: int, clock: Clock,
+                   options: SourceOptions) -> Self:
+        """The PortAudio input device named or numbered *argument* (empty: the default one)."""
+        return cls(device, rate, frames_per_chunk, clock, name=argument)
 
     def __init__(self, device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
                  name: str, depth: int = 8) -> None:

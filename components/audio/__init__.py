@@ -1,0 +1,50 @@
+"""The audio library under the audio stream servers: capture backends, simulated scenes, the chunk window, sockets.
+
+``capture``, ``kemarcapture``, ``bass`` and ``basc`` are thin components on it.  What lives here:
+
+* **Backends** chosen by device string (``sim``, ``sim:SCENE.json``, ``file:PATH.wav``,
+  ``pa:NAME``, an ALSA name), from a table imported lazily (:data:`BACKENDS`), as
+  python-can keeps its interfaces: a capture loads the sound library it uses, no other.
+* **Simulated scenes**: fixed sources rendered at a spherical head (:class:`SphericalHeadRenderer`)
+  that turns with the :class:`HeadAzimuth` some component provides.
+* **The chunk window** of the newest chunks (:class:`ChunkWindow`), read whole or incrementally.
+* **The dedicated sockets**: a line server (:class:`LineServer`, :class:`LastReply`) and the
+  2014 protocol (``Read Port - Index <k>``, :class:`DedicatedSocketServer`).
+* **One exception tree** (:class:`AudioError`), which the components turn into their genom3 exceptions.
+"""
+
+from ._backend import (
+    BACKENDS, Azimuth, CaptureBackend, Chunk, PacedBackend, SourceOptions, backend_class, open_backend, split_device,
+)
+from ._capabilities import HeadAzimuth, SoundScene, open_for_host
+from ._devices import list_capture_devices
+from ._errors import (
+    AudioError, BackendUnavailable, DeviceError, DeviceNotFound, FormatRefused, RequestError, SceneError,
+)
+from ._head_model import SphericalHeadRenderer, woodworth_itd
+from ._limits import MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE
+from ._line_server import CLOSE, TOKEN_PREFIX, Conversation, LastReply, LineServer, split_lines
+from ._scene import DEFAULT_SCENE, Scene, Source, load_scene
+from ._socket_server import DEFAULT_PORT, DedicatedSocketServer
+from ._socket_wire import RequestParser, encode_error, encode_reply, encode_request, parse_request, reply_size
+from ._window import ChunkWindow, WindowRead, WindowState
+
+__all__ = [
+    # Backends
+    "CaptureBackend", "PacedBackend", "Chunk", "SourceOptions", "Azimuth", "BACKENDS", "backend_class",
+    "open_backend", "open_for_host", "split_device", "list_capture_devices",
+    # What a simulated scene takes from the components around it, by type
+    "HeadAzimuth", "SoundScene",
+    # Bounds of a capture
+    "RATE_RANGE", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK",
+    # Simulated scenes
+    "Scene", "Source", "DEFAULT_SCENE", "load_scene", "SphericalHeadRenderer", "woodworth_itd",
+    # The chunk window
+    "ChunkWindow", "WindowRead", "WindowState",
+    # The dedicated sockets
+    "LineServer", "LastReply", "Conversation", "split_lines", "CLOSE", "TOKEN_PREFIX", "DedicatedSocketServer",
+    "DEFAULT_PORT", "RequestParser", "parse_request", "encode_request", "encode_reply", "encode_error", "reply_size",
+    # Errors
+    "AudioError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "FormatRefused", "SceneError",
+    "RequestError",
+]
