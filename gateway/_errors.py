@@ -26,9 +26,10 @@ from typing import Any
 
 from aiohttp import web
 
-from ..components.core import (
-    ComponentError, GenomException, InputError, LoadError, NoSuchModule, NoSuchPort, NoSuchRequest,
-    NoSuchService, RequestRunning, TooManyInstances, disallowed, too_many_activities,
+from ..components.core import GenomException, LoadError, disallowed, too_many_activities
+from ..components.core.runtime import (
+    ComponentError, InputError, NoSuchModule, NoSuchPort, NoSuchRequest, NoSuchService, RequestRunning,
+    TooManyInstances,
 )
 
 from ._replies import json_reply

@@ -8,7 +8,7 @@ import shlex
 import orjson
 from aiohttp import web
 
-from ..components.core import NoSuchModule
+from ..components.core.runtime import NoSuchModule
 from ._access import console_policy
 from ._auth import AUTH_PATH, LOGIN_PATH
 from ._errors import BadQuery, LoadForbidden

@@ -24,7 +24,7 @@ from collections.abc import Callable
 
 import orjson
 
-from ..components.core import Request
+from ..components.core.runtime import Request
 from ._errors import BadQuery, NoSuchSession, TooManySessions
 from ._sse import FINAL_ID, event_id, format_event
 

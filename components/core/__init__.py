@@ -25,18 +25,6 @@ from ._types import (
     array, idl_enum, idl_struct, optional, sequence, string,
 )
 
-# Only for the gateway's modules that the HTTP rewrite (issue 20) holds: they import these from here.
-# Everything else imports them from .runtime; these go once those modules do too (a test lists them).
-from .runtime import ComponentError as ComponentError
-from .runtime import InputError as InputError
-from .runtime import NoSuchModule as NoSuchModule
-from .runtime import NoSuchPort as NoSuchPort
-from .runtime import NoSuchRequest as NoSuchRequest
-from .runtime import NoSuchService as NoSuchService
-from .runtime import Request as Request
-from .runtime import RequestRunning as RequestRunning
-from .runtime import TooManyInstances as TooManyInstances
-
 __all__ = [
     # The component and what hosts it
     "Component", "ComponentHost", "HostSettings", "LoadError",

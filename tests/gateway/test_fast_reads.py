@@ -19,7 +19,7 @@ from collections.abc import AsyncIterator
 
 import pytest
 
-from aiogenomix.components.capture._port_view import PortView
+from aiogenomix.components.capture import PortView
 from aiogenomix.components.core import ComponentHost, ScaledClock
 from aiogenomix.components.kemarcapture import KemarPortData
 from aiogenomix.gateway import GatewayConfig, serve

@@ -44,17 +44,11 @@ def test_the_author_face_and_the_runtime_are_apart() -> None:
 
 #: Runtime names the gateway's modules held by the HTTP rewrite (issue 20) still import from core;
 #: they leave the author's face when those modules import them from core.runtime.
-HELD_FOR_THE_GATEWAY = {"ComponentError", "InputError", "NoSuchModule", "NoSuchPort", "NoSuchRequest",
-                        "NoSuchService", "Request", "RequestRunning", "TooManyInstances"}
-
-
 @pytest.mark.parametrize("face", [core, runtime])
 def test_a_face_exports_what_its_all_says(face: types.ModuleType) -> None:
     public = {name for name, value in vars(face).items()
               if not name.startswith("_") and not isinstance(value, types.ModuleType)}
-    held = HELD_FOR_THE_GATEWAY if face is core else set()
-    assert public - held == set(face.__all__)
-    assert all(getattr(core, name) is getattr(runtime, name) for name in held)
+    assert public == set(face.__all__)
 
 
 def _imports_from_core(path: pathlib.Path) -> list[str]:
@@ -79,10 +73,7 @@ def test_no_module_of_ours_imports_a_runtime_name_from_the_authors_face() -> Non
                for p in (ROOT / folder).rglob("*.py")]
     outside = [f"{path.relative_to(ROOT)}: {name}" for path in sources for name in _imports_from_core(path)
                if name not in core.__all__ and not isinstance(getattr(core, name, None), types.ModuleType)]
-    # Only the modules the HTTP rewrite holds, for the names kept for them above.
-    held = {"gateway/_errors.py", "gateway/_routes_admin.py", "gateway/_sessions.py"}
-    assert [o for o in outside if o.split(":")[0] not in held] == []
-    assert {o.split(": ")[1] for o in outside} <= HELD_FOR_THE_GATEWAY
+    assert outside == []
 
 
 def test_kemar_shows_its_component_driver_and_simulated_drive_not_its_codec() -> None:
