@@ -25,6 +25,7 @@ from ._head_model import SphericalHeadRenderer, woodworth_itd
 from ._limits import MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE
 from ._line_server import CLOSE, TOKEN_PREFIX, Conversation, LastReply, LineServer, split_lines
 from ._scene import DEFAULT_SCENE, Scene, Source, load_scene
+from ._socket_ports import SocketPorts
 from ._socket_server import DEFAULT_PORT, DedicatedSocketServer
 from ._socket_wire import RequestParser, encode_error, encode_reply, encode_request, parse_request, reply_size
 from ._window import ChunkWindow, WindowRead, WindowState
@@ -43,6 +44,7 @@ __all__ = [
     "ChunkWindow", "WindowRead", "WindowState",
     # The dedicated sockets
     "LineServer", "LastReply", "Conversation", "split_lines", "CLOSE", "TOKEN_PREFIX", "DedicatedSocketServer",
+    "SocketPorts",
     "DEFAULT_PORT", "RequestParser", "parse_request", "encode_request", "encode_reply", "encode_error", "reply_size",
     # Errors
     "AudioError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "FormatRefused", "SceneError",

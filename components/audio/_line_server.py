@@ -151,8 +151,8 @@ class LineServer:
         """Start listening and return the actual port.
 
         Raises:
-            OSError: when the address cannot be bound (port taken, ...), saying
-                which port and the gateway flag that changes it.
+            OSError: when the address cannot be bound (port taken, ...), saying which
+                address (:class:`SocketPorts` says what to do about it).
         """
         if self._server is None:
             try:
@@ -160,8 +160,7 @@ class LineServer:
                     self._serve_client, self.host, self.requested_port, reuse_address=True)
             except OSError as exc:
                 reason = os.strerror(exc.errno).lower() if exc.errno is not None and exc.errno > 0 else str(exc)
-                raise OSError(exc.errno, f"cannot listen on {self.host}:{self.requested_port}: {reason}; "
-                                         f"the gateway's --audio-socket-port chooses another port") from exc
+                raise OSError(exc.errno, f"cannot listen on {self.host}:{self.requested_port}: {reason}") from exc
             log.info("dedicated audio socket listening on %s:%d", self.host, self.port)
         return self.port
 

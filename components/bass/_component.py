@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 from ..audio import (
     MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, AudioError, Azimuth, CaptureBackend, FormatRefused,
-    list_capture_devices, open_for_host,
+    SocketPorts, list_capture_devices, open_for_host,
 )
 from ..core import Component, ComponentHost, Out, OutPort, String, Task, ULong, activity, function
 from ._history import AudioSnapshot, ChunkHistory
@@ -169,16 +169,18 @@ class Bass(Component, name="bass", version="1.0"):
         settings = self.host.settings
         server = FrameSocketServer(lambda: self.snapshot, host=settings.audio_socket_host,
                                    port=settings.audio_socket_port, token=settings.audio_socket_token)
+        ports = self.host.shared(SocketPorts, SocketPorts)
         try:
             await server.start()
         except OSError as exc:
-            raise e_socket(port=server.requested_port, what=str(exc)) from exc
+            raise e_socket(port=server.requested_port, what=ports.why_refused(server.requested_port, exc)) from exc
         self._server = server
         self._close_socket.clear()
         self._socket_open.set()
         log.info("%s: dedicated socket (2015 protocol) open on port %d", self.instance, server.port)
         try:
-            await self._close_socket.wait()
+            with ports.held(server.port, self.instance):
+                await self._close_socket.wait()
         finally:
             self._server = None
             self._socket_open.clear()

@@ -9,7 +9,7 @@ from typing import Annotated, Any, ClassVar
 
 from ..audio import (
     MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, AudioError, Azimuth, CaptureBackend, Chunk, ChunkWindow,
-    DedicatedSocketServer, DeviceNotFound, list_capture_devices, open_for_host,
+    DedicatedSocketServer, DeviceNotFound, SocketPorts, list_capture_devices, open_for_host,
 )
 from ..core import Component, ComponentHost, OutPort, String, Task, ULong, activity, attribute, function
 from ._types import (
@@ -288,17 +288,19 @@ class Capture(Component, name="capture", version="1.1"):
         server = DedicatedSocketServer(lambda: self._window, host=settings.audio_socket_host,
                                        port=settings.audio_socket_port, with_positions=self.port_positions,
                                        token=settings.audio_socket_token)
+        ports = self.host.shared(SocketPorts, SocketPorts)
         try:
             await server.start()
         except OSError as exc:
-            raise SOCKET_ERROR(port=server.requested_port, what=str(exc)) from exc
+            raise SOCKET_ERROR(port=server.requested_port, what=ports.why_refused(server.requested_port, exc)) from exc
         self._server = server
         self._socket_open.set()
         log.info("%s: dedicated socket open on port %d", self.instance, server.port)
         try:
-            # Serve until interrupted (CloseSocket, abort or kill): the server's own
-            # tasks answer the clients.
-            await asyncio.get_running_loop().create_future()
+            with ports.held(server.port, self.instance):
+                # Serve until interrupted (CloseSocket, abort or kill): the server's own
+                # tasks answer the clients.
+                await asyncio.get_running_loop().create_future()
         finally:
             self._server = None
             self._socket_open.clear()
