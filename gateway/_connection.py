@@ -100,10 +100,11 @@ def answering(handler: Handler, connections: Connections) -> Callable[[web.BaseR
     time) puts every byte of it in the transport before the connection may
     answer the next read itself.
     """
+    of = connections.of
 
     async def answer(request: web.BaseRequest) -> web.StreamResponse:
         assert isinstance(request, web.Request)  # what an application's runner makes
-        connection = connections.of(request)
+        connection = of(request)
         try:
             try:
                 response = await handler(request)
@@ -205,7 +206,8 @@ class GatewayConnection(asyncio.Protocol):
                     break
                 head = parse_head(buffer, start, end)
                 start = end
-                if not passed and not self._in_hand and self._answer_fast(head):
+                if (not passed and not self._in_hand and self._fast_reads is not None
+                        and self._fast_reads.may_answer(head) and self._answer_fast(head)):
                     continue
                 passed.append(head.raw)
                 self._in_hand += 1
@@ -218,8 +220,8 @@ class GatewayConnection(asyncio.Protocol):
             self._refuse(refusal)
         self._buffer = b"" if self._closing else buffer[start:]
         if passed:
-            self._inner.data_received(b"".join(passed))
-        if not self._closing:
+            self._inner.data_received(passed[0] if len(passed) == 1 else b"".join(passed))
+        if not self._closing and (self._buffer or self._body_left or self._head_timer is not None):
             self._time_what_is_awaited()
 
     def answered(self) -> None:
@@ -231,13 +233,13 @@ class GatewayConnection(asyncio.Protocol):
             self._write_refusal(self._refusal)
         elif not self._closing:
             self._replied()
-            self._time_what_is_awaited()
+            if self._buffer or self._head_timer is not None:
+                self._time_what_is_awaited()
 
     def _answer_fast(self, head: RequestHead) -> bool:
-        """Answer *head* here if it is a plain read and the socket has nothing else to send."""
+        """Answer *head*, a plain read (``FastReads.may_answer``), here if the socket has nothing else to send."""
         fast_reads, transport = self._fast_reads, self._transport
-        if fast_reads is None or not fast_reads.may_answer(head):
-            return False
+        assert fast_reads is not None
         fd = direct_socket(transport)
         if fd is None or transport is None:
             return False

@@ -29,9 +29,12 @@ def guard_middleware(door: Door) -> Middleware:
 
     @web.middleware
     async def guard(request: web.Request, handler: Handler) -> web.StreamResponse:
+        headers = request.headers
         # Every name, repeats included (the keys of a MultiDict are distinct).
-        names = [name for name, _ in request.query.items()]
-        verdict = door.decide(request.method, request.path, names, request.headers, request.scheme)
+        names = [name for name, _ in request.query.items()] if request.query_string else ()
+        # The scheme matters only to tell a page of the gateway's own origin from another's.
+        scheme = request.scheme if "Origin" in headers else "http"
+        verdict = door.decide(request.method, request.path, names, headers, scheme)
         if type(verdict) is Refusal:
             response: web.StreamResponse = json_reply(verdict.body, status=verdict.status)
         elif type(verdict) is Preflight:
