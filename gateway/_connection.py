@@ -32,6 +32,7 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import logging
+from http import HTTPStatus
 from collections.abc import Awaitable, Callable
 
 from aiohttp import web
@@ -43,15 +44,12 @@ from ._guard import Handler
 from ._replies import SERVER_HEADER, dumps
 from ._request_head import HeadRefusal, RequestHead, check_partial, head_end, parse_head
 
-__all__ = ["ConnectionLimits", "Connections", "GatewayConnection", "answering", "LINGER", "REASONS"]
+__all__ = ["ConnectionLimits", "Connections", "GatewayConnection", "answering", "LINGER"]
 
 log = logging.getLogger(__name__)
 
 #: Seconds a refused client may still send (the rest of a huge URL) while it reads the refusal.
 LINGER = 5.0
-#: The reason phrases of the statuses this layer answers.
-REASONS = {400: "Bad Request", 408: "Request Timeout", 411: "Length Required", 414: "URI Too Long",
-           431: "Request Header Fields Too Large", 505: "HTTP Version Not Supported"}
 _REFUSAL_HEADERS = "".join(f"{name}: {value}\r\n" for name, value in
                            {"Content-Type": "application/json", **SERVER_HEADER}.items())
 
@@ -270,7 +268,7 @@ class GatewayConnection(asyncio.Protocol):
         if transport is None or transport.is_closing():
             return
         body = dumps({"ex": "::genomix::http", "message": refusal.message})
-        head = (f"HTTP/1.1 {refusal.status} {REASONS.get(refusal.status, 'Error')}\r\n{_REFUSAL_HEADERS}"
+        head = (f"HTTP/1.1 {refusal.status} {HTTPStatus(refusal.status).phrase}\r\n{_REFUSAL_HEADERS}"
                 f"Content-Length: {len(body)}\r\nDate: {rfc822_formatted_time()}\r\nConnection: close\r\n\r\n")
         transport.write(head.encode() + body)
         # Closing while the client still sends would make the kernel reset the connection, and
