@@ -10,8 +10,8 @@ the route among the eight under ``/module``, the middleware, and building the
 
 :class:`FastReads` answers the reads that need none of it, straight from the
 connection (``_connection``): a ``GET /module/M/read/P`` over HTTP/1.1, kept
-alive, without a body, of a single out port of a loaded instance, with at most
-``format`` and ``since`` (plain: no percent-encoding) among its parameters,
+alive, without a body, of a single out port of a loaded instance, with no
+parameters but ``format``, ``since``, ``s`` and ``_`` (plain: no percent-encoding),
 that the door (``_door``) admits as a program's request.  The body is the
 route's own (:func:`~._routes_ports.read_body`, with the same bodies kept per
 publication) and the head is the one aiohttp writes for it.  Every other
