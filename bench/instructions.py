@@ -94,7 +94,9 @@ def render(r: Result) -> str:
     lines = ["## Instructions per request", "",
              "Counted by valgrind's callgrind in the gateway's process (not timed: the machine's load does not "
              f"change them), as the difference between {r['many']} and {r['few']} requests one after another on a "
-             "kept-alive connection, divided by their difference.", "",
+             "kept-alive connection, divided by their difference. The counts still move by up to a tenth from "
+             "run to run (how many turns of the event loop a request takes depends on when its bytes arrive), so "
+             "compare the columns of one run.", "",
              f"| request | {header} |", "|---|" + "---|" * len(names)]
     for label in REQUESTS:
         lines.append(f"| {label} | " + " | ".join(f"{r['instructions'][name][label]:,.0f}" for name in names) + " |")
