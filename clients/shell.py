@@ -116,6 +116,10 @@ class ShellNamespace:
         self._detached: set[Request] = set()
         self._detached_lock = threading.Lock()
         self._sender = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="aiogenomix-shell-send")
+        # Its one thread starts now, not at the first call: a call's submit then only queues the send,
+        # so a Ctrl-C cannot land in the wait for a new thread to start (a busy machine makes that
+        # wait long) and escape the handling below as a raw traceback.
+        self._sender.submit(lambda: None).result()
         self.names: dict[str, Any] = {"g": client, "load": self.load, "requests": self.requests}
         for instance in client.loaded():
             self._add(client.module(instance))
