@@ -164,4 +164,6 @@ def error_reply(request: web.BaseRequest, exc: Exception) -> web.Response:
     status, body = error_body(exc)
     if status >= 500 and body.get("ex") == "::genom::unkex":
         _faults.error("%s %s failed: %s", request.method, request.path_qs[:200], body["detail"]["what"], exc=exc)
+    elif status == 504:  # a component host that does not answer: one line, no traceback (nothing of ours failed)
+        _faults.warning("%s %s: %s", request.method, request.path_qs[:200], body["message"])
     return json_reply(body, status=status)

@@ -169,13 +169,13 @@ class Bass(Component, name="bass", version="1.0"):
         self.Audio.publish(history.snapshot)
         memory.resize(held, "")
         _client_log.info("%s: acquiring %s at %d Hz, %d frames per chunk, %d chunks on Audio",
-                 self.instance, device, sampleRate, nFramesPerChunk, nChunksOnPort)
+                         self.instance, device, sampleRate, nFramesPerChunk, nChunksOnPort)
         try:
             while (chunk := await backend.read()) is not None:
                 snapshot = history.append(chunk.left, chunk.right)
                 if chunk.overrun:
                     _client_log.warning("%s: %s lost %d frames before frame %d", self.instance, device,
-                                chunk.lost_frames, snapshot.last_frame_index - nFramesPerChunk + 1)
+                                        chunk.lost_frames, snapshot.last_frame_index - nFramesPerChunk + 1)
                 self.Audio.publish(snapshot)
         except AudioError as exc:
             raise e_device(device=device, what=str(exc)) from exc

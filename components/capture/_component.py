@@ -221,7 +221,7 @@ class Capture(Component, name="capture", version="1.1"):
         memory.resize(held, "")
         self._window, self._backend = window, backend
         _client_log.info("%s: capturing %s at %d Hz, %d frames per chunk, %d chunks on Port",
-                 self.instance, device, transfer_rate, frames, Port_chunks)
+                         self.instance, device, transfer_rate, frames, Port_chunks)
         try:
             if head_position is not None:
                 await self._pump_with_positions(backend, window, head_position)
@@ -274,7 +274,7 @@ class Capture(Component, name="capture", version="1.1"):
         index = window.append(chunk.left, chunk.right, position)
         if chunk.overrun:
             _client_log.warning("%s: %s lost %d frames before chunk %d", self.instance, self._config.device,
-                        chunk.lost_frames, index)
+                                chunk.lost_frames, index)
         # The capture start, re-anchored on the newest chunk: after an overrun the
         # frames of later chunks keep computable times (ts + frame / rate).
         start = chunk.time - (index - 1) * window.frames_per_chunk / self._config.transfer_rate
