@@ -473,12 +473,15 @@ class Component:
     async def abort_activity(self, activity: ULong) -> None:
         """Abort the running activity of request number ``activity`` (one that has ended: nothing to do).
 
-        A number that names no request ends in ``::genom::no_such_activity``.
+        A number that names no request of an activity (none at all, or a function's, this one's
+        included) ends in ``::genom::no_such_activity``.
         """
         try:
             request = self.requests.get(activity)
         except NoSuchRequest:
             raise no_such_activity() from None
+        if request.service.kind != "activity":
+            raise no_such_activity()
         if request.running:
             await self.interrupt(request, by="abort_activity")
 

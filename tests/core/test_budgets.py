@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import logging
 from typing import Annotated, Any
 
@@ -9,7 +10,7 @@ import pytest
 
 from aiogenomix.components.core import (
     Budgets, Component, ComponentHost, GenomException, HostSettings, InPort, Ledger, Long, Out, OutPort, OverBudget,
-    String, ThrottledLog, function, idl_struct,
+    String, ThrottledLog, activity, function, idl_struct,
 )
 from aiogenomix.components.core.runtime import PortUnavailable
 
@@ -141,6 +142,11 @@ class DOWN(GenomException):
 class Sensor(Component, name="sensor"):
     Frames = OutPort(Frame, doc="frames")
 
+    @activity
+    async def Watch(self) -> None:
+        """Watch until aborted."""
+        await asyncio.get_running_loop().create_future()
+
 
 class Reader(Component, name="reader"):
     Frames = InPort(Frame, doc="connect to sensor/Frames")
@@ -183,7 +189,16 @@ async def test_abort_activity_of_an_unknown_id_is_no_such_activity(host: Compone
         request = await sensor.send("abort_activity", {"activity": 4294967295})
         await request.ended.wait()
     assert request.exception == {"ex": "::genom::no_such_activity"}
+    # The number of a function's request (its own here: the smallest free number) names no activity.
+    itself = await sensor.send("abort_activity", {"activity": request.number + 1})
+    await itself.ended.wait()
+    assert itself.number == request.number + 1 and itself.exception == {"ex": "::genom::no_such_activity"}
     assert not caplog.records
-    ended = await sensor.send("abort_activity", {"activity": request.number})  # an ended request: nothing to do
+    activity = await sensor.send("Watch")
+    aborted = await sensor.send("abort_activity", {"activity": activity.number})
+    await aborted.ended.wait()
+    assert aborted.status == "done" and activity.exception == {"ex": "::genom::interrupted",
+                                                                "detail": {"by": "abort_activity"}}
+    ended = await sensor.send("abort_activity", {"activity": activity.number})  # an ended one: nothing to do
     await ended.ended.wait()
     assert ended.status == "done"

@@ -182,7 +182,8 @@ def test_aborts_of_any_id_are_answered(surfaces: Surfaces) -> None:
             assert status in (200, 400), (number[:30], status, body[:200])
             if status == 200:
                 reply = json.loads(body)
-                # An unknown id is no_such_activity; a known one ends as asked (the fuzzer's own sends).
+                # An id of no activity (none at all, a function's, this request's own) is no_such_activity;
+                # one of an activity ends it (done).
                 assert reply["status"] == "done" or reply["exception"]["ex"] == "::genom::no_such_activity", reply
         else:
             assert check(surfaces.gateway, f"/module/{module}/abort/{quote(number)}") in (200, 404)
