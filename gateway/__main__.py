@@ -10,6 +10,7 @@ import sys
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+from ._budget_arguments import add_budget_arguments, budgets_from
 from ._config import GatewayConfig
 from ._rig_arguments import add_rig_arguments
 from ._signals import StopSignal, ignore_stop_signals, raise_on_stop_signals
@@ -67,7 +68,9 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
                         help="most sessions at once, else 429 (default %(default)s)")
     limits.add_argument("--max-instances", type=_at_least(int, 1), default=defaults.max_instances, metavar="N",
                         help="most component instances loaded at once, else 429 (default %(default)s)")
+    add_budget_arguments(limits, defaults.budgets)
     args = parser.parse_args(argv)
+    budgets = budgets_from(parser, args)
     logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     return GatewayConfig(
         host=args.host, port=args.port, time_scale=args.time_scale, can=args.can, can_timeout=args.can_timeout,
@@ -75,7 +78,7 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
         token=args.token or None, allowed_hosts=args.allowed_host, allowed_origins=args.allow_origin,
         components=args.components.split(",") if args.components else None, preload=args.load,
         header_timeout=args.header_timeout, max_url_bytes=args.max_url_bytes, session_idle=args.session_idle,
-        max_sessions=args.max_sessions, max_instances=args.max_instances,
+        max_sessions=args.max_sessions, max_instances=args.max_instances, budgets=budgets,
         zenoh=args.zenoh or bool(args.zenoh_connect or args.zenoh_listen), zenoh_connect=args.zenoh_connect,
         zenoh_listen=args.zenoh_listen, zenoh_timeout=args.zenoh_timeout,
     )

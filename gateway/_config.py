@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from ..components.core import HostSettings
+from ..components.core import Budgets, HostSettings
 
 __all__ = ["GatewayConfig"]
 
@@ -42,6 +42,8 @@ class GatewayConfig:
         session_idle: Seconds after which a session that nobody listens to is forgotten.
         max_sessions: How many sessions may exist at once (429 for a new one beyond).
         max_instances: How many component instances may be loaded at once (429 beyond).
+        budgets: The bounds of what clients can make the components hold: audio ports, dedicated-socket
+            clients and their unsent replies, ``basc`` blocks, worlds' render memory (``--max-port-bytes``...).
         zenoh: Also load components that other processes offer on Zenoh (``aiogenomix-component``).
         zenoh_connect: Zenoh endpoints to connect to (``tcp/HOST:PORT``); with any endpoint given,
             multicast scouting is off: the gateway talks to these and to whoever connects to it.
@@ -71,6 +73,7 @@ class GatewayConfig:
     session_idle: float = 600.0
     max_sessions: int = 256
     max_instances: int = 64
+    budgets: Budgets = dataclasses.field(default_factory=Budgets)
     zenoh: bool = False
     zenoh_connect: list[str] = dataclasses.field(default_factory=list)
     zenoh_listen: list[str] = dataclasses.field(default_factory=list)
@@ -82,7 +85,8 @@ class GatewayConfig:
         operator_file = [path] if kind in ("file", "sim") and path else []
         return HostSettings(can=self.can, can_timeout=self.can_timeout, audio_device=self.audio_device,
                             audio_socket_port=self.audio_socket_port, audio_socket_host=self.host,
-                            audio_socket_token=self.token, audio_files=(*self.audio_files, *operator_file))
+                            audio_socket_token=self.token, audio_files=(*self.audio_files, *operator_file),
+                            budgets=self.budgets)
 
     def simulated_parts(self) -> list[str]:
         """Plain words for the parts of the rig that are simulated."""

@@ -13,7 +13,8 @@
 
 Errors of the component runtime map as: unknown module/service/port/request
 404, bad input 400, too many activities 429, a killed component or a running
-request that cannot be cleaned 409.  The body is always
+request that cannot be cleaned 409, a bound in all reached (``OverBudget``) 429,
+a read of a port whose data its component withdrew (a sensor down) 503.  The body is always
 ``{"ex": "<genom id>", "detail": {...}, "message": "<readable sentence>"}``.
 A ``validate`` refusal is not an HTTP error: like in genom3 it ends the
 request in ``error`` (docs/decisions/0011).
@@ -26,10 +27,10 @@ from typing import Any
 
 from aiohttp import web
 
-from ..components.core import GenomException, LoadError, disallowed, too_many_activities
+from ..components.core import GenomException, LoadError, OverBudget, ThrottledLog, disallowed, too_many_activities
 from ..components.core.runtime import (
-    ComponentError, InputError, NoSuchModule, NoSuchPort, NoSuchRequest, NoSuchService, RequestRunning,
-    TooManyInstances,
+    ComponentError, InputError, NoSuchModule, NoSuchPort, NoSuchRequest, NoSuchService, PortUnavailable,
+    RequestRunning, TooManyInstances,
 )
 
 from ._replies import json_reply
@@ -40,6 +41,8 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
+#: Faults of the gateway that a client's requests set off: one traceback per place, then rate-limited lines.
+_faults = ThrottledLog(log)
 
 
 class GatewayError(Exception):
@@ -123,6 +126,15 @@ def error_body(exc: Exception) -> tuple[int, dict[str, Any]]:
         return 403, {"ex": "::genomix::forbidden", "message": message}
     if isinstance(exc, RequestRunning):
         return 409, {"ex": "::genomix::request_running", "message": message}
+    if isinstance(exc, OverBudget):
+        return 429, {"ex": "::genomix::over_budget", "detail": {"what": message, "flag": exc.flag},
+                     "message": message}
+    if isinstance(exc, PortUnavailable):
+        reason = exc.reason
+        unavailable: dict[str, Any] = {"ex": reason.id, "message": message}
+        if (detail := reason.encoded_detail()) is not None:
+            unavailable["detail"] = detail
+        return 503, unavailable
     if isinstance(exc, GenomException):
         body: dict[str, Any] = {"ex": exc.id}
         detail = exc.encoded_detail()
@@ -150,6 +162,8 @@ def error_reply(request: web.BaseRequest, exc: Exception) -> web.Response:
             reply.headers["Allow"] = exc.headers["Allow"]
         return reply
     status, body = error_body(exc)
-    if status >= 500:
-        log.exception("%s %s failed", request.method, request.path_qs, exc_info=exc)
+    if status >= 500 and body.get("ex") == "::genom::unkex":
+        _faults.error("%s %s failed: %s", request.method, request.path_qs[:200], body["detail"]["what"], exc=exc)
+    elif status == 504:  # a component host that does not answer: one line, no traceback (nothing of ours failed)
+        _faults.warning("%s %s: %s", request.method, request.path_qs[:200], body["message"])
     return json_reply(body, status=status)

@@ -126,7 +126,9 @@ def _errors(*codes: int) -> Json:
                401: "The gateway needs its token", 403: "Refused to browsers of other sites",
                404: "No such module, service, port, request or session",
                409: "The request is running, or the module stops", 415: "A body that is not JSON",
-               429: "Too many running activities, sessions or instances", 503: "The gateway shuts down"}
+               429: "Too many running activities, sessions or instances, or a budget of all reached "
+                    "(::genomix::over_budget)",
+               503: "The gateway shuts down, or the port's data is withdrawn (its sensor is down)"}
     return {str(c): {"description": meaning[c], "content": {"application/json": {"schema": _ERROR}}} for c in codes}
 
 
@@ -209,7 +211,7 @@ def _port_operation(instance: str, port: Json, schemas: _Schemas) -> Json:
                     "responses": {"200": {"description": f"`{{\"{port['name']}\": data}}`",
                                           "content": {"application/json": {"schema": reply},
                                                       "application/x-aiogenomix-binary": {}}},
-                                  **_errors(400, 401, 404)}}}
+                                  **_errors(400, 401, 404, 503)}}}
 
 
 def _get(operation: str, summary: str, params: list[Json], responses: Json, tag: str = "gateway") -> Json:
@@ -294,7 +296,7 @@ def _endpoints() -> Json:
             {"200": {"description": "{PORT: data}, or the binary form",
                      "content": {"application/json": {"schema": {"type": "object"}},
                                  "application/x-aiogenomix-binary": {}}},
-             **_errors(400, 404)}, "ports"),
+             **_errors(400, 404, 503)}, "ports"),
         "/module/{module}/watch/{port}": _get(
             "watchPort", "Watch a port",
             [module, _path_param("port", "The port"),
@@ -302,7 +304,7 @@ def _endpoints() -> Json:
               "schema": {"type": "string"}},
              {"name": "since", "in": "query", "required": False, "description": "Only the items after this one",
               "schema": {"type": "integer", "minimum": 0}}],
-            {"200": stream, "204": {"description": "A reconnect after unload"}, **_errors(400, 404)}, "ports"),
+            {"200": stream, "204": {"description": "A reconnect after unload"}, **_errors(400, 404, 503)}, "ports"),
     }
 
 

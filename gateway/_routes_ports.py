@@ -116,21 +116,27 @@ async def read(request: web.Request) -> web.StreamResponse:
     binary = _wants_binary(request)
     if since is not None:
         _require_incremental(port, value)
-    body = read_body(request.app[READ_BODIES], name, port, value, element, since, binary)
+    # An in port answers what it holds: the data of the out port it is connected to (null while it is not).
+    bodies = request.app[READ_BODIES] if isinstance(port, OutPortRuntime) else None
+    body = read_body(bodies, name, port, value, element, since, binary)
     return web.Response(body=body, headers=READ_HEADERS[binary])
 
 
-def read_body(bodies: ReadBodies, name: str, port: Any, value: Any, element: str | None, since: int | None,
+def read_body(bodies: ReadBodies | None, name: str, port: Any, value: Any, element: str | None, since: int | None,
               binary: bool) -> bytes | PiecesPayload:
     """The body of a read of *port*, whose data is *value* (checked: *since* applies to it).
 
-    Also used by the connection's fast path (``_fast_reads``): both answer the same bytes.
+    Also used by the connection's fast path (``_fast_reads``): both answer the same bytes.  Whole
+    reads of chunked data are kept per publication in *bodies* (None: made for this read alone, as
+    for an in port, whose data is its out port's).
     """
     if _is_chunked(type(value)):  # type: ignore[arg-type]  # a type[Any] is hashable
         # The publication's chunks as they are: no copy of the window, and JSON texts made
         # once per chunk.  The data is immutable, so the reply holds this publication alone
         # however long it takes to write.
         if since is None:
+            if bodies is None:
+                return _body(name, port, value.chunked(None)[0], binary, {})
             return bodies.body(port, value, (binary, element),
                                lambda of, whole: _body(name, of, whole.chunked(None)[0], binary, {}))
         chunked, lost = value.chunked(since)
@@ -194,9 +200,12 @@ async def watch(request: web.Request) -> web.StreamResponse:
         if element is None:
             raise BadQuery(f"port {name} is multiple: watch one element with name=")
         port.read(element)
+    if port.withdrawn is not None:
+        port.read(element)  # refused now (503), not after the stream has started
     if since is not None and port.version:
         _require_incremental(port, port.read(element))
-    elif last_event is not None and last_event.isdigit() and isinstance(port.read(element), Incremental):
+    elif (last_event is not None and last_event.isascii() and last_event.isdigit()
+          and isinstance(port.read(element), Incremental)):
         since = parse_since(last_event)  # an EventSource resuming where it was
     shutdown = request.app[SHUTDOWN]
     frames = request.app[WATCH_FRAMES]
@@ -208,7 +217,8 @@ async def watch(request: web.Request) -> web.StreamResponse:
         delivered = 0  # the port version the reader has
         last_index = since
         while not shutdown.is_set() and not unloaded.done():
-            if port.version > delivered:
+            # Withdrawn data (a sensor down) is not current: the watcher waits for the next publication.
+            if port.version > delivered and port.withdrawn is None:
                 frame, delivered, last_index = _watch_frame(frames, name, port, element, delivered, last_index)
                 if stream.standard:
                     frame = event_id(delivered if last_index is None else last_index) + frame
@@ -216,7 +226,8 @@ async def watch(request: web.Request) -> web.StreamResponse:
                 continue
             # With every other watcher of the port: woken by a publication, the end, or a ping.
             await wakes.wait(port)
-            if port.version == delivered and not shutdown.is_set() and not unloaded.done():
+            if ((port.version == delivered or port.withdrawn is not None) and not shutdown.is_set()
+                    and not unloaded.done()):
                 await stream.write(PING)
         if unloaded.done():
             frame = format_event("unload", orjson.dumps(port.owner.instance))

@@ -22,7 +22,7 @@ from ._errors import (
     AudioError, BackendUnavailable, DeviceError, DeviceNotFound, FormatRefused, RequestError, SceneError,
 )
 from ._head_model import SphericalHeadRenderer, woodworth_itd
-from ._limits import MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE
+from ._limits import MAX_FRAMES_PER_CHUNK, RATE_RANGE
 from ._line_server import CLOSE, TOKEN_PREFIX, Conversation, LastReply, LineServer, split_lines
 from ._scene import DEFAULT_SCENE, Scene, Source, load_scene
 from ._socket_ports import SocketPorts
@@ -36,8 +36,8 @@ __all__ = [
     "open_backend", "open_for_host", "split_device", "list_capture_devices",
     # What a simulated scene takes from the components around it, by type
     "HeadAzimuth", "SoundScene",
-    # Bounds of a capture
-    "RATE_RANGE", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK",
+    # Bounds of a capture (its port's size is a budget of the host: settings.budgets.port_bytes)
+    "RATE_RANGE", "MAX_FRAMES_PER_CHUNK",
     # Simulated scenes
     "Scene", "Source", "DEFAULT_SCENE", "load_scene", "SphericalHeadRenderer", "woodworth_itd",
     # The chunk window

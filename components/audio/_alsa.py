@@ -104,7 +104,7 @@ class AlsaBackend(CaptureBackend):
                 rate=self.rate, channels=2, format=alsaaudio.PCM_FORMAT_S32_LE,
                 periodsize=self.frames_per_chunk, periods=PERIODS,
             )
-        except alsaaudio.ALSAAudioError as exc:
+        except (alsaaudio.ALSAAudioError, ValueError) as exc:  # ValueError: a name pyalsaaudio cannot pass on
             message = str(exc)
             if "No such file or directory" in message or "No such device" in message:
                 raise DeviceNotFound(self.device, alsa_capture_devices(), self.kind) from exc

@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 from ..core import Clock, ComponentHost
 from ._backend import Azimuth, CaptureBackend, SourceOptions, backend_class, split_device
+from ._errors import DeviceError
 from ._scene import Scene
 
 __all__ = ["HeadAzimuth", "SoundScene", "open_for_host"]
@@ -48,7 +49,13 @@ def open_for_host(host: ComponentHost, device: str, rate: int, frames_per_chunk:
     every chunk (so a head loaded after the capture started is followed too; 0° while there is
     none), unless *azimuth* is given (a script steering the scene); plain ``sim`` renders the
     host's :class:`SoundScene` if one is provided.
+
+    Raises:
+        DeviceError: for a device string holding a control character (a NUL cuts a name short
+            in the C libraries below: no device is named so).
     """
+    if any(ord(c) < 32 or ord(c) == 127 for c in device):
+        raise DeviceError(f"a device name holds no control characters, not {device!r}")
     kind, argument = split_device(device)
     scene = None
     if kind == "sim":

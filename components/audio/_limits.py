@@ -1,11 +1,12 @@
-"""The bounds of a capture, shared by the audio stream servers of both generations."""
+"""The bounds of a capture, shared by the audio stream servers of both generations.
+
+The size of a port is a budget of the host (``settings.budgets.port_bytes``, ``--max-port-bytes``).
+"""
 
 from __future__ import annotations
 
-__all__ = ["MAX_PORT_BYTES", "RATE_RANGE", "MAX_FRAMES_PER_CHUNK"]
+__all__ = ["RATE_RANGE", "MAX_FRAMES_PER_CHUNK"]
 
-#: The largest port accepted (both channels, int32).
-MAX_PORT_BYTES = 256 * 2**20
 #: Sample rates a capture may ask for, in Hz.
 RATE_RANGE = (1000, 384_000)
 #: The largest chunk, in frames (about 2.7 s at 384 kHz).

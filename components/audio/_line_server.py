@@ -15,6 +15,15 @@ whatever the next chunk wrote there.
 With a token (the gateway's ``--token``), a client's first line must be
 ``Token <token>``; anything else gets one ``ERROR ...`` line and the connection
 is closed, so a client without credentials never reads audio.
+
+What clients make the server hold is bounded (:class:`~aiogenomix.components.core.Budgets`):
+at most ``socket_clients`` clients (one more gets an ``ERROR`` line naming the bound); a reply
+is cut to ``socket_client_bytes`` by the protocol's own means (each server's ``reply_to``); and
+the replies every client of the host leaves unsent are held against the host's ``socket_bytes``
+ledger, which drops the clients whose replies have waited longest when a new one does not fit.
+A reply is handed to the transport piece by piece as the client drains it, so a client that
+never reads holds its reply (shared with the other readers of the same publication) and one
+piece, not a copy of the whole reply in its transport.
 """
 
 from __future__ import annotations
@@ -25,16 +34,22 @@ import hmac
 import logging
 import os
 import socket
+import time
 from collections.abc import Callable, Hashable
 from typing import Protocol
 
-from ..core import HostSettings
+from ..core import Budgets, HostSettings, Ledger, OverBudget, ThrottledLog
 from ._errors import RequestError
 
 __all__ = ["Conversation", "LineServer", "LastReply", "CLOSE", "TOKEN_PREFIX", "ERROR_PREFIX", "MAX_REQUEST_LINE",
            "encode_error", "split_lines"]
 
 log = logging.getLogger(__name__)
+#: What clients set off (refused, dropped, a fault while answering one): rate-limited.
+_client_log = ThrottledLog(log)
+
+#: A reply goes to the transport in pieces of this size, each once the client drained the one before.
+PIECE = 256 * 2**10
 
 #: The original servers read requests into a 512-byte buffer; longer lines are refused.
 MAX_REQUEST_LINE = 512
@@ -110,25 +125,44 @@ _RIG = HostSettings()
 
 
 class LineServer:
-    """Serve a line-request protocol to any number of TCP clients.
+    """Serve a line-request protocol to TCP clients, as many as the budgets allow.
 
     Args:
         conversation: Makes the protocol state of one new client.
         host: The address to bind (``0.0.0.0`` for every interface).
         port: The TCP port; 0 picks a free one (read :attr:`port` after :meth:`start`).
         token: When set, every client must first send ``Token <token>``.
+        budgets: The bounds on clients and their unsent replies (``socket_clients``,
+            ``socket_client_bytes``); the host's, from its settings.
+        ledger: The unsent replies of every dedicated socket of the host (``host.ledgers.sockets``);
+            by default one of this server's own, of ``budgets.socket_bytes``.
     """
 
     def __init__(self, conversation: Callable[[], Conversation], *, host: str = _RIG.audio_socket_host,
-                 port: int = _RIG.audio_socket_port, token: str | None = None) -> None:
+                 port: int = _RIG.audio_socket_port, token: str | None = None, budgets: Budgets = _RIG.budgets,
+                 ledger: Ledger | None = None) -> None:
         self._conversation = conversation
         self.host = host
         self.requested_port = port
         self.token = token
+        self.budgets = budgets
+        self.ledger = ledger or Ledger("socket_bytes", budgets.socket_bytes, budgets.flag("socket_bytes"))
         self._server: asyncio.Server | None = None
         self._connections: set[asyncio.Task[None]] = set()
         #: Replies sent since the start (all clients).
         self.replies = 0
+        #: Clients refused because the server had ``socket_clients`` already.
+        self.refused = 0
+        #: Clients dropped because their unsent replies passed the ledger's bound.
+        self.dropped = 0
+
+    @property
+    def client_bytes(self) -> int:
+        """The most reply bytes one client may hold unsent (``socket_client_bytes``, at most the ledger's bound).
+
+        Replies are cut to it.
+        """
+        return min(self.budgets.socket_client_bytes, self.ledger.limit)
 
     @property
     def port(self) -> int:
@@ -186,6 +220,9 @@ class LineServer:
     async def _serve_client(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         task = asyncio.current_task()
         assert task is not None
+        if len(self._connections) >= self.budgets.socket_clients:
+            await self._refuse(writer)
+            return
         self._connections.add(task)
         sock = writer.get_extra_info("socket")
         if sock is not None:
@@ -205,26 +242,75 @@ class LineServer:
                         reply = conversation.answer(line)
                         if reply is CLOSE:
                             return
-                        writer.write(reply)
+                        await self._send(writer, reply)
                         self.replies += 1
-                        await writer.drain()
                 except RequestError as exc:
                     writer.write(encode_error(str(exc)))
                     await writer.drain()
                     return
         except ConnectionError:
-            # The client went away mid-reply: its connection ends, the server goes on.
+            # The client went away mid-reply (or was dropped): its connection ends, the server goes on.
             pass
         except asyncio.CancelledError:
             # aclose ends the connection (the gateway stopping, CloseSocket).  Ending
             # quietly matters on Python 3.11, whose start_server logs a traceback for
             # a cancelled client task.
             pass
+        except Exception as exc:  # noqa: BLE001  # a fault of ours: the client hears of it, the log once
+            _client_log.error("dedicated socket on port %d: answering a client failed: %s", self.port,
+                              f"{type(exc).__name__}: {exc}", exc=exc)
+            with contextlib.suppress(ConnectionError):
+                writer.write(encode_error("the server failed to answer this request (see the gateway's log)"))
         finally:
             self._connections.discard(task)
             writer.close()
             with contextlib.suppress(ConnectionError):
                 await writer.wait_closed()
+
+    async def _refuse(self, writer: asyncio.StreamWriter) -> None:
+        """Tell a client past ``socket_clients`` why it is not served, and hang up."""
+        self.refused += 1
+        limit, flag = self.budgets.socket_clients, self.budgets.flag("socket_clients")
+        _client_log.warning("dedicated socket on port %d: refused a client: it serves %d clients (%s)",
+                            self.port, limit, flag)
+        writer.write(encode_error(f"this socket serves at most {limit} clients at once ({flag}): "
+                                  "try again when one has left"))
+        writer.close()
+        with contextlib.suppress(ConnectionError):
+            await writer.wait_closed()
+
+    async def _send(self, writer: asyncio.StreamWriter, reply: bytes | bytearray) -> None:
+        """Hand *reply* to the client piece by piece, held against the ledger until it has all left.
+
+        Raises:
+            ConnectionError: when the client went away, or was dropped to make room for others.
+        """
+        size = len(reply)
+        started = time.monotonic()
+
+        def drop() -> None:
+            # Evicted by the ledger: this client's reply waited longest.  Aborting frees its
+            # transport's buffer now; the drain below then ends with ConnectionResetError.
+            self.dropped += 1
+            _client_log.warning("dedicated socket on port %d: dropped a client that left %d bytes unread for "
+                                "%.1f s: the clients' unsent replies reached %s", self.port, size,
+                                time.monotonic() - started, self.ledger.flag)
+            writer.transport.abort()
+
+        try:
+            reservation = self.ledger.reserve(size, f"client of port {self.port}", f"a reply of {size} bytes",
+                                              evict=drop)
+        except OverBudget as exc:  # only a reply larger than the bound in all: the server's budgets disagree
+            raise RequestError(str(exc)) from None
+        try:
+            view = memoryview(reply)
+            for start in range(0, size, PIECE):
+                if writer.transport.is_closing():
+                    raise ConnectionResetError("the client was dropped or went away")
+                writer.write(view[start:start + PIECE])
+                await writer.drain()
+        finally:
+            reservation.release()
 
     def _admits(self, line: bytes) -> bool:
         """Check the first line of a client of a server with a token.

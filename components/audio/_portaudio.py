@@ -81,7 +81,7 @@ class PortAudioBackend(CaptureBackend):
         available = portaudio_capture_devices()
         selector: int | str | None = None
         if self.name not in ("", "default"):
-            selector = int(self.name) if self.name.isdigit() else self.name
+            selector = int(self.name) if self.name.isascii() and self.name.isdigit() else self.name
         try:
             info = sd.query_devices(selector, "input")
         except (ValueError, sd.PortAudioError) as exc:

@@ -106,18 +106,25 @@ def encode_reply(chunks: WindowRead, *, with_positions: bool = False) -> bytearr
     return reply
 
 
-def encode_state_reply(state: WindowState, index: int, *, with_positions: bool = False) -> bytearray:
+def encode_state_reply(state: WindowState, index: int, *, with_positions: bool = False,
+                       limit: int | None = None) -> bytearray:
     """The reply carrying the chunks of *state* after *index*, copied once from the chunks into a buffer of its own.
 
-    The same bytes as :func:`encode_reply` of ``state.since(index)``, without the
+    The same bytes as :func:`encode_reply` of ``state.since(index, limit=limit)``, without the
     window's arrays in between.
+
+    Args:
+        state: The window at one publication.
+        index: The last chunk the client holds.
+        with_positions: Append the head positions.
+        limit: At most this many chunks (the newest).
 
     Raises:
         ValueError: when positions are asked for but the window keeps none.
     """
     if with_positions and state.positions is None:
         raise ValueError("the reply needs positions but the window keeps none")
-    left, right, _ = state.chunks_since(index)
+    left, right, _ = state.chunks_since(index, limit)
     count, fpc = len(left), len(state.left[0])
     reply = bytearray(reply_size(count, fpc, with_positions=with_positions))
     words = np.frombuffer(reply, dtype="<i4")
@@ -128,7 +135,7 @@ def encode_state_reply(state: WindowState, index: int, *, with_positions: bool =
             words[start + number * fpc:start + (number + 1) * fpc] = chunk.array
     words[1 + 2 * samples] = state.last_index
     if with_positions:
-        positions = state.positions_since(index)
+        positions = state.positions_since(index, limit)
         assert positions is not None
         words[2 + 2 * samples:].view("<f4")[:] = positions
     return reply

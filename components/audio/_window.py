@@ -103,17 +103,21 @@ class WindowState:
         count = min(newer, self.capacity if limit is None else max(0, min(limit, self.capacity)))
         return count, newer - count
 
-    def chunks_since(self, index: int | None) -> tuple[tuple[Chunk, ...], tuple[Chunk, ...], int]:
-        """The chunks newer than *index* (None: the whole window), left and right, not copied; and the lost count."""
-        count, lost = (self.capacity, 0) if index is None else self.count_since(index)
+    def chunks_since(self, index: int | None, limit: int | None = None
+                     ) -> tuple[tuple[Chunk, ...], tuple[Chunk, ...], int]:
+        """The chunks newer than *index* (None: the whole window), left and right, not copied; and the lost count.
+
+        With *limit*, at most that many: the newest (the older count as lost).
+        """
+        count, lost = (self.capacity, 0) if index is None else self.count_since(index, limit)
         rows = slice(self.capacity - count, self.capacity)
         return self.left[rows], self.right[rows], lost
 
-    def positions_since(self, index: int | None) -> Float64Array | None:
+    def positions_since(self, index: int | None, limit: int | None = None) -> Float64Array | None:
         """The positions of the chunks :meth:`chunks_since` returns (None for a window without)."""
         if self.positions is None:
             return None
-        count = self.capacity if index is None else self.count_since(index)[0]
+        count = self.capacity if index is None else self.count_since(index, limit)[0]
         return np.array(self.positions[self.capacity - count:], dtype=np.float64)
 
     def since(self, index: int, *, limit: int | None = None) -> WindowRead:

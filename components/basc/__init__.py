@@ -1,5 +1,5 @@
 """The ``basc`` component: the 2015 Two!Ears example reader of the ``bass`` Audio port."""
 
-from ._component import Basc, BlockReport, e_noData
+from ._component import Basc, BlockReport, e_noData, e_nomem
 
-__all__ = ["Basc", "BlockReport", "e_noData"]
+__all__ = ["Basc", "BlockReport", "e_noData", "e_nomem"]

@@ -10,13 +10,15 @@ import numpy as np
 
 from ..bass import AudioPortData, AudioSnapshot, Samples
 from ..core import (
-    Component, GenomException, InPort, Long, Out, OutPort, String, Task, ULong, ULongLong, activity, function,
-    idl_struct,
+    Component, GenomException, InPort, Long, Out, OutPort, OverBudget, Reservation, String, Task, ThrottledLog, ULong,
+    ULongLong, activity, function, idl_struct,
 )
 
-__all__ = ["Basc", "BlockReport", "e_noData"]
+__all__ = ["Basc", "BlockReport", "e_noData", "e_nomem"]
 
 log = logging.getLogger(__name__)
+#: A reader falling behind loses frames at every period: its lines are rate-limited.
+_client_log = ThrottledLog(log)
 
 
 def _no_samples() -> np.ndarray:
@@ -39,8 +41,18 @@ class BlockReport:
     right: Samples = dataclasses.field(default_factory=_no_samples)
 
 
+#: Bytes a frame of a block takes (left and right int32).
+_BLOCK_BYTES_PER_FRAME = 8
+
+
 class e_noData(GenomException):
     """The server is not streaming or the Audio port is not connected."""
+
+    what: String
+
+
+class e_nomem(GenomException):
+    """The block asked for is larger than the gateway allows (``--max-block-frames``, ``--max-audio-bytes``)."""
 
     what: String
 
@@ -58,6 +70,9 @@ class Basc(Component, name="basc", version="1.0"):
     Blocks = OutPort(BlockReport, doc="The last complete block of GetBlocks, its first frame, "
                                       "and the frames lost so far")
 
+    #: The memory of the blocks, held against the host's audio_bytes (None before the first GetBlocks).
+    _blocks_memory: Reservation | None = None
+
     async def on_start(self) -> None:
         await super().on_start()
         self.Blocks.publish(BlockReport())
@@ -73,7 +88,24 @@ class Basc(Component, name="basc", version="1.0"):
                            else "bass is not acquiring (send Acquire first)")
         return published
 
-    @activity(task=read, interrupts=("GetBlocks",), throws=(e_noData,))
+    def _validate_blocks(self, nBlocks: int, nFramesPerBlock: int, startOffs: int) -> None:
+        try:
+            self.host.settings.budgets.check("block_frames", f"a block of {nFramesPerBlock} frames", nFramesPerBlock)
+        except OverBudget as exc:
+            raise e_nomem(what=str(exc)) from None
+
+    def _block_reservation(self) -> Reservation:
+        """The memory of the blocks (the one published, the one being filled) held against the host's audio_bytes."""
+        if self._blocks_memory is None:
+            self._blocks_memory = self.host.ledgers.audio.reserve(0, self.instance, "blocks")
+        return self._blocks_memory
+
+    async def on_stop(self) -> None:
+        if self._blocks_memory is not None:
+            self._blocks_memory.release()
+        await super().on_stop()
+
+    @activity(task=read, interrupts=("GetBlocks",), throws=(e_noData, e_nomem), validate=_validate_blocks)
     async def GetBlocks(
         self,
         nBlocks: Annotated[ULong, "Amount of blocks, 0 for unlimited"] = 1,
@@ -86,32 +118,45 @@ class Basc(Component, name="basc", version="1.0"):
         port.  Each period, the frames available are added to the current block;
         frames that bass no longer holds when they are asked for are counted as
         lost.  Ends when ``nBlocks`` blocks are complete (``nBlocks`` is then 0),
-        never with 0.
+        never with 0.  A block is at most the gateway's ``--max-block-frames``
+        (``e_nomem`` beyond), and its memory counts in ``--max-audio-bytes``.
         """
         snapshot = self._audio()
         if nFramesPerBlock < 1:
             return nBlocks
-        next_frame = max(0, snapshot.last_frame_index + 1 + startOffs)
-        pieces: list[tuple[np.ndarray, np.ndarray]] = []
-        block_start, needed, lost, done = next_frame, nFramesPerBlock, 0, 0
-        self.Blocks.publish(BlockReport())
+        self.Blocks.publish(BlockReport())  # the last block goes: this one's take its place
+        memory = self._block_reservation()
+        try:
+            # The block being filled, and the last one completed (published).
+            memory.resize(2 * _BLOCK_BYTES_PER_FRAME * nFramesPerBlock, f"blocks of {nFramesPerBlock} frames")
+        except OverBudget as exc:
+            memory.resize(0, "")
+            raise e_nomem(what=str(exc)) from None
+        try:
+            return await self._collect(nBlocks, nFramesPerBlock, max(0, snapshot.last_frame_index + 1 + startOffs))
+        finally:
+            memory.resize(_BLOCK_BYTES_PER_FRAME * nFramesPerBlock if self.Blocks.read().blocks else 0, "")
+
+    async def _collect(self, nBlocks: int, nFramesPerBlock: int, next_frame: int) -> int:
+        """Fill blocks from *next_frame* on, publishing each as it completes; the blocks left (0: all got)."""
+        block = np.empty((2, nFramesPerBlock), np.int32)  # filled in place: one copy of the frames
+        filled, block_start, lost, done = 0, next_frame, 0, 0
         while True:
-            read = self._audio().frames(next_frame, needed)
+            read = self._audio().frames(next_frame, nFramesPerBlock - filled)
             if read.lost:
                 lost += read.lost
-                log.warning("%s: lost %d frames before frame %d", self.instance, read.lost, read.first)
+                _client_log.warning("%s: lost %d frames before frame %d", self.instance, read.lost, read.first)
             if read.count:
-                if not pieces:
+                if not filled:
                     block_start = read.first
-                pieces.append((read.left, read.right))
-                needed -= read.count
+                block[0, filled:filled + read.count] = read.left
+                block[1, filled:filled + read.count] = read.right
+                filled += read.count
             next_frame = read.next
-            if needed == 0:
+            if filled == nFramesPerBlock:
                 done += 1
-                left = np.concatenate([p[0] for p in pieces])
-                right = np.concatenate([p[1] for p in pieces])
-                self.Blocks.publish(BlockReport(done, block_start, nFramesPerBlock, lost, left, right))
-                pieces, needed = [], nFramesPerBlock
+                self.Blocks.publish(BlockReport(done, block_start, nFramesPerBlock, lost, block[0], block[1]))
+                block, filled = np.empty((2, nFramesPerBlock), np.int32), 0
                 if nBlocks:
                     nBlocks -= 1
                     if nBlocks == 0:

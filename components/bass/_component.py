@@ -7,10 +7,13 @@ import logging
 from typing import Annotated, Any
 
 from ..audio import (
-    MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, AudioError, Azimuth, CaptureBackend, FormatRefused,
-    SocketPorts, list_capture_devices, open_for_host,
+    MAX_FRAMES_PER_CHUNK, RATE_RANGE, AudioError, Azimuth, CaptureBackend, FormatRefused, SocketPorts,
+    list_capture_devices, open_for_host,
 )
-from ..core import Component, ComponentHost, Out, OutPort, String, Task, ULong, activity, function
+from ..core import (
+    Component, ComponentHost, Out, OutPort, OverBudget, Reservation, String, Task, ThrottledLog, ULong, activity,
+    function,
+)
 from ._history import AudioSnapshot, ChunkHistory
 from ._socket_server import FrameSocketServer
 from ._types import AudioPortData, DeviceList, e_device, e_hwparams, e_nodevice, e_nomem, e_socket, e_swparams
@@ -18,6 +21,12 @@ from ._types import AudioPortData, DeviceList, e_device, e_hwparams, e_nodevice,
 __all__ = ["Bass"]
 
 log = logging.getLogger(__name__)
+#: Lines a client's requests cause (each Acquire, ListDevices, DedicatedSocket, overruns): rate-limited.
+_client_log = ThrottledLog(log)
+
+
+def _port_what(chunks: int, frames: int) -> str:
+    return f"a port of {chunks} chunks of {frames} frames"
 
 
 class Bass(Component, name="bass", version="1.0"):
@@ -47,6 +56,8 @@ class Bass(Component, name="bass", version="1.0"):
         self._server: FrameSocketServer | None = None
         self._socket_open = asyncio.Event()
         self._close_socket = asyncio.Event()
+        #: The port's bytes, held against the host's audio_bytes while its chunks are published.
+        self._port_memory: Reservation | None = None
 
     async def on_start(self) -> None:
         """Publish an empty port: readers may connect before the first acquisition."""
@@ -56,6 +67,8 @@ class Bass(Component, name="bass", version="1.0"):
     async def on_stop(self) -> None:
         if self._server is not None:
             await self._server.aclose()
+        if self._port_memory is not None:
+            self._port_memory.release()
         await super().on_stop()
 
     @classmethod
@@ -94,14 +107,18 @@ class Bass(Component, name="bass", version="1.0"):
         devices = await asyncio.to_thread(list_capture_devices)
         if not devices:
             raise e_nodevice(what="no capture device found")
-        log.info("%s: capture devices: %s", self.instance, ", ".join(devices))
+        _client_log.info("%s: capture devices: %s", self.instance, ", ".join(devices))
         return devices
 
     def _validate_acquire(self, device: str, sampleRate: int, nFramesPerChunk: int, nChunksOnPort: int) -> None:
-        size = 2 * 4 * nFramesPerChunk * nChunksOnPort
-        if nFramesPerChunk < 1 or nChunksOnPort < 1 or size > MAX_PORT_BYTES:
-            raise e_nomem(what=f"a port of {nChunksOnPort} chunks of {nFramesPerChunk} frames ({size} bytes) "
-                               f"is outside 1 frame…{MAX_PORT_BYTES} bytes")
+        if nFramesPerChunk < 1 or nChunksOnPort < 1:
+            raise e_nomem(what=f"a port holds 1 chunk of 1 frame or more, not {nChunksOnPort} chunks of "
+                               f"{nFramesPerChunk} frames")
+        try:
+            self.host.settings.budgets.check("port_bytes", _port_what(nChunksOnPort, nFramesPerChunk),
+                                             8 * nFramesPerChunk * nChunksOnPort)
+        except OverBudget as exc:
+            raise e_nomem(what=str(exc)) from None
         if not RATE_RANGE[0] <= sampleRate <= RATE_RANGE[1]:
             raise e_hwparams(device=device, what=f"sampleRate {sampleRate} Hz is outside "
                                                  f"{RATE_RANGE[0]}…{RATE_RANGE[1]} Hz")
@@ -133,17 +150,32 @@ class Bass(Component, name="bass", version="1.0"):
         The port restarts zero-filled at frame 0.  A new Acquire interrupts the
         running one; Stop ends it.  A file source ends the request when the file does.
         """
+        # While the device opens, the port held is the larger of the last acquisition's (still published)
+        # and this one's; once this one's port replaces it, this one's alone.
+        if self._port_memory is None:
+            self._port_memory = self.host.ledgers.audio.reserve(0, self.instance, "a port")
+        memory, held = self._port_memory, 8 * nFramesPerChunk * nChunksOnPort
+        before = memory.amount
+        try:
+            memory.resize(max(before, held), _port_what(nChunksOnPort, nFramesPerChunk))
+        except OverBudget as exc:
+            raise e_nomem(what=str(exc)) from None
         history = ChunkHistory(nChunksOnPort, nFramesPerChunk, sampleRate)
-        backend = await self._open(device, sampleRate, nFramesPerChunk)
+        try:
+            backend = await self._open(device, sampleRate, nFramesPerChunk)
+        except BaseException:
+            memory.resize(before, "")  # the last acquisition's port stays
+            raise
         self.Audio.publish(history.snapshot)
-        log.info("%s: acquiring %s at %d Hz, %d frames per chunk, %d chunks on Audio",
-                 self.instance, device, sampleRate, nFramesPerChunk, nChunksOnPort)
+        memory.resize(held, "")
+        _client_log.info("%s: acquiring %s at %d Hz, %d frames per chunk, %d chunks on Audio",
+                         self.instance, device, sampleRate, nFramesPerChunk, nChunksOnPort)
         try:
             while (chunk := await backend.read()) is not None:
                 snapshot = history.append(chunk.left, chunk.right)
                 if chunk.overrun:
-                    log.warning("%s: %s lost %d frames before frame %d", self.instance, device,
-                                chunk.lost_frames, snapshot.last_frame_index - nFramesPerChunk + 1)
+                    _client_log.warning("%s: %s lost %d frames before frame %d", self.instance, device,
+                                        chunk.lost_frames, snapshot.last_frame_index - nFramesPerChunk + 1)
                 self.Audio.publish(snapshot)
         except AudioError as exc:
             raise e_device(device=device, what=str(exc)) from exc
@@ -168,7 +200,8 @@ class Bass(Component, name="bass", version="1.0"):
         """
         settings = self.host.settings
         server = FrameSocketServer(lambda: self.snapshot, host=settings.audio_socket_host,
-                                   port=settings.audio_socket_port, token=settings.audio_socket_token)
+                                   port=settings.audio_socket_port, token=settings.audio_socket_token,
+                                   budgets=settings.budgets, ledger=self.host.ledgers.sockets)
         ports = self.host.shared(SocketPorts, SocketPorts)
         try:
             await server.start()
@@ -177,7 +210,7 @@ class Bass(Component, name="bass", version="1.0"):
         self._server = server
         self._close_socket.clear()
         self._socket_open.set()
-        log.info("%s: dedicated socket (2015 protocol) open on port %d", self.instance, server.port)
+        _client_log.info("%s: dedicated socket (2015 protocol) open on port %d", self.instance, server.port)
         try:
             with ports.held(server.port, self.instance):
                 await self._close_socket.wait()

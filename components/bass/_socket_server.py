@@ -4,10 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import dataclasses
+
 from ..audio import CLOSE, DEFAULT_PORT, LastReply, LineServer
-from ..core import HostSettings
+from ..core import Budgets, HostSettings, Ledger
 from ._history import AudioSnapshot
-from ._socket_wire import FrameRequest, encode_snapshot_reply, parse_frame_request
+from ._socket_wire import FrameRequest, encode_snapshot_reply, frame_reply_size, parse_frame_request
 
 __all__ = ["FrameSocketServer"]
 
@@ -33,11 +35,15 @@ class FrameSocketServer(LineServer):
         host: The address to bind (``0.0.0.0`` for every interface).
         port: The TCP port; 0 picks a free one (read :attr:`port` after :meth:`start`).
         token: When set, every client must first send ``Token <token>``.
+        budgets: The bounds on clients and their unsent replies (see :class:`LineServer`).
+        ledger: The unsent replies of every dedicated socket of the host.
     """
 
     def __init__(self, snapshot: Callable[[], AudioSnapshot], *, host: str = HostSettings().audio_socket_host,
-                 port: int = DEFAULT_PORT, token: str | None = None) -> None:
-        super().__init__(lambda: _FrameConversation(self), host=host, port=port, token=token)
+                 port: int = DEFAULT_PORT, token: str | None = None, budgets: Budgets = HostSettings().budgets,
+                 ledger: Ledger | None = None) -> None:
+        super().__init__(lambda: _FrameConversation(self), host=host, port=port, token=token, budgets=budgets,
+                         ledger=ledger)
         self._snapshot = snapshot
         self._last = LastReply()
 
@@ -46,8 +52,14 @@ class FrameSocketServer(LineServer):
 
         The transport may hold the reply while the client drains it: it shares no memory with the
         snapshot, and is never changed once made.  Before the first acquisition the port is
-        ``AudioSnapshot.empty()``: no frames, and the client keeps its place.
+        ``AudioSnapshot.empty()``: no frames, and the client keeps its place.  A reply is at most
+        :attr:`client_bytes`: a larger ``N`` gets fewer frames, and ``next`` says where to go on
+        (nothing is lost).
         """
+        per_frame = frame_reply_size(1) - frame_reply_size(0)
+        fitting = max(0, (self.client_bytes - frame_reply_size(0)) // per_frame)
+        if request.frames > fitting:
+            request = dataclasses.replace(request, frames=fitting)
         snapshot = self._snapshot()
         return self._last.get(snapshot, snapshot.placed(request.next_frame, request.frames),
                               lambda: encode_snapshot_reply(snapshot, request.next_frame, request.frames))

@@ -40,6 +40,8 @@ __all__ = ["FrameRequest", "CLOSE_REQUEST", "FrameRequestParser", "parse_frame_r
 HEADER = struct.Struct("<iiq")
 #: The largest count the int32 header fields carry (larger losses are reported as this).
 _INT32_MAX = 2**31 - 1
+#: The largest frame index (the reply's next frame is an int64).
+_INT64_MAX = 2**63 - 1
 
 _READ = re.compile(rb"read\s+port", re.IGNORECASE)
 # Whole words: "N" must not match inside another word, "nfr" not inside "nfrx".
@@ -75,10 +77,13 @@ def parse_frame_request(line: bytes) -> FrameRequest | None:
     count, first = _N.search(line), _NFR.search(line)
     if count is None or first is None:
         raise RequestError(f"a Read Port request needs 'N <frames>' and 'nfr <next frame>' (>= 0), got {shown!r}")
-    frames = int(count.group(1))
+    frames, next_frame = int(count.group(1)), int(first.group(1))
     if frames > _INT32_MAX:
         raise RequestError(f"N is at most {_INT32_MAX} frames, not {frames}")
-    return FrameRequest(frames, int(first.group(1)))
+    if next_frame > _INT64_MAX:
+        # The reply's next frame is an int64: a frame past it does not exist.
+        raise RequestError(f"nfr is at most {_INT64_MAX}, not {next_frame}")
+    return FrameRequest(frames, next_frame)
 
 
 def encode_frame_request(frames: int, next_frame: int) -> bytes:

@@ -8,10 +8,13 @@ from collections.abc import Awaitable, Callable
 from typing import Annotated, Any, ClassVar
 
 from ..audio import (
-    MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE, AudioError, Azimuth, CaptureBackend, Chunk, ChunkWindow,
+    MAX_FRAMES_PER_CHUNK, RATE_RANGE, AudioError, Azimuth, CaptureBackend, Chunk, ChunkWindow,
     DedicatedSocketServer, DeviceNotFound, SocketPorts, list_capture_devices, open_for_host,
 )
-from ..core import Component, ComponentHost, OutPort, String, Task, ULong, activity, attribute, function
+from ..core import (
+    Component, ComponentHost, OutPort, OverBudget, Reservation, String, Task, ThrottledLog, ULong, activity, attribute,
+    function,
+)
 from ._types import (
     ALREADY_CAPTURING, DEVICE_ERROR, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, NO_SUCH_DEVICE, SOCKET_ERROR,
     CaptureConfig, CaptureStatus, PortData,
@@ -25,6 +28,8 @@ __all__ = ["Capture", "HeadPositionSource", "frames_per_chunk"]
 HeadPositionSource = Callable[[], Awaitable[float]]
 
 log = logging.getLogger(__name__)
+#: Lines a client's requests cause (each StartCapture, each DedicatedSocket): rate-limited.
+_client_log = ThrottledLog(log)
 
 
 def _every_source(backend_devices: list[str]) -> list[str]:
@@ -34,6 +39,10 @@ def _every_source(backend_devices: list[str]) -> list[str]:
     """
     listed = [*backend_devices, *(d for d in list_capture_devices() if d not in backend_devices)]
     return [*listed, "file:<path.wav>", "sim:<scene.json>"]
+
+
+def _port_what(chunks: int, frames: int) -> str:
+    return f"a port of {chunks} chunks of {frames} frames"
 
 
 def frames_per_chunk(transfer_rate: int, chunk_time: int) -> int:
@@ -85,6 +94,8 @@ class Capture(Component, name="capture", version="1.1"):
         self._backend: CaptureBackend | None = None
         self._server: DedicatedSocketServer | None = None
         self._socket_open = asyncio.Event()
+        #: The port's bytes, held against the host's audio_bytes while the window exists.
+        self._port_memory: Reservation | None = None
 
     async def on_start(self) -> None:
         """Publish an empty Port: incremental readers may start before the first capture."""
@@ -103,6 +114,8 @@ class Capture(Component, name="capture", version="1.1"):
         # the server; closing again covers a server opened outside an activity.
         if self._server is not None:
             await self._server.aclose()
+        if self._port_memory is not None:
+            self._port_memory.release()
         await super().on_stop()
 
     # -- reading the state from Python ------------------------------------------------------
@@ -131,15 +144,23 @@ class Capture(Component, name="capture", version="1.1"):
 
     def _validate_start(self, device: str, transfer_rate: int, chunk_time: int, Port_chunks: int) -> None:
         frames = frames_per_chunk(transfer_rate, chunk_time)
-        size = 2 * 4 * frames * Port_chunks
-        if Port_chunks < 1 or size > MAX_PORT_BYTES:
-            raise ERROR_SEQUENCE_ENOMEM(what=f"a port of {Port_chunks} chunks of {frames} frames "
-                                             f"({size} bytes) is outside 1 chunk…{MAX_PORT_BYTES} bytes")
+        if Port_chunks < 1:
+            raise ERROR_SEQUENCE_ENOMEM(what="a port holds 1 chunk or more, not 0")
+        try:
+            self.host.settings.budgets.check("port_bytes", _port_what(Port_chunks, frames), 8 * frames * Port_chunks)
+        except OverBudget as exc:
+            raise ERROR_SEQUENCE_ENOMEM(what=str(exc)) from None
         # Checked by request rather than by state: a StartCapture just sent has not
         # run yet, but its request exists.
         running = [r for r in self.requests.running() if r.service.name == "StartCapture"]
         if running:
             raise ALREADY_CAPTURING(device=running[0].inputs["device"])
+
+    def _port_reservation(self) -> Reservation:
+        """The port's bytes held against the host's audio_bytes (nothing before the first capture)."""
+        if self._port_memory is None:
+            self._port_memory = self.host.ledgers.audio.reserve(0, self.instance, "a port")
+        return self._port_memory
 
     def head_position_source(self) -> HeadPositionSource | None:
         """Where the head position published with each chunk comes from (None: the chunks carry none).
@@ -181,13 +202,26 @@ class Capture(Component, name="capture", version="1.1"):
         A second StartCapture while one runs ends in ALREADY_CAPTURING and leaves the running one alone.
         """
         frames = frames_per_chunk(transfer_rate, chunk_time)
-        backend = await self._open(device, transfer_rate, frames)
+        # While the device opens, the port held is the larger of the last capture's (still published)
+        # and this one's; once this one's window replaces it, this one's alone.
+        memory, held = self._port_reservation(), 8 * frames * Port_chunks
+        before = memory.amount
+        try:
+            memory.resize(max(before, held), _port_what(Port_chunks, frames))
+        except OverBudget as exc:
+            raise ERROR_SEQUENCE_ENOMEM(what=str(exc)) from None
+        try:
+            backend = await self._open(device, transfer_rate, frames)
+        except BaseException:
+            memory.resize(before, "")  # the last capture's port stays
+            raise
         head_position = self.head_position_source()
         window = ChunkWindow(Port_chunks, frames, with_positions=head_position is not None)
         self._config = CaptureConfig(device, transfer_rate, chunk_time, Port_chunks)
+        memory.resize(held, "")
         self._window, self._backend = window, backend
-        log.info("%s: capturing %s at %d Hz, %d frames per chunk, %d chunks on Port",
-                 self.instance, device, transfer_rate, frames, Port_chunks)
+        _client_log.info("%s: capturing %s at %d Hz, %d frames per chunk, %d chunks on Port",
+                         self.instance, device, transfer_rate, frames, Port_chunks)
         try:
             if head_position is not None:
                 await self._pump_with_positions(backend, window, head_position)
@@ -239,8 +273,8 @@ class Capture(Component, name="capture", version="1.1"):
     def _publish_chunk(self, window: ChunkWindow, chunk: Chunk, position: float | None) -> None:
         index = window.append(chunk.left, chunk.right, position)
         if chunk.overrun:
-            log.warning("%s: %s lost %d frames before chunk %d", self.instance, self._config.device,
-                        chunk.lost_frames, index)
+            _client_log.warning("%s: %s lost %d frames before chunk %d", self.instance, self._config.device,
+                                chunk.lost_frames, index)
         # The capture start, re-anchored on the newest chunk: after an overrun the
         # frames of later chunks keep computable times (ts + frame / rate).
         start = chunk.time - (index - 1) * window.frames_per_chunk / self._config.transfer_rate
@@ -287,7 +321,8 @@ class Capture(Component, name="capture", version="1.1"):
         settings = self.host.settings
         server = DedicatedSocketServer(lambda: self._window, host=settings.audio_socket_host,
                                        port=settings.audio_socket_port, with_positions=self.port_positions,
-                                       token=settings.audio_socket_token)
+                                       token=settings.audio_socket_token, budgets=settings.budgets,
+                                       ledger=self.host.ledgers.sockets)
         ports = self.host.shared(SocketPorts, SocketPorts)
         try:
             await server.start()
@@ -295,7 +330,7 @@ class Capture(Component, name="capture", version="1.1"):
             raise SOCKET_ERROR(port=server.requested_port, what=ports.why_refused(server.requested_port, exc)) from exc
         self._server = server
         self._socket_open.set()
-        log.info("%s: dedicated socket open on port %d", self.instance, server.port)
+        _client_log.info("%s: dedicated socket open on port %d", self.instance, server.port)
         try:
             with ports.held(server.port, self.instance):
                 # Serve until interrupted (CloseSocket, abort or kill): the server's own

@@ -6,14 +6,16 @@ What a component author uses lives here; the runtime that hosts components
 client functions; ``components/demo`` is a complete one.
 """
 
+from ._budgets import Budgets, Ledger, Ledgers, OverBudget, Reservation
 from ._chunked import Chunk, Chunked, ChunkedArray
 from ._clock import Clock, ManualClock, RealClock, ScaledClock, VirtualClock
 from ._component import Component
 from ._exceptions import (
-    GenomException, disallowed, interrupted, no_such_inport, no_such_outport, no_such_service, port_io,
-    serialization, syserr, too_many_activities, unkex,
+    GenomException, disallowed, interrupted, no_such_activity, no_such_inport, no_such_outport, no_such_service,
+    port_io, serialization, syserr, too_many_activities, unkex,
 )
 from ._host import ComponentHost, LoadError
+from ._log_limits import ThrottledLog
 from ._settings import HostSettings
 from ._ports import ComputedOutPort, Incremental, InPort, InPortRuntime, OutPort, OutPortRuntime
 from ._public import show_as_public as _show_as_public
@@ -28,6 +30,8 @@ from ._types import (
 __all__ = [
     # The component and what hosts it
     "Component", "ComponentHost", "HostSettings", "LoadError",
+    # Bounds of what clients can make a component hold, and the log lines they can cause
+    "Budgets", "OverBudget", "Ledger", "Ledgers", "Reservation", "ThrottledLog",
     # Services
     "function", "activity", "attribute", "redeclare", "Out",
     # Ports and tasks
@@ -41,7 +45,7 @@ __all__ = [
     "Clock", "RealClock", "ScaledClock", "ManualClock", "VirtualClock",
     # Exceptions: the base of declared ones, and the standard ::genom:: ones
     "GenomException", "interrupted", "too_many_activities", "unkex", "syserr", "no_such_service",
-    "no_such_outport", "no_such_inport", "port_io", "serialization", "disallowed",
+    "no_such_outport", "no_such_inport", "port_io", "serialization", "disallowed", "no_such_activity",
 ]
 
 _show_as_public(globals(), __all__, __name__, __name__)

@@ -15,9 +15,10 @@ import logging
 from typing import TYPE_CHECKING, Annotated, Any, ClassVar, TypeVar
 
 from ._exceptions import (
-    GenomException, InputError, NoSuchPort, NoSuchService, disallowed, interrupted,
-    no_such_inport, no_such_outport, no_such_service, too_many_activities, unkex,
+    GenomException, InputError, NoSuchPort, NoSuchRequest, NoSuchService, PortUnavailable, disallowed, interrupted,
+    no_such_activity, no_such_inport, no_such_outport, no_such_service, too_many_activities, unkex,
 )
+from ._log_limits import ThrottledLog
 from ._ports import ComputedOutPort, InPortRuntime, OutPortRuntime, PortSpec
 from ._requests import Request, RequestTracker
 from ._services import ServiceSpec, activity, check_redeclaration, check_validate_hook, function, service_spec
@@ -34,6 +35,8 @@ __all__ = ["Component"]
 T = TypeVar("T")
 
 log = logging.getLogger(__name__)
+#: Unexpected failures of services, which clients can set off again and again.
+_unexpected = ThrottledLog(log)
 
 _STANDARD_SERVICES = ("abort_activity", "connect_port", "connect_service", "kill")
 
@@ -369,8 +372,13 @@ class Component:
 
     def _settle_error(self, request: Request, exc: Exception) -> None:
         """End a request whose service raised *exc*."""
+        if isinstance(exc, PortUnavailable):
+            exc = exc.reason  # an in port read while its out port's data is withdrawn: the reason why
         if not isinstance(exc, GenomException):
-            log.exception("%s: service %s failed", self.instance, request.service.name, exc_info=exc)
+            # A fault of the component, not of the client; still a client may trigger it again and
+            # again: one traceback per place it comes from, then rate-limited lines.
+            _unexpected.error("%s: service %s failed: %s", self.instance, request.service.name,
+                              f"{type(exc).__name__}: {exc}", exc=exc)
             exc = unkex(what=f"{type(exc).__name__}: {exc}")
         self._end_error(request, exc)
 
@@ -461,10 +469,19 @@ class Component:
 
     # -- the standard services of every genom3 component -------------------------------------
 
-    @function
+    @function(throws=(no_such_activity,))
     async def abort_activity(self, activity: ULong) -> None:
-        """Abort the running activity of request number ``activity``."""
-        request = self.requests.get(activity)
+        """Abort the running activity of request number ``activity`` (one that has ended: nothing to do).
+
+        A number that names no request of an activity (none at all, or a function's, this one's
+        included) ends in ``::genom::no_such_activity``.
+        """
+        try:
+            request = self.requests.get(activity)
+        except NoSuchRequest:
+            raise no_such_activity() from None
+        if request.service.kind != "activity":
+            raise no_such_activity()
         if request.running:
             await self.interrupt(request, by="abort_activity")
 

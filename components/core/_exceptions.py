@@ -9,6 +9,7 @@
     ├── NoSuchPort (LookupError)         unknown port, or unknown element of a multiple port
     ├── NoSuchRequest (LookupError)      unknown request id
     ├── RequestRunning                   ``clean`` of a request that has not ended
+    ├── PortUnavailable                  a read of a port whose data is withdrawn (its sensor is down)
     └── GenomException                   an exception in the genom3 sense, with an id and a detail
         ├── (declared by components, e.g. ::demo::TOO_FAR_AWAY)
         └── the standard ::genom::* exceptions (interrupted, too_many_activities, ...)
@@ -27,6 +28,7 @@ __all__ = [
     "ComponentError", "InputError", "NoSuchModule", "NoSuchService", "NoSuchPort", "NoSuchRequest",
     "RequestRunning", "GenomException", "interrupted", "too_many_activities", "unkex", "syserr",
     "no_such_service", "no_such_outport", "no_such_inport", "port_io", "serialization", "disallowed",
+    "no_such_activity", "PortUnavailable",
 ]
 
 
@@ -66,6 +68,19 @@ class NoSuchRequest(ComponentError, LookupError):
 
 class RequestRunning(ComponentError):
     """The request has not ended yet, so it cannot be cleaned."""
+
+
+class PortUnavailable(ComponentError):
+    """A read of an out port whose data its component withdrew: not current, so not served as if it were.
+
+    Attributes:
+        port: The port's name.
+        reason: The component's exception saying why (``::world::SENSOR_DOWN``...).
+    """
+
+    def __init__(self, port: str, reason: GenomException) -> None:
+        self.port, self.reason = port, reason
+        super().__init__(f"port {port} has no current data: {reason}")
 
 
 class GenomException(ComponentError):
@@ -157,3 +172,4 @@ no_such_inport = _standard("no_such_inport", "No such in port.")
 port_io = _standard("port_io", "A port could not be read or written.")
 serialization = _standard("serialization", "Input data could not be decoded.", what="string")
 disallowed = _standard("disallowed", "The service is not allowed now.")
+no_such_activity = _standard("no_such_activity", "No activity of that id.")

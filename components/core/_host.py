@@ -17,9 +17,11 @@ import logging
 from collections.abc import Callable
 from typing import Any, Protocol, TypeVar, overload
 
+from ._budgets import Ledgers
 from ._clock import Clock, RealClock
 from ._component import Component
 from ._exceptions import ComponentError, NoSuchModule
+from ._log_limits import ThrottledLog
 from ._requests import Request
 from ._settings import HostSettings
 
@@ -28,6 +30,8 @@ __all__ = ["ComponentHost", "LoadError", "TooManyInstances", "RemoteFinder", "No
 T = TypeVar("T")
 
 log = logging.getLogger(__name__)
+#: Loads are asked for by clients: a client loading and unloading in a loop must not fill the log.
+_client_log = ThrottledLog(log)
 
 ENTRY_POINT_GROUP = "aiogenomix.components"
 
@@ -82,6 +86,8 @@ class ComponentHost:
             raise TypeError(f"settings are a HostSettings, not {type(settings).__name__}: "
                             "HostSettings(can=..., audio_device=...)")
         self.settings = settings or HostSettings()
+        #: What the components hold against the bounds in all (``settings.budgets``).
+        self.ledgers = Ledgers(self.settings.budgets)
         self.function_grace = function_grace
         self.max_instances = max_instances
         self._factories = factories if factories is not None else self._entry_points()
@@ -172,7 +178,7 @@ class ComponentHost:
                 proxy = await self.finder.find(self, name, list(argv or []))
                 if proxy is not None:
                     self._instances[name] = proxy
-                    log.info("loaded %s from another process", name)
+                    _client_log.info("loaded %s from another process", name)
                     return proxy
         # The first load imports the component's package (scipy, sound and CAN libraries):
         # up to seconds of work that must not stall the gateway's event loop.
@@ -204,7 +210,7 @@ class ComponentHost:
             finally:
                 _LOADING.reset(token)
             self._instances[instance] = component
-            log.info("loaded %s as %s", name, instance)
+            _client_log.info("loaded %s as %s", name, instance)
             return component
 
     def _check_room(self) -> None:

@@ -15,7 +15,7 @@ import asyncio
 import builtins
 from typing import Any, Generic, Protocol, Self, TypeVar, overload, runtime_checkable
 
-from ._exceptions import NoSuchPort, port_io
+from ._exceptions import GenomException, NoSuchPort, PortUnavailable, port_io
 from ._types import IdlType, idl_type
 
 __all__ = ["OutPort", "ComputedOutPort", "InPort", "OutPortRuntime", "ComputedOutPortRuntime", "InPortRuntime",
@@ -200,9 +200,12 @@ class OutPortRuntime(_PortRuntime, Generic[T]):
         self._elements: dict[str, T] = {}
         self._value: T = None if spec.multiple else spec.type.zero()  # type: ignore[assignment]
         self._published: asyncio.Future[None] | None = None
+        #: Why the data is not current (None: it is): reads raise it until the next publication.
+        self.withdrawn: GenomException | None = None
 
     def publish(self, value: T, name: str | None = None) -> None:
-        """Publish *value* (for a multiple port, as element *name*)."""
+        """Publish *value* (for a multiple port, as element *name*); data withdrawn before is current again."""
+        self.withdrawn = None
         if self.spec.multiple:
             if name is None:
                 raise ValueError(f"port {self.name} is multiple: publish(value, name=...)")
@@ -218,13 +221,25 @@ class OutPortRuntime(_PortRuntime, Generic[T]):
             self._published.set_result(None)
         self._published = None
 
+    def withdraw(self, reason: GenomException) -> None:
+        """Say that the data is no longer current (its sensor is down): reads fail until the next publication.
+
+        A reader gets :class:`PortUnavailable` carrying *reason* (the gateway answers 503 with
+        *reason*'s id and detail; a service reading it through an in port ends with *reason*),
+        never the old data as if it were new.  Watchers wait for the next publication.
+        """
+        self.withdrawn = reason
+
     def read(self, name: str | None = None) -> T:
         """The latest value (for a multiple port, of element *name*).
 
         Raises:
             NoSuchPort: for an unknown element.
             port_io: when a multiple port is read without an element name.
+            PortUnavailable: when the component withdrew the data (:meth:`withdraw`).
         """
+        if self.withdrawn is not None:
+            raise PortUnavailable(self.name, self.withdrawn)
         if not self.spec.multiple:
             return self._value
         if name is None:
@@ -314,7 +329,12 @@ class InPortRuntime(_PortRuntime, Generic[T]):
         return await self.remote.wait_published(after_version)
 
     def read(self) -> T | None:
-        """The latest data of the connected out port (None while unconnected)."""
+        """The latest data of the connected out port (None while unconnected).
+
+        Raises:
+            PortUnavailable: when the out port's component withdrew its data (a service reading
+                it ends with the component's reason).
+        """
         if self.remote is None:
             return None
         value: T = self.remote.read_as(self.type, self.element)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import dataclasses
 from typing import TypeVar
 
+from ._budgets import Budgets
+
 __all__ = ["HostSettings"]
 
 T = TypeVar("T")
@@ -31,6 +33,8 @@ class HostSettings:
         audio_socket_host: The address the dedicated audio socket binds.
         audio_socket_port: The TCP port of the dedicated audio socket (0 picks a free one).
         audio_socket_token: When set, a client of the dedicated socket must first send ``Token <token>``.
+        budgets: The bound of every resource a client can make the components hold (ports,
+            socket backlogs, blocks, render memory), each with its default and gateway flag.
         extra: The settings of components of other packages, one object per class (a frozen
             dataclass with a default for each setting); :meth:`of` finds them by class.
     """
@@ -42,6 +46,7 @@ class HostSettings:
     audio_socket_host: str = "127.0.0.1"
     audio_socket_port: int = 8081
     audio_socket_token: str | None = None
+    budgets: Budgets = Budgets()
     extra: tuple[object, ...] = ()
 
     def of(self, kind: type[T]) -> T:
@@ -56,6 +61,8 @@ class HostSettings:
             raise ValueError(f"can_timeout must be a positive number of seconds, not {self.can_timeout!r}")
         if not 0 <= self.audio_socket_port <= 65535:
             raise ValueError(f"audio_socket_port must be a TCP port (0 to 65535), not {self.audio_socket_port!r}")
+        if not isinstance(self.budgets, Budgets):
+            raise TypeError(f"budgets are a Budgets, not {type(self.budgets).__name__}")
         if self.audio_files is not None:
             # A list given by a caller is kept as a tuple: the settings stay frozen all the way down.
             object.__setattr__(self, "audio_files", tuple(self.audio_files))

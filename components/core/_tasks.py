@@ -15,9 +15,12 @@ import time
 from collections.abc import Awaitable, Callable
 from typing import Any
 
+from ._log_limits import ThrottledLog
+
 __all__ = ["Task", "TaskRuntime"]
 
 log = logging.getLogger(__name__)
+_failures = ThrottledLog(log)
 
 
 class Task:
@@ -111,10 +114,12 @@ class TaskRuntime:
                     await result
             except asyncio.CancelledError:
                 raise
-            except Exception:
-                # A control loop keeps running after a bad cycle; the failure is logged
-                # with its traceback and counted in genom_state, not hidden.
-                log.exception("task %s.%s: periodic body failed", self.owner.instance, self.name)
+            except Exception as exc:
+                # A control loop keeps running after a bad cycle; the failure is logged (its traceback
+                # once, then rate-limited lines: a loop failing at every cycle must not fill the log)
+                # and counted in genom_state, not hidden.
+                _failures.error("task %s.%s: periodic body failed: %s", self.owner.instance, self.name,
+                                f"{type(exc).__name__}: {exc}", exc=exc)
             self._account(time.perf_counter() - started)
 
     def _account(self, duration: float) -> None:

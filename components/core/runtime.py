@@ -6,7 +6,8 @@ a host of components (the gateway, a remote component host, a test) does.
 
 from ._describe import describe
 from ._exceptions import (
-    ComponentError, InputError, NoSuchModule, NoSuchPort, NoSuchRequest, NoSuchService, RequestRunning,
+    ComponentError, InputError, NoSuchModule, NoSuchPort, NoSuchRequest, NoSuchService, PortUnavailable,
+    RequestRunning,
 )
 from ._host import NoCapability, RemoteFinder, TooManyInstances
 from ._ports import ComputedOutPortRuntime, PortSpec
@@ -28,7 +29,7 @@ __all__ = [
     "idl_type",
     # What the runtime refuses
     "ComponentError", "InputError", "NoSuchModule", "NoSuchService", "NoSuchPort", "NoSuchRequest",
-    "RequestRunning", "NoCapability",
+    "RequestRunning", "NoCapability", "PortUnavailable",
 ]
 
 _show_as_public(globals(), __all__, __name__, __name__.rsplit(".", 1)[0])

@@ -7,13 +7,15 @@ import math
 from typing import Any
 
 from ..capture import Capture, HeadPositionSource, PortView
-from ..core import OutPort, redeclare
+from ..core import OutPort, ThrottledLog, redeclare
 from ..kemar import BUS_ERROR, Kemar, KemarError
 from ._types import KemarPortData, MoveIndexes
 
 __all__ = ["KemarCapture"]
 
 log = logging.getLogger(__name__)
+#: A bus that stops answering fails every chunk's position (20 a second): rate-limited.
+_position_log = ThrottledLog(log)
 
 
 class KemarCapture(Capture, Kemar, name="kemarcapture", version="1.0"):
@@ -55,7 +57,7 @@ class KemarCapture(Capture, Kemar, name="kemarcapture", version="1.0"):
             return await self.head().read_position()
         except (KemarError, BUS_ERROR) as exc:
             self.position_failures += 1
-            log.warning("%s: head position unavailable (%s): published as NaN", self.instance, exc)
+            _position_log.warning("%s: head position unavailable (%s): published as NaN", self.instance, exc)
             return math.nan
 
     def _current_index(self) -> int:

@@ -4,7 +4,7 @@
 through its ports.  MuJoCo is imported when a world is made, not when this package is.
 """
 
-from ._component import CAMERA_PORTS, World, parse_size
+from ._component import CAMERA_PORTS, SENSOR_DOWN, World, parse_size, render_memory
 from ._wiring import WORLD_INSTANCE, attach
 from ._mjcf import (
     arm_limits, ARM_LIMITS, HEAD_LIMITS, KEMAR_LIMIT, KEMAR_ORIGIN, OBJECTS, ROOM, SOUND_SOURCES, TORSO_RANGE,
@@ -15,7 +15,7 @@ from ._types import (
 )
 
 __all__ = [
-    "World", "parse_size", "attach", "WORLD_INSTANCE",
+    "World", "parse_size", "render_memory", "SENSOR_DOWN", "attach", "WORLD_INSTANCE",
     "CAMERA_PORTS", "arm_limits",
     "KEMAR_ORIGIN", "OBJECTS", "SOUND_SOURCES", "ARM_LIMITS", "HEAD_LIMITS", "KEMAR_LIMIT", "ROOM", "TORSO_RANGE",
     "ARM_JOINTS", "Header", "HeadCommand", "Image", "JointState", "LaserScan", "LeftArmCommand", "Odometry", "Point",

@@ -10,19 +10,25 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
+import re
+from collections.abc import Callable
 from typing import Any
 
 
-from ..core import Component, InPort, InPortRuntime, LoadError, OutPort, OutPortRuntime, Task
+from ..core import (
+    Component, GenomException, InPort, InPortRuntime, LoadError, OutPort, OutPortRuntime, OverBudget,
+    Reservation, String, Task,
+)
 from ._mjcf import KEMAR_CAMERAS, KEMAR_ORIGIN, PR2_CAMERAS, scene_xml
 from ._render import LASER, RenderError, SensorRenderer
+from ._render_supervisor import RenderSupervisor
 from ._sim import PR2_JOINTS, Simulation
 from ._types import (
     ARM_JOINTS, Header, HeadCommand, Image, JointState, LaserScan, LeftArmCommand, Odometry, Point, Pose,
     PoseStamped, PositionCommand, Quaternion, RightArmCommand, Timestamp, TorsoCommand, Twist,
 )
 
-__all__ = ["World", "parse_size"]
+__all__ = ["World", "parse_size", "render_memory", "SENSOR_DOWN"]
 
 log = logging.getLogger(__name__)
 
@@ -31,17 +37,56 @@ CAMERA_PORTS = {"pr2_video": PR2_CAMERAS[0], "kemar_camera_left": KEMAR_CAMERAS[
                 "kemar_camera_right": KEMAR_CAMERAS[1]}
 
 
+_SIZE = re.compile(r"([0-9]{1,4})x([0-9]{1,4})", re.ASCII | re.IGNORECASE)
+_RATE = re.compile(r"[0-9]{1,3}(\.[0-9]{1,6})?", re.ASCII)
+
+
 def parse_size(text: str) -> tuple[int, int]:
     """``"256x256"`` as (width, height).
 
     Raises:
-        LoadError: for anything but two integers from 8 to 2048 joined by ``x``.
+        LoadError: for anything but two integers from 8 to 2048 joined by ``x`` (ASCII digits only:
+            ``²x8`` is no size).
     """
-    width, sep, height = text.lower().partition("x")
-    if not sep or not width.isdigit() or not height.isdigit() or not (8 <= int(width) <= 2048 and
-                                                                       8 <= int(height) <= 2048):
-        raise LoadError(f"bad camera size {text!r}: use WIDTHxHEIGHT, each 8 to 2048, such as 256x256")
-    return int(width), int(height)
+    match = _SIZE.fullmatch(text)
+    if match is None or not (8 <= int(match.group(1)) <= 2048 and 8 <= int(match.group(2)) <= 2048):
+        shown = text if len(text) <= 40 else text[:37] + "..."
+        raise LoadError(f"bad camera size {shown!r}: use WIDTHxHEIGHT, each 8 to 2048, such as 256x256")
+    return int(match.group(1)), int(match.group(2))
+
+
+def parse_rate(text: str) -> float:
+    """``"10"`` or ``"2.5"`` as frames per second, from 0.1 to 50.
+
+    Raises:
+        LoadError: for anything else (ASCII digits only, no exponent, no NaN).
+    """
+    rate = float(text) if _RATE.fullmatch(text) else math.nan
+    if not 0.1 <= rate <= 50:  # NaN fails this too
+        shown = text if len(text) <= 40 else text[:37] + "..."
+        raise LoadError(f"bad camera rate {shown!r}: 0.1 to 50 frames per second")
+    return rate
+
+
+#: What a render process takes before its cameras' frames (MuJoCo, OSMesa, the scene), measured.
+RENDER_BASE_BYTES = 192 * 2**20
+#: What each camera pixel adds (OpenGL buffers, the frames shared with the world), measured.
+RENDER_BYTES_PER_PIXEL = 128
+
+
+def render_memory(width: int, height: int) -> int:
+    """About how much memory the render process of a world with cameras of *width* x *height* takes.
+
+    Measured (``bench/budgets.py``): 180 MB at 256x256, 290 MB at 1024x1024, 690 MB at 2048x2048.
+    """
+    return RENDER_BASE_BYTES + RENDER_BYTES_PER_PIXEL * width * height
+
+
+class SENSOR_DOWN(GenomException):
+    """The cameras and laser have no current data: their render process died and is being restarted."""
+
+    scope = "world"
+    what: String
 
 
 def _option(argv: list[str], flag: str, default: str) -> str:
@@ -61,8 +106,10 @@ class World(Component, name="world", version="1.0"):
 
     sim: Simulation | None = None
     renderer: SensorRenderer | None = None
+    #: The render process, kept alive (its ``state()``: up, starts, failures, last error).
+    rendering: RenderSupervisor | None = None
     _running = False
-    _blind = False
+    _render_memory: Reservation | None = None
 
     physics = Task(period=0.02, doc="Steps the physics to the runtime clock, applies commands, publishes poses")
     sensors = Task(period=0.02, doc="Renders the cameras and sweeps the laser off the event loop, at -rate")
@@ -93,23 +140,28 @@ class World(Component, name="world", version="1.0"):
 
     async def _start(self) -> None:
         self.camera_size = parse_size(_option(self.argv, "-size", "256x256"))
-        rate_text = _option(self.argv, "-rate", "10")
-        try:
-            rate = float(rate_text)
-        except ValueError:
-            rate = math.nan
-        if not 0.1 <= rate <= 50:  # NaN fails this too
-            raise LoadError(f"bad camera rate {rate_text!r}: 0.1 to 50 frames per second")
-        self.frame_period = 1.0 / rate
+        self.frame_period = 1.0 / parse_rate(_option(self.argv, "-rate", "10"))
         width, height = self.camera_size
-        self.renderer = SensorRenderer(scene_xml(width, height), width, height, tuple(CAMERA_PORTS.values()),
-                                       "base_laser")
+        memory, what = render_memory(width, height), f"a world of {width}x{height} cameras"
+        try:
+            self.host.settings.budgets.check("world_bytes", what, memory)
+        except OverBudget as exc:
+            raise LoadError(f"{exc}: choose a smaller -size") from None
+        # Every world together (429 at the gateway: try again once another world is unloaded).
+        self._render_memory = self.host.ledgers.render.reserve(memory, self.instance, what)
+        xml = scene_xml(width, height)
+
+        def make(on_spawn: Callable[[int], None]) -> SensorRenderer:
+            return SensorRenderer(xml, width, height, tuple(CAMERA_PORTS.values()), "base_laser", on_spawn)
+
+        self.rendering = RenderSupervisor(make, self.instance, self._sensors_down)
+        self.renderer = self.rendering.renderer
         # Importing MuJoCo and compiling the scene take about half a second, here off the event loop
         # (a thread) and in the render process at the same time.  The tasks already run meanwhile;
         # they wait for ``_running``.
         # On a simulated clock that moves when the rig is idle, time waits for the world to exist.
         with self.clock.holding():
-            sim, opened = await asyncio.gather(asyncio.to_thread(Simulation, width, height), self.renderer.open(),
+            sim, opened = await asyncio.gather(asyncio.to_thread(Simulation, width, height), self.rendering.open(),
                                                return_exceptions=True)  # both end before the load does
         if isinstance(opened, RenderError):
             raise LoadError(f"the world cannot render its cameras ({opened}); MuJoCo renders offscreen "
@@ -129,8 +181,12 @@ class World(Component, name="world", version="1.0"):
 
     async def on_stop(self) -> None:
         self._running = False
-        if self.renderer is not None:
-            await self.renderer.aclose()
+        try:
+            if self.rendering is not None:
+                await self.rendering.aclose()
+        finally:
+            if self._render_memory is not None:
+                self._render_memory.release()
 
     # -- commands --------------------------------------------------------------------------
 
@@ -197,21 +253,23 @@ class World(Component, name="world", version="1.0"):
 
     @sensors.periodic
     async def _sense(self) -> None:
-        if not self._running or self._blind:  # still starting, stopping, or no render process
+        if not self._running:  # still starting, or stopping
             return
         now = self.clock.now() - self._origin
         if now < self._next_frame:
             return
         # Best effort, as MORSE: a frame that took longer than a period delays the next one.
         self._next_frame = max(self._next_frame + self.frame_period, now)
-        assert self.sim is not None and self.renderer is not None  # set before _running
+        assert self.sim is not None and self.rendering is not None  # set before _running
         try:
             # A frame shows its instant: on a simulated clock that moves when the rig is idle, time
             # waits for the render process (real time on a rig, where holding changes nothing).
             with self.clock.holding():
-                frames, ranges = await self.renderer.render(self.sim.snapshot())
-        except RenderError as exc:
-            await self._restart_renderer(exc)
+                frames, ranges = await self.rendering.render(self.sim.snapshot())
+        except RenderError:
+            # Reads of the cameras and laser are refused meanwhile (_sensors_down); simulated time
+            # runs on: a process that cannot start must not stop the physics.
+            await self.rendering.restart()
             return
         width, height = self.camera_size
         for port, camera in CAMERA_PORTS.items():
@@ -221,17 +279,11 @@ class World(Component, name="world", version="1.0"):
         self.pr2_scan.publish(LaserScan(self._header("base_laser_link"), LASER["angle_min"], LASER["angle_max"],
                                         LASER["angle_increment"], LASER["range_min"], LASER["range_max"], ranges))
 
-    async def _restart_renderer(self, error: RenderError) -> None:
-        """After a failed frame, a new render process; cameras and laser stop if it cannot start either."""
-        log.error("world %s: %s; starting a new render process", self.instance, error)
-        renderer = self.renderer
-        assert renderer is not None  # set before _running
-        await renderer.aclose()
-        try:
-            await renderer.open()
-        except RenderError as exc:
-            log.error("world %s: the cameras and the laser stop: %s", self.instance, exc)
-            self._blind = True
+    def _sensors_down(self, reason: str) -> None:
+        """The render process failed: camera and laser reads are refused until its replacement's first frame."""
+        down = SENSOR_DOWN(what=f"{reason}; a new render process is starting")
+        for port in (*CAMERA_PORTS, "pr2_scan"):
+            self.port(port).withdraw(down)  # type: ignore[union-attr]
 
     # -- wiring for the robot components -------------------------------------------------------
 

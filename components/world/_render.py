@@ -15,6 +15,7 @@ import contextlib
 import math
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +25,7 @@ from . import _render_worker
 from ._frames import FramePool
 from ._mjcf import PR2_GEOM_GROUP
 
-__all__ = ["SensorRenderer", "RenderError", "LASER"]
+__all__ = ["SensorRenderer", "RenderError", "LASER", "CLOSE_TIMEOUT", "START_TIMEOUT", "FRAME_TIMEOUT"]
 
 #: The base laser (a Hokuyo UTM-30LX like the PR2's): 270° in 1° steps, 0.023 to 30 m.
 LASER = {"angle_min": -math.radians(135.0), "angle_max": math.radians(135.0),
@@ -32,8 +33,15 @@ LASER = {"angle_min": -math.radians(135.0), "angle_max": math.radians(135.0),
 #: Frames of each camera that readers may hold before the world publishes copies (the newest, one
 #: being written to a client, one being drawn, and one more).
 SLOTS_PER_CAMERA = 4
-#: Seconds the render process gets to end after its input closes, before it is killed.
-CLOSE_TIMEOUT = 5.0
+#: Seconds the render process gets to end after its input closes, before it is killed.  It holds
+#: nothing that outlives it (the shared frames are the world's), and a frame it is drawing may take
+#: a second at 2048x2048: waiting for it would push the gateway's stop past its two seconds.
+CLOSE_TIMEOUT = 0.2
+#: Real seconds a render process has to start (import MuJoCo, compile the scene, make its OpenGL
+#: context) before it is taken for hung and ended: several times what a busy two-core machine takes.
+START_TIMEOUT = 60.0
+#: Real seconds a frame may take before the render process is taken for hung and ended.
+FRAME_TIMEOUT = 30.0
 
 
 def _cores() -> int:
@@ -41,6 +49,11 @@ def _cores() -> int:
     if hasattr(os, "sched_getaffinity"):
         return len(os.sched_getaffinity(0))
     return os.cpu_count() or 1
+
+
+def _kill(process: asyncio.subprocess.Process) -> None:
+    with contextlib.suppress(ProcessLookupError):
+        process.kill()
 
 
 class RenderError(RuntimeError):
@@ -56,9 +69,11 @@ class SensorRenderer:
         height: Frame height in pixels.
         cameras: The cameras drawn together at each :meth:`render` (sizes the shared frames).
         laser: The site the laser sweeps from.
+        on_spawn: Called with the id of each render process as soon as it exists (before it is ready).
     """
 
-    def __init__(self, xml: str, width: int, height: int, cameras: tuple[str, ...], laser: str) -> None:
+    def __init__(self, xml: str, width: int, height: int, cameras: tuple[str, ...], laser: str,
+                 on_spawn: Callable[[int], None] | None = None) -> None:
         self._xml = xml
         self.width, self.height = width, height
         self.cameras = cameras
@@ -70,6 +85,7 @@ class SensorRenderer:
         # Slots of requests whose reply was not read (the renderer was cancelled while waiting):
         # the process may still draw into them, so they are given back when their reply comes.
         self._pending: dict[int, list[int]] = {}
+        self._on_spawn = on_spawn
 
     @property
     def pid(self) -> int | None:
@@ -97,12 +113,18 @@ class SensorRenderer:
         fd = self.pool.fileno()
         try:
             # -P: the script's folder is not put on the import path (it holds modules named like others).
+            # The parent's id: the process ends itself if this one dies (see _render_worker).
             self._process = await asyncio.create_subprocess_exec(
-                sys.executable, "-P", str(Path(_render_worker.__file__)), str(fd),
+                sys.executable, "-P", str(Path(_render_worker.__file__)), str(fd), str(os.getpid()),
                 stdin=asyncio.subprocess.PIPE, stdout=asyncio.subprocess.PIPE, pass_fds=(fd,), env=env)
             self.pool.forget_file()
+            if self._on_spawn is not None:
+                self._on_spawn(self._process.pid)
             self._send(("open", self._xml, self.width, self.height, self._laser))
-            reply = await self._receive()
+            try:
+                reply = await asyncio.wait_for(self._receive(), START_TIMEOUT)
+            except TimeoutError:
+                raise RenderError(f"the render process did not start within {START_TIMEOUT:g} s") from None
         except OSError as exc:
             await self.aclose()
             raise RenderError(f"the render process cannot start ({exc})") from exc
@@ -138,7 +160,11 @@ class SensorRenderer:
             raise
         self._pending[seq] = slots
         while True:
-            reply = await self._receive()  # cancelled here: the slots stay pending until the reply
+            try:
+                # Cancelled here: the slots stay pending until the reply.
+                reply = await asyncio.wait_for(self._receive(), FRAME_TIMEOUT)
+            except TimeoutError:
+                raise RenderError(f"the render process drew no frame in {FRAME_TIMEOUT:g} s") from None
             if reply[1] == seq:
                 break
             for slot in self._pending.pop(reply[1], ()):
@@ -168,17 +194,27 @@ class SensorRenderer:
                               "its messages, if any, are on the gateway's standard error") from None
 
     async def aclose(self) -> None:
-        """End the render process (its input closes; killed if it does not end in time)."""
+        """End the render process: its input closes, and it is killed unless it ends within :data:`CLOSE_TIMEOUT`.
+
+        Cancelled meanwhile (a stop that ran out of time), it kills the process before it lets go:
+        no render process outlives its world.
+        """
         process, self._process = self._process, None
-        if process is not None:
-            if process.stdin is not None:
-                process.stdin.close()
-                with contextlib.suppress(ConnectionError):
-                    await process.stdin.wait_closed()
-            try:
-                await asyncio.wait_for(process.wait(), CLOSE_TIMEOUT)
-            except TimeoutError:
-                process.kill()
-                await process.wait()
-        if self.pool is not None:
-            self.pool.close()
+        try:
+            if process is not None:
+                if process.stdin is not None:
+                    process.stdin.close()
+                    with contextlib.suppress(ConnectionError):
+                        await process.stdin.wait_closed()
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(process.wait(), CLOSE_TIMEOUT)
+                if process.returncode is None:
+                    _kill(process)
+                    await process.wait()
+        except BaseException:
+            if process is not None and process.returncode is None:
+                _kill(process)  # cancelled (a stop out of time): the loop's child watcher reaps it
+            raise
+        finally:
+            if self.pool is not None:
+                self.pool.close()

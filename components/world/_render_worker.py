@@ -1,8 +1,10 @@
 """The render process of ``world``: draws MuJoCo cameras into shared memory and sweeps lasers, on request.
 
 Run by :class:`~aiogenomix.components.world._render.SensorRenderer` as a script of its own
-(``python -P _render_worker.py FD``), it imports nothing of aiogenomix: only numpy and MuJoCo, so
-it starts in the time MuJoCo takes to import.  Everything it needs comes in its first message.
+(``python -P _render_worker.py FD PARENT``), it imports nothing of aiogenomix: only numpy and MuJoCo,
+so it starts in the time MuJoCo takes to import.  Everything it needs comes in its first message.
+On Linux it asks to be killed when its parent dies (``PR_SET_PDEATHSIG``): a gateway that is
+killed, or stops without the time to end its worlds, leaves no render process drawing on.
 
 Messages go both ways as a 4-octet big-endian length and a pickle (see :func:`read_message`):
 
@@ -161,8 +163,26 @@ def serve(fd: int, inbox: BinaryIO, outbox: BinaryIO) -> None:
             sensors.close()
 
 
+def _die_with_parent(parent: int) -> None:
+    """Have the kernel kill this process when its parent dies (Linux); end now if it already has."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        pr_set_pdeathsig = 1
+        libc.prctl(pr_set_pdeathsig, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):
+        return  # no prctl: the closed pipe still ends this process after its frame
+    if os.getppid() != parent:  # the parent died before the request took effect
+        os._exit(0)
+
+
 def main(argv: list[str]) -> int:
-    """The script's entry: ``_render_worker.py FD``."""
+    """The script's entry: ``_render_worker.py FD [PARENT]``."""
+    if len(argv) > 2:
+        _die_with_parent(int(argv[2]))
     # MuJoCo and OSMesa may print on the standard output: keep it for the messages only, and send
     # whatever else is printed to the standard error.
     outbox = os.fdopen(os.dup(1), "wb")

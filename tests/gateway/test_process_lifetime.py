@@ -5,12 +5,14 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import os
 import re
 import signal
 import socket
 import sys
 import time
 from collections.abc import AsyncIterator
+from pathlib import Path
 
 import aiohttp
 import pytest
@@ -243,3 +245,45 @@ async def test_an_audio_socket_port_in_use_names_the_port_and_the_flag() -> None
     what = ended["exception"]["detail"]["what"]
     assert f"cannot listen on 127.0.0.1:{port}: address already in use" in what
     assert "--audio-socket-port" in what and "\n" not in what
+
+
+def _children(pid: int) -> list[int]:
+    """The running children of process *pid*."""
+    found = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        with contextlib.suppress(OSError):
+            found += [int(child) for child in (task / "children").read_text().split()]
+    return found
+
+
+async def _ended(pid: int) -> None:
+    """Wait (on the kernel's word, not on time) until process *pid* has ended."""
+    try:
+        handle = os.pidfd_open(pid)
+    except ProcessLookupError:
+        return
+    ended = asyncio.get_running_loop().create_future()
+    loop = asyncio.get_running_loop()
+    loop.add_reader(handle, lambda: ended.done() or ended.set_result(None))
+    try:
+        await asyncio.wait_for(ended, 30)
+    finally:
+        loop.remove_reader(handle)
+        os.close(handle)
+
+
+@pytest.mark.skipif(not hasattr(os, "pidfd_open"), reason="needs pidfd_open (Linux)")
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGKILL], ids=["SIGTERM", "SIGKILL"])
+async def test_the_render_process_of_a_world_ends_with_the_gateway(signum: int) -> None:
+    """Issue 24, acceptance 5 (its bound on time is measured in bench/budgets.py, with 2048x2048 frames)."""
+    async with gateway_process("--load", "world:-size 32x32 -rate 50") as gateway:
+        await gateway.url()                       # the world is loaded: its render process draws
+        (render,) = _children(gateway.process.pid)
+        status, took = await gateway.stop(signum)
+        # Stopped, the gateway ends it; killed, the kernel does (the render process asked it to).
+        await _ended(render)
+        out, err = await gateway.output()
+    assert status == (0 if signum == signal.SIGTERM else -signal.SIGKILL), err
+    if signum == signal.SIGTERM:
+        assert took < STOP_WITHIN + BUSY_MACHINE
+        assert "Traceback" not in err, err

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 from collections.abc import Iterator
 from pathlib import Path
@@ -13,8 +14,9 @@ def child_processes() -> set[int]:
     """The ids of this process's running children (zombies included: a child never waited for)."""
     children = set()
     for task in Path(f"/proc/{os.getpid()}/task").iterdir():
-        text = (task / "children").read_text() if (task / "children").exists() else ""
-        children.update(int(pid) for pid in text.split())
+        # A thread may end while it is looked at (asyncio's child watchers come and go with the children).
+        with contextlib.suppress(OSError):
+            children.update(int(pid) for pid in (task / "children").read_text().split())
     return children
 
 
