@@ -11,7 +11,7 @@ import dataclasses
 from collections.abc import Callable
 
 from ..core import Clock, ComponentHost
-from ._backend import Azimuth, CaptureBackend, SourceOptions, backend_class, split_device
+from ._backend import Azimuth, CaptureBackend, SourceAzimuths, SourceOptions, backend_class, split_device
 from ._scene import Scene
 
 __all__ = ["HeadAzimuth", "SoundScene", "open_for_host"]
@@ -34,9 +34,13 @@ class SoundScene:
 
     Attributes:
         scene: The scene (a scene file, ``sim:PATH``, still wins).
+        azimuths: For a listener that moves through the room (a robot's base), the sources' room
+            azimuths now, in degrees, one per source of *scene*; read at every chunk, from any
+            thread.  None: the scene's azimuths, fixed.
     """
 
     scene: Scene
+    azimuths: SourceAzimuths | None = None
 
 
 def open_for_host(host: ComponentHost, device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
@@ -47,18 +51,21 @@ def open_for_host(host: ComponentHost, device: str, rate: int, frames_per_chunk:
     scene turns with the :class:`HeadAzimuth` some component of the host provides, looked up at
     every chunk (so a head loaded after the capture started is followed too; 0° while there is
     none), unless *azimuth* is given (a script steering the scene); plain ``sim`` renders the
-    host's :class:`SoundScene` if one is provided.
+    host's :class:`SoundScene` if one is provided (its sources moving as it says).
     """
     kind, argument = split_device(device)
     scene = None
+    source_azimuths = None
     if kind == "sim":
         if azimuth is None:
             azimuth = _follow(host)
         provided = host.find(SoundScene)
-        scene = provided.scene if provided is not None else None
+        if provided is not None:
+            scene, source_azimuths = provided.scene, provided.azimuths
     else:
         azimuth = None  # real microphones hear the real room
-    options = SourceOptions(azimuth=azimuth, roots=host.settings.audio_files, scene=scene)
+    options = SourceOptions(azimuth=azimuth, roots=host.settings.audio_files, scene=scene,
+                            source_azimuths=source_azimuths)
     return backend_class(kind).for_device(device, argument, rate, frames_per_chunk, clock, options)
 
 

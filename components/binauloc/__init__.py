@@ -1,0 +1,1 @@
+"""The binauloc component (being written)."""
