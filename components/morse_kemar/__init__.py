@@ -3,7 +3,8 @@
 As in the seed, it writes speed commands on ``RobotMotion`` (a Twist, angular.z in rad/s) and reads the
 head's pose on ``RobotPose``; its services take degrees and deg/s, positive to the left, like ``kemar``.
 While it is loaded, a capture of the simulated scene hears the world's sound-source markers, from where
-its KEMAR stands, turning with its head (it provides the host's ``HeadAzimuth`` and ``SoundScene``).
+its KEMAR stands, turning with its head (it provides the host's ``HeadAzimuth`` and ``SoundScene``), and
+active listening may turn its head (it provides a ``TurnableHead``).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import math
 from typing import Annotated
 
 from ..audio import HeadAzimuth, SoundScene
+from ..binaural import TurnableHead
 from ..core import Component, Double, GenomException, InPort, OutPort, String, Task, activity
 from ..world import KEMAR_LIMIT, KEMAR_ORIGIN, Image, PoseStamped, Twist, Vector3, attach, marker_scene
 
@@ -92,6 +94,12 @@ class MorseKemar(Component, name="morse_kemar", version="1.0"):
         # The simulated sound scene hears the world's markers and turns with this head.
         self.provide(SoundScene, SoundScene(marker_scene(*KEMAR_ORIGIN)))
         self.provide(HeadAzimuth, HeadAzimuth(self._pose_azimuth))
+        # Active listening (binauloc's FaceSource) turns this head through MoveAbsolutePosition.
+        limit = math.degrees(KEMAR_LIMIT) - LIMIT_MARGIN
+        self.provide(TurnableHead, TurnableHead.by_service(self, self._azimuth_now, (-limit, limit)))
+
+    async def _azimuth_now(self) -> float:
+        return self._pose_azimuth()
 
     def _pose_azimuth(self) -> float:
         """The head azimuth of the newest RobotPose (degrees, positive = left), without touching currentPosition."""
