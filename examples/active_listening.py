@@ -174,6 +174,7 @@ def plot(loop: Loop, path: tuple[np.ndarray, np.ndarray], truth: float, out: pat
 
 
 def main() -> None:
+    """Run the session against a gateway (or one started here) and print what both loops found."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--url", help="a running gateway (default: start a simulated one here)")
     parser.add_argument("--scene-dir", type=pathlib.Path, help="where to write the scene (one of the gateway's "
