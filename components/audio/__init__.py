@@ -18,13 +18,13 @@ from ._backend import (
     BACKENDS, Azimuth, CaptureBackend, Chunk, PacedBackend, SourceAzimuths, SourceOptions, backend_class,
     open_backend, split_device,
 )
-from ._capabilities import HeadAzimuth, SoundScene, open_for_host
+from ._capabilities import HeadAzimuth, SoundScene, open_for_host, prepare_for_host
 from ._devices import list_capture_devices
 from ._errors import (
     AudioError, BackendUnavailable, DeviceError, DeviceNotFound, FormatRefused, RequestError, SceneError,
 )
 from ._head_model import SphericalHeadRenderer, woodworth_itd
-from ._renderers import KemarSceneRenderer, SceneRenderer, scene_renderer
+from ._renderers import KemarSceneRenderer, SceneRenderer, prepare_kemar, scene_renderer
 from ._limits import MAX_FRAMES_PER_CHUNK, MAX_PORT_BYTES, RATE_RANGE
 from ._line_server import CLOSE, TOKEN_PREFIX, Conversation, LastReply, LineServer, split_lines
 from ._scene import DEFAULT_SCENE, Scene, Source, load_scene
@@ -37,14 +37,14 @@ __all__ = [
     # Backends
     "CaptureBackend", "PacedBackend", "Chunk", "SourceOptions", "Azimuth", "SourceAzimuths", "BACKENDS",
     "backend_class",
-    "open_backend", "open_for_host", "split_device", "list_capture_devices",
+    "open_backend", "open_for_host", "prepare_for_host", "split_device", "list_capture_devices",
     # What a simulated scene takes from the components around it, by type
     "HeadAzimuth", "SoundScene",
     # Bounds of a capture
     "RATE_RANGE", "MAX_PORT_BYTES", "MAX_FRAMES_PER_CHUNK",
     # Simulated scenes
     "Scene", "Source", "DEFAULT_SCENE", "load_scene", "SceneRenderer", "scene_renderer", "KemarSceneRenderer",
-    "SphericalHeadRenderer", "woodworth_itd",
+    "prepare_kemar", "SphericalHeadRenderer", "woodworth_itd",
     # The chunk window
     "ChunkWindow", "WindowRead", "WindowState",
     # The dedicated sockets

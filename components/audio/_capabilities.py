@@ -7,14 +7,18 @@ simulated drive, ``morse_kemar`` for the KEMAR of the virtual world.  Neither si
 
 from __future__ import annotations
 
+import asyncio
 import dataclasses
+import logging
 from collections.abc import Callable
 
 from ..core import Clock, ComponentHost
 from ._backend import Azimuth, CaptureBackend, SourceAzimuths, SourceOptions, backend_class, split_device
 from ._scene import Scene
 
-__all__ = ["HeadAzimuth", "SoundScene", "open_for_host"]
+__all__ = ["HeadAzimuth", "SoundScene", "open_for_host", "prepare_for_host"]
+
+log = logging.getLogger(__name__)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -75,3 +79,22 @@ def _follow(host: ComponentHost) -> Azimuth:
         return head.read() if head is not None else 0.0
 
     return azimuth
+
+
+async def prepare_for_host(host: ComponentHost, clock: Clock, rate: int) -> None:
+    """When the host's default device is simulated, tabulate the measured KEMAR's filters at *rate* now.
+
+    A capture component calls it as it loads, so that its first ``sim`` capture at that rate starts
+    at once rather than after a tenth of a second (off the event loop, simulated time held). When
+    the HRIRs cannot be read, it says so in the log; the capture then reports it as it opens.
+    """
+    if split_device(host.settings.audio_device)[0] != "sim":
+        return
+    from ..binaural import BinauralError
+    from ._renderers import prepare_kemar
+
+    try:
+        with clock.holding():
+            await asyncio.to_thread(prepare_kemar, rate)
+    except BinauralError as exc:
+        log.warning("the simulated scene cannot hear through the measured KEMAR: %s", exc)

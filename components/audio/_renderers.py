@@ -16,11 +16,11 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-from ..binaural import BinauralRenderer, HrirSet
+from ..binaural import BinauralRenderer, HrirSet, azimuth_filters, diffuse_filters, load_kemar
 from ._head_model import SphericalHeadRenderer, to_int32
 from ._scene import Scene, SourceSignal
 
-__all__ = ["SceneRenderer", "KemarSceneRenderer", "scene_renderer"]
+__all__ = ["SceneRenderer", "KemarSceneRenderer", "scene_renderer", "prepare_kemar"]
 
 #: The diffuse field and the sensor noise draw from their own seed, apart from the sources'.
 _NOISE_SEED_OFFSET = 1_000_003
@@ -116,3 +116,18 @@ def scene_renderer(scene: Scene, rate: int, *, hrirs: HrirSet | None = None) -> 
     if scene.head == "spherical":
         return SphericalHeadRenderer(scene, rate)
     return KemarSceneRenderer(scene, rate, hrirs=hrirs)
+
+
+def prepare_kemar(rate: int) -> None:
+    """Tabulate the measured KEMAR's filters at *rate* now; they are kept for the process.
+
+    A capture of ``sim`` at that rate then starts within a chunk instead of a tenth of a second
+    later (the first use per user also converts the HRIRs: seconds). Blocks: call it off the event loop.
+
+    Raises:
+        BinauralError: when the HRIRs cannot be read.
+    """
+    hrirs = load_kemar()
+    # The same arguments as BinauralRenderer's calls: the caches are keyed by them.
+    azimuth_filters(hrirs, float(rate), 0.5)
+    diffuse_filters(hrirs, float(rate))

@@ -43,7 +43,7 @@ class SimulatedSceneBackend(PacedBackend):
         source_azimuths: The sources' room azimuths now, degrees (None: the scene's, fixed).
 
     The scene file is read and the renderer built (its filters tabulated) by :meth:`open`,
-    off the event loop and with simulated time held still.
+    off the event loop and with simulated time held still; the capture's clock starts before.
     """
 
     kind = "simulated scene"
@@ -77,10 +77,12 @@ class SimulatedSceneBackend(PacedBackend):
             SceneError: for a scene file that cannot be used.
             BackendUnavailable: when the measured HRIRs cannot be read.
         """
-        # Simulated time stands still meanwhile: the first chunk is due a chunk after the start.
+        # The capture starts now: building the renderer (a tenth of a second at a new rate) does not shift
+        # its clock. On a real or scaled clock the chunks due meanwhile come at once when it is built, as a
+        # sound card's buffer holds them; simulated time stands still meanwhile.
+        await super().open()
         with self.clock.holding():
             self.renderer = await asyncio.to_thread(self._build)
-        await super().open()
 
     def _build(self) -> SceneRenderer:
         if self.scene is None:
