@@ -32,6 +32,9 @@ log = logging.getLogger(__name__)
 AUDIO_PORTS = {"Audio": "frames", "CapturePort": "chunks", "KemarPort": "chunks"}
 #: The services that analyse the audio; each interrupts the others (one localiser, one stream).
 ANALYSES = ("LearnNoise", "LocalizeSources", "FaceSource")
+#: Bounds of Setup: an analysis a client may ask for holds at most this much memory and time per estimate.
+MAX_FRAME = 16_384
+MAX_SMOOTHING = 1_000
 #: The window names of the localiser, by the IDL enum.
 _WINDOWS: dict[Window, WindowName] = {Window.HANNING: "hanning", Window.HAMMING: "hamming", Window.BLACKMAN: "blackman",
             Window.RECTANGULAR: "rectangular"}
@@ -148,6 +151,9 @@ class Binauloc(Component, name="binauloc", version="1.0"):
                         smoothing: int) -> None:
         if overlap >= frameSize:
             raise e_setup(what=f"the overlap ({overlap}) must be smaller than the frame ({frameSize})")
+        if frameSize > MAX_FRAME or smoothing > MAX_SMOOTHING:
+            raise e_setup(what=f"frames of at most {MAX_FRAME} samples and at most {MAX_SMOOTHING} frames an "
+                               f"estimate (not {frameSize} and {smoothing})")
         try:
             dataclasses.replace(self._setup_of(sampleRate, maxFrequency, frameSize, overlap, window, smoothing),
                                 rate=float(sampleRate or 44_100)).check()

@@ -14,7 +14,7 @@ import pytest
 
 from aiogenomix.components.binauloc import Binauloc
 from aiogenomix.components.core import ComponentHost
-from aiogenomix.components.core.runtime import describe
+from aiogenomix.components.core.runtime import NoSuchRequest, describe
 
 from .conftest import done, source_scene
 
@@ -44,6 +44,8 @@ async def test_the_interface_is_the_two_ears_one(rig: ComponentHost) -> None:
 @pytest.mark.parametrize(("inputs", "what"), [
     ({"overlap": 1024}, "overlap"), ({"frameSize": 1000, "overlap": 500}, "power of two"),
     ({"maxFrequency": 50.0}, "frequency"), ({"smoothing": 0}, "frame"),
+    ({"frameSize": 1 << 30, "overlap": 0}, "at most"), ({"smoothing": 100_000}, "at most"),
+    ({"maxFrequency": float("nan")}, "frequency"),
 ])
 async def test_setups_that_make_no_analysis_are_refused(rig: ComponentHost, inputs: dict, what: str) -> None:
     binauloc = await rig.load("binauloc")
@@ -174,3 +176,25 @@ async def test_head_turns_tell_32_5_from_147_5_degrees_in_every_seeded_run(rig: 
             else:   # behind: the neck stops at its limit, on the source's side
                 assert found["faced"] == 0 and head == pytest.approx(89.5, abs=0.2)
             assert binauloc.Source.read().roomAzimuth == found["roomAzimuth"]
+
+
+async def test_stop_while_the_head_turns_stops_the_head(rig: ComponentHost, tmp_path: Path) -> None:
+    merged, binauloc = await rig.load("kemarcapture"), await rig.load("binauloc")
+    await done(merged, "Homing")
+    await done(binauloc, "connect_port", {"local": "KemarPort", "remote": "kemarcapture/Port"})
+    await merged.send("StartCapture", {"device": source_scene(tmp_path, 120.0, seed=4, onset=0.0)})
+    facing = await binauloc.send("FaceSource", {"velocity": 20.0})
+    while not any(r.service.name == "MoveAbsolutePosition" for r in merged.requests.running()):
+        await merged.currentState.wait_published()
+    turn = next(r for r in merged.requests.running() if r.service.name == "MoveAbsolutePosition")
+    while merged.currentState.read().position < 2.0:          # on its way to its first look
+        await merged.currentState.wait_published()
+    await done(binauloc, "Stop")
+    await facing.ended.wait()
+    assert facing.exception == {"ex": "::genom::interrupted", "detail": {"by": "Stop"}}
+    assert turn.exception == {"ex": "::genom::interrupted", "detail": {"by": "abort"}}   # the head stopped
+    with pytest.raises(NoSuchRequest):
+        merged.requests.get(turn.number)                         # cleaned once ended: its id is free again
+    stopped = await merged.azimuth_now()
+    await rig.clock.sleep(2.0)
+    assert 2.0 <= stopped < 30.0 and await merged.azimuth_now() == pytest.approx(stopped, abs=0.5)
