@@ -200,6 +200,7 @@ class BinauralLocaliser:
         steering /= np.maximum(np.linalg.norm(steering, axis=-1, keepdims=True), 1e-300)
         self._steering_conj = np.conj(steering)
         self._window = _window(self.setup.window, frame)
+        self._spline = self._spline_matrix()
         self._noise: _Covariance | None = None
         self.reset_stream()
 
@@ -366,6 +367,16 @@ class BinauralLocaliser:
 
     def _on_grid(self, values: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Template values carried to the 1° grid by a periodic cubic spline."""
+        return np.asarray(self._spline @ values)
+
+    def _spline_matrix(self) -> npt.NDArray[np.float64]:
+        """The periodic cubic spline through the templates as a matrix (1° grid × templates).
+
+        A spline is linear in the values it passes through: its matrix, made once from the
+        templates' unit vectors, carries any values to the grid in one product (an estimate of a
+        turning head makes one likelihood per run of frames).
+        """
         x = np.append(self.template_azimuths, self.template_azimuths[0] + 360.0)
-        spline = interpolate.CubicSpline(x, np.append(values, values[0]), bc_type="periodic")
+        basis = np.eye(len(self.template_azimuths))
+        spline = interpolate.CubicSpline(x, np.vstack([basis, basis[:1]]), bc_type="periodic")
         return np.asarray(spline(np.where(GRID_DEGREES < x[0], GRID_DEGREES + 360.0, GRID_DEGREES)))
