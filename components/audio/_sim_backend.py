@@ -11,8 +11,8 @@ import numpy.typing as npt
 
 from ..binaural import BinauralError
 from ..core import Clock
-from ._errors import BackendUnavailable
 from ._backend import Azimuth, PacedBackend, SourceAzimuths, SourceOptions
+from ._errors import BackendUnavailable
 from ._paths import confined_path
 from ._renderers import SceneRenderer, scene_renderer
 from ._scene import DEFAULT_SCENE, Scene, load_scene

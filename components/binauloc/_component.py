@@ -131,8 +131,9 @@ class Binauloc(Component, name="binauloc", version="1.0"):
             localiser = await self._localiser_for(block.rate)
             if origin is None or block.lost or block.restarted:
                 if origin is not None:
-                    log.warning("%s: %s frames lost before frame %d: a new stream of estimates starts there",
-                                self.instance, block.lost or "the acquisition restarted:", block.first)
+                    why = "a new acquisition" if block.restarted else f"{block.lost} frames lost"
+                    log.warning("%s: %s before frame %d: the estimates start again there", self.instance, why,
+                                block.first)
                 localiser.reset_stream()
                 origin = block.first
             for estimate in localiser.feed(block.samples, block.heads):

@@ -222,11 +222,6 @@ class BinauralLocaliser:
         """Localise without a noise estimate again."""
         self._noise = None
 
-    @property
-    def knows_noise(self) -> bool:
-        """Whether a noise estimate is in use (:meth:`learn_noise`)."""
-        return self._noise is not None
-
     def reset_stream(self) -> None:
         """Start a new stream: forget the samples and frames fed since the last estimate (after a gap)."""
         self._pending = np.zeros((0, 2))
