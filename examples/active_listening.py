@@ -35,7 +35,7 @@ LIMIT = 89.5
 RATE, CHUNK_MS = 44_100, 50
 
 
-def write_scene(directory: pathlib.Path, azimuth: float, seed: int = 1, onset: float = 1.2, snr: float = 5.0) -> str:
+def write_scene(directory: pathlib.Path, azimuth: float, seed: int = 1, onset: float = 1.2, snr: float = 10.0) -> str:
     """A scene file of one talker at *azimuth* (degrees, room) starting at *onset* s in a diffuse field; its device."""
     path = directory / f"talker-{azimuth:g}.json"
     path.write_text(json.dumps({"seed": seed, "diffuse_level": -snr, "noise_floor": -80, "sources": [
@@ -71,7 +71,11 @@ class Loop:
 
 
 def listen(binauloc: Module, loop: Loop, count: int) -> None:
-    """*count* estimates from where the head is now, added to the room's log-likelihood."""
+    """*count* estimates from where the head is now, added to the room's log-likelihood.
+
+    Each call of ``LocalizeSources(1)`` listens from its start: the audio between two calls (a round trip
+    to the gateway) goes unheard, as it did for the Two!Ears decision layer reading ``Azimuths``.
+    """
     for _ in range(count):
         binauloc.LocalizeSources(1)
         estimate = binauloc.Azimuths()
@@ -81,7 +85,7 @@ def listen(binauloc: Module, loop: Loop, count: int) -> None:
                                "room": math.degrees(estimate.roomAzimuth), "confidence": estimate.confidence})
 
 
-def decision_loop(head: Module, binauloc: Module, *, turn: float = 30.0, look: int = 4,
+def decision_loop(head: Module, binauloc: Module, *, turn: float = 30.0, look: int = 6,
                   confidence: float = 0.9, max_turns: int = 4) -> Loop:
     """Localise, turn the head either side of where it started (the source's side first), combine, face."""
     loop = Loop()

@@ -34,9 +34,10 @@ def test_active_listening_notebook(tmp_path: pathlib.Path, monkeypatch: pytest.M
     looks = re.search(r"the head looked from (.+) deg\n", text)
     assert looks is not None and len(looks[1].split(", ")) >= 2              # it turned at least once
     found = re.search(r"decision layer: found (\S+) deg \(posterior (\S+)\), head now at (\S+) deg", text)
-    assert found is not None and abs(float(found[1]) - 147.5) < 6.0 and float(found[2]) >= 0.9
+    # Behind, not its mirror image in front (32.5°): the loop hears a few tenths of a second from each azimuth.
+    assert found is not None and abs(float(found[1]) - 147.5) < 10.0 and float(found[2]) >= 0.9
     assert float(found[3]) == pytest.approx(89.5, abs=0.2)                  # the neck's limit, on its side
     inside = re.search(r"FaceSource: found (\S+) deg \(posterior (\S+)\), head at (\S+) deg, faced: (\w+)", text)
-    assert inside is not None and abs(float(inside[1]) - 147.5) < 6.0 and inside[4] == "False"
+    assert inside is not None and abs(float(inside[1]) - 147.5) < 10.0 and inside[4] == "False"
     images = [o for cell in notebook.cells for o in cell.get("outputs", []) if "image/png" in o.get("data", {})]
     assert len(images) == 1
