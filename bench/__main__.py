@@ -17,8 +17,8 @@ import time
 from typing import Any
 
 from . import (
-    budgets, fanout, instructions, load, memory, port_read, profile, remote, service, sessions, soak, sse_clients,
-    world,
+    budgets, fanout, instructions, load, localisation, memory, port_read, profile, remote, service, sessions, soak,
+    sse_clients, world,
 )
 from ._common import ROOT
 from ._report import render
@@ -36,6 +36,7 @@ BENCHMARKS = {
     "sse_clients": (sse_clients.run, {"events": 50}, {"events": 5}),
     "sessions": (sessions.run, {"sessions": 15_000, "sample": 500}, {"sessions": 1_000, "sample": 100}),
     "budgets": (budgets.run, {}, {"clients": 8, "chunks": 40, "seconds": 2.0, "rounds": 1, "size": "256x256"}),
+    "localisation": (localisation.run, {"seconds": 5.0, "rounds": 7}, {"seconds": 1.0, "rounds": 2}),
     # Not in a quick run: starting the gateway under valgrind alone takes half a minute.
     "instructions": (instructions.run, {"few": 300, "many": 2300}, {"few": 0, "many": 0}),
     "profile": (profile.run, {"reads": 100}, {"reads": 10}),

@@ -5,9 +5,10 @@ virtual CAN bus, simulated binaural scene), homes the head, starts the capture
 and the dedicated socket, sweeps the head left and right, and streams the audio
 with the head azimuth of every chunk through the dedicated-socket client.  The
 scene is one noise source at +30° (a scene file of its own, written next to
-the plot); the plot (a PNG; no display needed) shows the left and right
-samples, the head azimuth, and the interaural delay measured on the captured
-frames next to the Woodworth prediction::
+the plot), heard through the measured KEMAR HRIRs; the plot (a PNG; no display
+needed) shows the left and right samples, the head azimuth, and the interaural
+delay measured on the captured frames next to that of the measured responses
+(GCC-PHAT) and the Woodworth formula of a sphere::
 
     python examples/capture_sweep.py --amplitude 60 --out capture_sweep.png
 
@@ -31,6 +32,7 @@ import numpy as np
 
 from aiogenomix.clients.audio_socket import AsyncAudioSocketClient, AudioBlock
 from aiogenomix.components.audio import woodworth_itd
+from aiogenomix.components.binaural import HorizontalInterpolator, gcc_phat_itd, load_kemar
 from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
 from aiogenomix.components.kemarcapture import KemarCapture
 
@@ -40,6 +42,12 @@ MAX_LAG = 40  # samples: more than the largest interaural delay of the head
 SOURCE_AZIMUTH = 30.0
 #: One broadband source, so the cross-correlation shows its delay alone.
 SCENE = {"seed": 1, "noise_floor": -70, "sources": [{"type": "noise", "azimuth": SOURCE_AZIMUTH, "level": -24}]}
+
+
+def kemar_itd_ms(relative: np.ndarray) -> np.ndarray:
+    """The ITD (ms, right ear behind the left) of the measured KEMAR responses at *relative* azimuths (degrees)."""
+    responses = HorizontalInterpolator(load_kemar().resampled(RATE)).at(relative)
+    return np.array([1000.0 * gcc_phat_itd(*r.T, max_lag=MAX_LAG) / RATE for r in responses])
 
 
 def interaural_delay_ms(frames: np.ndarray) -> float:
@@ -96,7 +104,10 @@ def plot(blocks: list[AudioBlock], out: str) -> None:
     chunks = frames.reshape(-1, FRAMES_PER_CHUNK, 2)
     t_chunk = (np.arange(len(chunks)) + 1) * CHUNK_MS / 1000          # end of each chunk
     t_frame = np.arange(len(frames)) / RATE
-    predicted = [1000 * woodworth_itd(SOURCE_AZIMUTH - az) for az in positions]
+    # A chunk is heard while the head moves from the previous chunk's end to its own: compare at its middle.
+    middles = (np.concatenate([positions[:1], positions[:-1]]) + positions) / 2
+    sphere = [1000 * woodworth_itd(SOURCE_AZIMUTH - az) for az in middles]
+    predicted = kemar_itd_ms(SOURCE_AZIMUTH - middles)
     measured = [interaural_delay_ms(chunk) for chunk in chunks]
 
     fig, (ax_audio, ax_head, ax_itd) = plt.subplots(3, 1, sharex=True, figsize=(10, 8))
@@ -111,7 +122,8 @@ def plot(blocks: list[AudioBlock], out: str) -> None:
     ax_head.set_ylabel("head azimuth (deg)")
     ax_head.legend(loc="upper right")
     ax_itd.plot(t_chunk, measured, ".", ms=3, label="measured (cross-correlation)")
-    ax_itd.plot(t_chunk, predicted, lw=1, label="Woodworth, noise source")
+    ax_itd.plot(t_chunk, predicted, lw=1, label="measured KEMAR HRIRs (GCC-PHAT)")
+    ax_itd.plot(t_chunk, sphere, lw=1, ls="--", label="Woodworth (a sphere)")
     ax_itd.set_ylabel("right-ear delay (ms)")
     ax_itd.set_xlabel("capture time (s)")
     ax_itd.legend(loc="upper right")

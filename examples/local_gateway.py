@@ -6,14 +6,14 @@ import asyncio
 import concurrent.futures
 import contextlib
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 
 from aiogenomix.components.core import ComponentHost, VirtualClock
 from aiogenomix.gateway import GatewayConfig, serve
 
 
 @contextlib.contextmanager
-def local_gateway(time_scale: float = 1.0) -> Iterator[str]:
+def local_gateway(time_scale: float = 1.0, audio_files: Sequence[str] = ()) -> Iterator[str]:
     """Run a gateway on a free port of 127.0.0.1 while the context is open; yield its URL.
 
     It runs on a thread of its own, so the blocking client can be used from this
@@ -24,8 +24,9 @@ def local_gateway(time_scale: float = 1.0) -> Iterator[str]:
 
     Args:
         time_scale: At most this many robot seconds per real second (above 1, the robot moves faster).
+        audio_files: Directories from which clients may name scene and WAV files (``--audio-files``).
     """
-    config = GatewayConfig(port=0, time_scale=time_scale, audio_socket_port=0)
+    config = GatewayConfig(port=0, time_scale=time_scale, audio_socket_port=0, audio_files=list(audio_files))
     started: concurrent.futures.Future[tuple[str, asyncio.Event]] = concurrent.futures.Future()
 
     async def main() -> None:

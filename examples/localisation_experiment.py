@@ -70,18 +70,20 @@ def real_time_factors() -> dict[str, float]:
 def table(summaries: list[Summary]) -> str:
     """The results as a markdown table."""
     lines = ["| signal | SNR | sources | static: lateral median | static: median | static: front/back "
-             "| rotation: lateral median | rotation: median | rotation: front/back |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "| turns between: lateral median | turns between: median | turns between: front/back "
+             "| turning: lateral median | turning: median | turning: front/back |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for s in summaries:
-        lines.append(f"| {s.signal} | {s.snr:g} dB | {s.cases} | {s.static_lateral_median:.2f}° | "
-                     f"{s.static_median:.2f}° | {100 * s.static_front_back:.1f} % | "
-                     f"{s.rotation_lateral_median:.2f}° | {s.rotation_median:.2f}° | "
-                     f"{100 * s.rotation_front_back:.1f} % |")
+        cells = [f"{s.signal}", f"{s.snr:g} dB", f"{s.cases}"]
+        for which in ("static", "rotation", "sweep"):
+            cells += [f"{getattr(s, which + '_lateral_median'):.2f}°", f"{getattr(s, which + '_median'):.2f}°",
+                      f"{100 * getattr(s, which + '_front_back'):.1f} %"]
+        lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
 def plot(results: list[CaseResult], path: pathlib.Path) -> None:
-    """Estimated against true azimuth, per signal, still head and turning head."""
+    """Estimated against true azimuth, per signal: still head, turns between estimates, turning while listening."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -89,10 +91,10 @@ def plot(results: list[CaseResult], path: pathlib.Path) -> None:
 
     signals = list(dict.fromkeys(r.signal for r in results))
     snrs = list(dict.fromkeys(r.snr for r in results))
-    figure, axes = plt.subplots(len(signals), 2, figsize=(8, 3.4 * len(signals)), squeeze=False,
+    figure, axes = plt.subplots(len(signals), 3, figsize=(11, 3.4 * len(signals)), squeeze=False,
                                 sharex=True, sharey=True)
     for row, name in enumerate(signals):
-        for column, which in enumerate(("static", "rotation")):
+        for column, which in enumerate(("static", "rotation", "sweep")):
             ax = axes[row, column]
             ax.plot([-180, 180], [-180, 180], color="0.8", lw=1)
             ax.plot([-180, 0], [0, -180], color="0.9", lw=1, ls="--")     # front/back mirror images
@@ -101,7 +103,9 @@ def plot(results: list[CaseResult], path: pathlib.Path) -> None:
                 chosen = [r for r in results if r.signal == name and r.snr == snr]
                 ax.scatter([r.azimuth for r in chosen], [getattr(r, which) for r in chosen], s=14,
                            marker=marker, label=f"{snr:g} dB")
-            ax.set_title(f"{name}: {'still head' if which == 'static' else 'head turns 0°, ±30°'}", fontsize=10)
+            titles = {"static": "still head", "rotation": "turns between: 0°, +30°, −30°",
+                      "sweep": "turning: −30° to +30°"}
+            ax.set_title(f"{name}: {titles[which]}", fontsize=10)
             ax.set_xlim(-180, 180)
             ax.set_ylim(-180, 180)
             ax.set_xticks(range(-180, 181, 90))

@@ -5,8 +5,9 @@
 * **Backends** chosen by device string (``sim``, ``sim:SCENE.json``, ``file:PATH.wav``,
   ``pa:NAME``, an ALSA name), from a table imported lazily (:data:`BACKENDS`), as
   python-can keeps its interfaces: a capture loads the sound library it uses, no other.
-* **Simulated scenes**: fixed sources rendered at a spherical head (:class:`SphericalHeadRenderer`)
-  that turns with the :class:`HeadAzimuth` some component provides.
+* **Simulated scenes**: sources rendered at a head that turns with the :class:`HeadAzimuth` some
+  component provides: through the measured KEMAR HRIRs by default (:class:`KemarSceneRenderer`, on
+  :mod:`aiogenomix.components.binaural`), or a spherical head by name (:class:`SphericalHeadRenderer`).
 * **The chunk window** of the newest chunks (:class:`ChunkWindow`), read whole or incrementally.
 * **The dedicated sockets**: a line server (:class:`LineServer`, :class:`LastReply`) and the
   2014 protocol (``Read Port - Index <k>``, :class:`DedicatedSocketServer`).
@@ -14,15 +15,17 @@
 """
 
 from ._backend import (
-    BACKENDS, Azimuth, CaptureBackend, Chunk, PacedBackend, SourceOptions, backend_class, open_backend, split_device,
+    BACKENDS, Azimuth, CaptureBackend, Chunk, PacedBackend, SourceAzimuths, SourceOptions, backend_class,
+    open_backend, split_device,
 )
-from ._capabilities import HeadAzimuth, SoundScene, open_for_host
+from ._capabilities import HeadAzimuth, SoundScene, open_for_host, prepare_for_host
 from ._devices import list_capture_devices
 from ._errors import (
     AudioError, BackendUnavailable, DeviceError, DeviceNotFound, FormatRefused, RequestError, SceneError,
 )
 from ._head_model import SphericalHeadRenderer, woodworth_itd
 from ._limits import MAX_FRAMES_PER_CHUNK, RATE_RANGE
+from ._renderers import KemarSceneRenderer, SceneRenderer, prepare_kemar, scene_renderer
 from ._line_server import CLOSE, TOKEN_PREFIX, Conversation, LastReply, LineServer, split_lines
 from ._scene import DEFAULT_SCENE, Scene, Source, load_scene
 from ._socket_ports import SocketPorts
@@ -32,14 +35,16 @@ from ._window import ChunkWindow, WindowRead, WindowState
 
 __all__ = [
     # Backends
-    "CaptureBackend", "PacedBackend", "Chunk", "SourceOptions", "Azimuth", "BACKENDS", "backend_class",
-    "open_backend", "open_for_host", "split_device", "list_capture_devices",
+    "CaptureBackend", "PacedBackend", "Chunk", "SourceOptions", "Azimuth", "SourceAzimuths", "BACKENDS",
+    "backend_class",
+    "open_backend", "open_for_host", "prepare_for_host", "split_device", "list_capture_devices",
     # What a simulated scene takes from the components around it, by type
     "HeadAzimuth", "SoundScene",
     # Bounds of a capture (its port's size is a budget of the host: settings.budgets.port_bytes)
     "RATE_RANGE", "MAX_FRAMES_PER_CHUNK",
     # Simulated scenes
-    "Scene", "Source", "DEFAULT_SCENE", "load_scene", "SphericalHeadRenderer", "woodworth_itd",
+    "Scene", "Source", "DEFAULT_SCENE", "load_scene", "SceneRenderer", "scene_renderer", "KemarSceneRenderer",
+    "prepare_kemar", "SphericalHeadRenderer", "woodworth_itd",
     # The chunk window
     "ChunkWindow", "WindowRead", "WindowState",
     # The dedicated sockets

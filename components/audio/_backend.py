@@ -31,11 +31,13 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Chunk", "CaptureBackend", "PacedBackend", "SourceOptions", "BACKENDS", "backend_class", "open_backend",
-    "split_device", "Azimuth",
+    "split_device", "Azimuth", "SourceAzimuths",
 ]
 
 #: A callable giving the current head azimuth in degrees (positive to the left).
 Azimuth = Callable[[], float]
+#: A callable giving the sources' room azimuths now, in degrees (a listener that moves through a room).
+SourceAzimuths = Callable[[], Sequence[float]]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,11 +49,13 @@ class SourceOptions:
         roots: The directories WAV and scene files may come from (the gateway's
             ``--audio-files``); None allows any path (a host built in code).
         scene: The scene of plain ``sim`` (None: :data:`DEFAULT_SCENE`).
+        source_azimuths: The room azimuths of *scene*'s sources now (None: the scene's, fixed).
     """
 
     azimuth: Azimuth | None = None
     roots: Sequence[str] | None = None
     scene: Scene | None = None
+    source_azimuths: SourceAzimuths | None = None
 
 
 @dataclasses.dataclass(frozen=True)

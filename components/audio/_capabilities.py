@@ -7,15 +7,19 @@ simulated drive, ``morse_kemar`` for the KEMAR of the virtual world.  Neither si
 
 from __future__ import annotations
 
+import asyncio
 import dataclasses
+import logging
 from collections.abc import Callable
 
 from ..core import Clock, ComponentHost
-from ._backend import Azimuth, CaptureBackend, SourceOptions, backend_class, split_device
+from ._backend import Azimuth, CaptureBackend, SourceAzimuths, SourceOptions, backend_class, split_device
 from ._errors import DeviceError
 from ._scene import Scene
 
-__all__ = ["HeadAzimuth", "SoundScene", "open_for_host"]
+__all__ = ["HeadAzimuth", "SoundScene", "open_for_host", "prepare_for_host"]
+
+log = logging.getLogger(__name__)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -35,9 +39,13 @@ class SoundScene:
 
     Attributes:
         scene: The scene (a scene file, ``sim:PATH``, still wins).
+        azimuths: For a listener that moves through the room (a robot's base), the sources' room
+            azimuths now, in degrees, one per source of *scene*; read at every chunk, from any
+            thread.  None: the scene's azimuths, fixed.
     """
 
     scene: Scene
+    azimuths: SourceAzimuths | None = None
 
 
 def open_for_host(host: ComponentHost, device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
@@ -48,7 +56,7 @@ def open_for_host(host: ComponentHost, device: str, rate: int, frames_per_chunk:
     scene turns with the :class:`HeadAzimuth` some component of the host provides, looked up at
     every chunk (so a head loaded after the capture started is followed too; 0° while there is
     none), unless *azimuth* is given (a script steering the scene); plain ``sim`` renders the
-    host's :class:`SoundScene` if one is provided.
+    host's :class:`SoundScene` if one is provided (its sources moving as it says).
 
     Raises:
         DeviceError: for a device string holding a control character (a NUL cuts a name short
@@ -58,14 +66,17 @@ def open_for_host(host: ComponentHost, device: str, rate: int, frames_per_chunk:
         raise DeviceError(f"a device name holds no control characters, not {device!r}")
     kind, argument = split_device(device)
     scene = None
+    source_azimuths = None
     if kind == "sim":
         if azimuth is None:
             azimuth = _follow(host)
         provided = host.find(SoundScene)
-        scene = provided.scene if provided is not None else None
+        if provided is not None:
+            scene, source_azimuths = provided.scene, provided.azimuths
     else:
         azimuth = None  # real microphones hear the real room
-    options = SourceOptions(azimuth=azimuth, roots=host.settings.audio_files, scene=scene)
+    options = SourceOptions(azimuth=azimuth, roots=host.settings.audio_files, scene=scene,
+                            source_azimuths=source_azimuths)
     return backend_class(kind).for_device(device, argument, rate, frames_per_chunk, clock, options)
 
 
@@ -75,3 +86,22 @@ def _follow(host: ComponentHost) -> Azimuth:
         return head.read() if head is not None else 0.0
 
     return azimuth
+
+
+async def prepare_for_host(host: ComponentHost, clock: Clock, rate: int) -> None:
+    """When the host's default device is simulated, tabulate the measured KEMAR's filters at *rate* now.
+
+    A capture component calls it as it loads, so that its first ``sim`` capture at that rate starts
+    at once rather than after a tenth of a second (off the event loop, simulated time held). When
+    the HRIRs cannot be read, it says so in the log; the capture then reports it as it opens.
+    """
+    if split_device(host.settings.audio_device)[0] != "sim":
+        return
+    from ..binaural import BinauralError
+    from ._renderers import prepare_kemar
+
+    try:
+        with clock.holding():
+            await asyncio.to_thread(prepare_kemar, rate)
+    except BinauralError as exc:
+        log.warning("the simulated scene cannot hear through the measured KEMAR: %s", exc)

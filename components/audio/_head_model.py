@@ -1,5 +1,10 @@
 """The spherical-head binaural renderer: Woodworth delays and Brown–Duda head shadow.
 
+Kept for comparison with the measured KEMAR (a scene's ``"head": "spherical"``):
+a sphere is symmetric front to back, so a source at 30° and one at 150° give the
+same interaural cues, which is why the simulated scene renders through the
+measured HRIRs by default (:mod:`._renderers`).
+
 Each source reaches each ear with the delay of a rigid sphere (Brown & Duda
 1998, eq. 3, which sums to the Woodworth ITD ``a/c·(θ + sin θ)`` with ears at
 ±90°) and through the one-pole/one-zero head-shadow filter of the same paper::
@@ -31,7 +36,7 @@ from scipy import signal
 
 from ._scene import Scene, SourceSignal
 
-__all__ = ["SphericalHeadRenderer", "woodworth_itd", "ear_delay", "shadow_alpha"]
+__all__ = ["SphericalHeadRenderer", "woodworth_itd", "ear_delay", "shadow_alpha", "to_int32"]
 
 ALPHA_MIN = 0.1
 THETA_MIN = 150.0
@@ -40,6 +45,12 @@ EAR_AZIMUTHS = (90.0, -90.0)
 #: Extra delay, in samples, so the 4-tap interpolator never reads a future sample.
 _LAGRANGE_LATENCY = 2.0
 _FULL_SCALE = 2.0**31
+
+
+def to_int32(frames: npt.NDArray[np.float64]) -> npt.NDArray[np.int32]:
+    """Convert float full-scale frames to S32 samples, clipping."""
+    scaled = np.rint(frames * _FULL_SCALE)
+    return np.clip(scaled, -_FULL_SCALE, _FULL_SCALE - 1).astype(np.int32)
 
 
 def woodworth_itd(azimuth: float, head_radius: float = 0.0875, speed_of_sound: float = 343.0) -> float:
@@ -127,7 +138,8 @@ class SphericalHeadRenderer:
         """The head azimuth at the end of the last chunk (None before the first)."""
         return self._head
 
-    def render(self, count: int, head_azimuth: float) -> npt.NDArray[np.int32]:
+    def render(self, count: int, head_azimuth: float,
+               source_azimuths: npt.ArrayLike | None = None) -> npt.NDArray[np.int32]:
         """Render the next *count* frames while the head moves to *head_azimuth*.
 
         Args:
@@ -135,14 +147,20 @@ class SphericalHeadRenderer:
             head_azimuth: Head azimuth (degrees, positive to the left) at the end
                 of these frames; it moves linearly from the previous value, the
                 short way round.
+            source_azimuths: The sources' room azimuths at the end of these frames
+                (None: as before; at first, the scene's).
 
         Returns:
             ``(count, 2)`` int32 frames, left then right.
         """
-        return self.to_int32(self.render_float(count, head_azimuth))
+        return to_int32(self.render_float(count, head_azimuth, source_azimuths))
 
-    def render_float(self, count: int, head_azimuth: float) -> npt.NDArray[np.float64]:
+    def render_float(self, count: int, head_azimuth: float,
+                     source_azimuths: npt.ArrayLike | None = None) -> npt.NDArray[np.float64]:
         """Like :meth:`render`, as float frames in [-1, 1) full scale."""
+        if source_azimuths is not None:
+            # The delays and shadows move from their values at the previous block's end to these.
+            self._azimuths = np.asarray(source_azimuths, dtype=np.float64).reshape(len(self._signals))
         start = self._head if self._head is not None else head_azimuth
         step = (head_azimuth - start + 180.0) % 360.0 - 180.0
         self._head = start + step
@@ -209,5 +227,4 @@ class SphericalHeadRenderer:
     @staticmethod
     def to_int32(frames: npt.NDArray[np.float64]) -> npt.NDArray[np.int32]:
         """Convert float full-scale frames to S32 samples, clipping."""
-        scaled = np.rint(frames * _FULL_SCALE)
-        return np.clip(scaled, -_FULL_SCALE, _FULL_SCALE - 1).astype(np.int32)
+        return to_int32(frames)

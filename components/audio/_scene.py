@@ -4,20 +4,33 @@ A scene file is JSON (every key optional)::
 
     {
       "seed": 7,                       # base seed; source i defaults to seed + i
-      "head_radius": 0.0875,           # metres (KEMAR)
-      "speed_of_sound": 343.0,         # metres per second
+      "head": "kemar",                 # "kemar" (measured HRIRs, the default) or "spherical"
+      "diffuse_level": -20,            # dB of a diffuse noise field re the sources' total power, or null
       "noise_floor": -80,              # dBFS of uncorrelated noise per ear, or null
+      "head_radius": 0.0875,           # metres (the spherical head only)
+      "speed_of_sound": 343.0,         # metres per second (the spherical head only)
       "sources": [
         {"type": "noise",  "azimuth": 30,  "level": -26},
         {"type": "tone",   "azimuth": -60, "level": -30, "frequency": 500},
-        {"type": "clicks", "azimuth": 120, "level": -12, "rate": 2}
+        {"type": "clicks", "azimuth": 120, "level": -12, "rate": 2},
+        {"type": "speech", "azimuth": 150, "level": -26, "onset": 2}
       ]
     }
 
 Azimuths are degrees in the room, counter-clockwise seen from above, so a
 positive azimuth is on the head's left when it faces 0° (as for the KEMAR
 head, whose positive positions turn it to the left).  ``level`` is in dB
-relative to full scale: of the RMS for noise and tones, of the peak for clicks.
+relative to full scale: of the RMS for noise, tones and speech, of the peak for
+clicks.  A source is silent for its first ``onset`` seconds (a noise field to
+learn before it starts).
+
+``head`` names the renderer: ``kemar`` renders every source through the MIT
+KEMAR HRIRs (Gardner & Martin 1995), interpolated between measured directions
+(``aiogenomix.components.binaural``); ``spherical`` is the rigid sphere of
+Brown & Duda (1998), kept for comparison: it is symmetric front to back.  The
+diffuse field (``kemar`` only) is uncorrelated noise from every measured
+horizontal direction through the HRIRs; ``diffuse_level`` is its power at the
+ears relative to the sources' total power (−20: the sources are 20 dB above it).
 """
 
 from __future__ import annotations
@@ -34,10 +47,15 @@ import numpy.typing as npt
 
 from ._errors import SceneError
 
-__all__ = ["Scene", "Source", "SourceKind", "load_scene", "DEFAULT_SCENE", "SourceSignal"]
+__all__ = ["Scene", "Source", "SourceKind", "HeadModel", "load_scene", "DEFAULT_SCENE", "SourceSignal"]
 
-SourceKind = Literal["noise", "tone", "clicks"]
-_KINDS = ("noise", "tone", "clicks")
+SourceKind = Literal["noise", "tone", "clicks", "speech"]
+_KINDS = ("noise", "tone", "clicks", "speech")
+#: The renderers of a scene, by name.
+HeadModel = Literal["kemar", "spherical"]
+_HEADS = ("kemar", "spherical")
+#: Seconds of speech-like signal generated once per source and played in a loop.
+_SPEECH_LOOP = 8.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -45,12 +63,14 @@ class Source:
     """One fixed virtual source.
 
     Attributes:
-        type: ``noise`` (white, Gaussian), ``tone`` (a sine) or ``clicks`` (one-sample impulses).
+        type: ``noise`` (white, Gaussian), ``tone`` (a sine), ``clicks`` (one-sample impulses) or
+            ``speech`` (a speech-like signal: voiced syllables with formants, pauses and fricatives).
         azimuth: Direction in the room, degrees, positive to the left of 0°.
-        level: dB re full scale (RMS for noise and tones, peak for clicks).
+        level: dB re full scale (RMS for noise, tones and speech; peak for clicks).
         frequency: Tone frequency in Hz.
         rate: Clicks per second.
-        seed: Noise seed (None: the scene seed plus the source's position in the list).
+        seed: Noise or speech seed (None: the scene seed plus the source's position in the list).
+        onset: Seconds of silence before the source starts.
     """
 
     type: SourceKind = "noise"
@@ -59,25 +79,38 @@ class Source:
     frequency: float = 500.0
     rate: float = 2.0
     seed: int | None = None
+    onset: float = 0.0
+
+    def power(self, rate: float) -> float:
+        """The source's mean power once it has started (full scale 1), at *rate* Hz."""
+        amplitude2 = 10.0 ** (self.level / 10.0)
+        if self.type == "clicks":
+            return amplitude2 * min(1.0, self.rate / rate)
+        return amplitude2
 
 
 @dataclasses.dataclass(frozen=True)
 class Scene:
-    """A set of fixed sources around a spherical head.
+    """A set of fixed sources around a head, and the noise it hears besides them.
 
     Attributes:
         sources: The virtual sources.
-        seed: Base seed of the noise sources.
-        head_radius: Sphere radius in metres.
-        speed_of_sound: In metres per second.
+        seed: Base seed of the noise sources, the diffuse field and the sensor noise.
+        head: The renderer: ``kemar`` (measured HRIRs) or ``spherical`` (a rigid sphere).
+        diffuse_level: Power of a diffuse noise field at the ears in dB relative to the sources'
+            total power, or None for none (``kemar`` only).
         noise_floor: dBFS RMS of independent noise added at each ear, or None.
+        head_radius: Sphere radius in metres (``spherical`` only).
+        speed_of_sound: In metres per second (``spherical`` only).
     """
 
     sources: tuple[Source, ...] = ()
     seed: int = 0
+    head: HeadModel = "kemar"
+    diffuse_level: float | None = None
+    noise_floor: float | None = None
     head_radius: float = 0.0875
     speed_of_sound: float = 343.0
-    noise_floor: float | None = None
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Scene:
@@ -115,18 +148,34 @@ class Scene:
         Raises:
             SceneError: naming the value.
         """
+        if self.head not in _HEADS:
+            raise SceneError(f"head must be one of {', '.join(_HEADS)}, not {self.head!r}")
         if not (self.head_radius > 0 and self.speed_of_sound > 0):
             raise SceneError("head_radius and speed_of_sound must be positive")
+        for name in ("diffuse_level", "noise_floor"):
+            value = getattr(self, name)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, int | float)
+                                      or not math.isfinite(value)):
+                raise SceneError(f"{name} must be a number of dB or null, not {value!r}")
+        if self.diffuse_level is not None:
+            if self.head != "kemar":
+                raise SceneError("the diffuse field is rendered through the measured HRIRs: use head \"kemar\"")
+            if not self.sources:
+                raise SceneError("diffuse_level is relative to the sources' power: the scene has no source")
         for i, source in enumerate(self.sources):
-            if not all(math.isfinite(v) for v in (source.azimuth, source.level, source.frequency, source.rate)):
-                raise SceneError(f"sources[{i}] has a non-finite value")
+            values = (source.azimuth, source.level, source.frequency, source.rate, source.onset)
+            if not all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in values):
+                raise SceneError(f"sources[{i}] has a value that is not a finite number")
+            if source.onset < 0:
+                raise SceneError(f"sources[{i}].onset must not be negative")
             if source.type == "clicks" and not source.rate > 0:
                 raise SceneError(f"sources[{i}].rate must be positive")
             if source.type == "tone" and not source.frequency >= 0:
                 raise SceneError(f"sources[{i}].frequency must not be negative")
 
 
-#: The scene of ``sim``: noise ahead-left, a tone on the right, clicks behind-left.
+#: The scene of ``sim``: noise ahead-left, a tone on the right, clicks behind-left, heard by the KEMAR
+#: in a quiet diffuse field.
 DEFAULT_SCENE = Scene(
     sources=(
         Source("noise", azimuth=30.0, level=-26.0),
@@ -134,6 +183,7 @@ DEFAULT_SCENE = Scene(
         Source("clicks", azimuth=120.0, level=-12.0, rate=2.0),
     ),
     seed=7,
+    diffuse_level=-30.0,
     noise_floor=-80.0,
 )
 
@@ -177,15 +227,31 @@ class SourceSignal:
         self.amplitude = 10.0 ** (source.level / 20.0)
         self._rng = np.random.default_rng(seed)
         self._position = 0
+        self._onset = round(source.onset * rate)
         period = rate / source.rate if source.type == "clicks" else 0.0
         self._click_period = max(1, round(period))
+        self._speech: npt.NDArray[np.float64] | None = None
+        if source.type == "speech":
+            from ..binaural import speech_like
+
+            self._speech = self.amplitude * speech_like(_SPEECH_LOOP, rate, self._rng)
 
     def next(self, count: int) -> npt.NDArray[np.float64]:
-        """The next *count* samples."""
+        """The next *count* samples (zeros before the onset)."""
         start, self._position = self._position, self._position + count
+        if start + count <= self._onset:
+            return np.zeros(count)
+        silent = max(0, self._onset - start)
+        samples = self._generate(start + silent - self._onset, count - silent)
+        return np.concatenate([np.zeros(silent), samples]) if silent else samples
+
+    def _generate(self, start: int, count: int) -> npt.NDArray[np.float64]:
+        """*count* samples of the signal from its sample *start* (0 at the onset)."""
         kind = self.source.type
         if kind == "noise":
             return self.amplitude * self._rng.standard_normal(count)
+        if self._speech is not None:
+            return np.take(self._speech, np.arange(start, start + count), mode="wrap")
         n = np.arange(start, start + count, dtype=np.int64)
         if kind == "tone":
             # Reduce the phase modulo one period in exact integer arithmetic first,

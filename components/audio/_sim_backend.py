@@ -1,4 +1,4 @@
-"""The simulated binaural capture backend: a scene rendered at a spherical head, paced by the clock."""
+"""The simulated binaural capture backend: a scene rendered at a turning head (the measured KEMAR by default)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,12 @@ from typing import Self
 import numpy as np
 import numpy.typing as npt
 
+from ..binaural import BinauralError
 from ..core import Clock
-from ._backend import Azimuth, PacedBackend, SourceOptions
-from ._head_model import SphericalHeadRenderer
+from ._backend import Azimuth, PacedBackend, SourceAzimuths, SourceOptions
+from ._errors import BackendUnavailable
 from ._paths import confined_path
+from ._renderers import SceneRenderer, scene_renderer
 from ._scene import DEFAULT_SCENE, Scene, load_scene
 
 __all__ = ["SimulatedSceneBackend"]
@@ -23,10 +25,11 @@ def _facing_front() -> float:
 
 
 class SimulatedSceneBackend(PacedBackend):
-    """Fixed virtual sources heard by a spherical head that may turn.
+    """Virtual sources heard by a head that may turn: the measured KEMAR, or the spherical head a scene names.
 
-    The head azimuth is read once per chunk, when the chunk is produced (its
-    end), and the rendering moves smoothly from the previous azimuth to it.
+    The head azimuth (and the sources' azimuths of a listener that moves through a
+    room) is read once per chunk, when the chunk is produced (its end), and the
+    rendering moves smoothly from the previous azimuths to it.
 
     Args:
         device: The device string.
@@ -37,8 +40,10 @@ class SimulatedSceneBackend(PacedBackend):
         scene: A scene object (takes precedence over *scene_file*).
         azimuth: The head azimuth in degrees (default: always 0°).
         roots: The directories a scene file may come from (None: anywhere).
+        source_azimuths: The sources' room azimuths now, degrees (None: the scene's, fixed).
 
-    The scene file is read by :meth:`open`, off the event loop.
+    The scene file is read and the renderer built (its filters tabulated) by :meth:`open`,
+    off the event loop and with simulated time held still; the capture's clock starts before.
     """
 
     kind = "simulated scene"
@@ -47,35 +52,48 @@ class SimulatedSceneBackend(PacedBackend):
     def for_device(cls, device: str, argument: str, rate: int, frames_per_chunk: int, clock: Clock,
                    options: SourceOptions) -> Self:
         """The scene file *argument* (``sim:PATH``), or the options' scene for plain ``sim``."""
-        return cls(device, rate, frames_per_chunk, clock, scene_file=argument or None,
-                   scene=None if argument else options.scene, azimuth=options.azimuth, roots=options.roots)
+        provided = None if argument else options.scene
+        return cls(device, rate, frames_per_chunk, clock, scene_file=argument or None, scene=provided,
+                   azimuth=options.azimuth, roots=options.roots,
+                   source_azimuths=options.source_azimuths if provided is not None else None)
 
     def __init__(self, device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
                  scene_file: str | None = None, scene: Scene | None = None,
-                 azimuth: Azimuth | None = None, roots: Sequence[str] | None = None) -> None:
+                 azimuth: Azimuth | None = None, roots: Sequence[str] | None = None,
+                 source_azimuths: SourceAzimuths | None = None) -> None:
         super().__init__(device, rate, frames_per_chunk, clock)
         self.scene_file = scene_file
         self.scene = scene if scene is not None else (None if scene_file else DEFAULT_SCENE)
         self.azimuth = azimuth or _facing_front
+        self.source_azimuths = source_azimuths
         self._roots = roots
-        self.renderer: SphericalHeadRenderer | None = None
+        self.renderer: SceneRenderer | None = None
 
     async def open(self) -> None:
-        """Read the scene file (if any) and start the clock.
+        """Read the scene file (if any), build the renderer and start the clock.
 
         Raises:
             PathRefused: for a scene file outside the allowed directories.
             SceneError: for a scene file that cannot be used.
+            BackendUnavailable: when the measured HRIRs cannot be read.
         """
+        # The capture starts now: building the renderer (a tenth of a second at a new rate) does not shift
+        # its clock. On a real or scaled clock the chunks due meanwhile come at once when it is built, as a
+        # sound card's buffer holds them; simulated time stands still meanwhile.
+        await super().open()
+        with self.clock.holding():
+            self.renderer = await asyncio.to_thread(self._build)
+
+    def _build(self) -> SceneRenderer:
         if self.scene is None:
             assert self.scene_file is not None
-            self.scene = await asyncio.to_thread(self._load, self.scene_file)
-        self.renderer = SphericalHeadRenderer(self.scene, self.rate)
-        await super().open()
-
-    def _load(self, path: str) -> Scene:
-        return load_scene(confined_path(path, self._roots), shown=path)
+            self.scene = load_scene(confined_path(self.scene_file, self._roots), shown=self.scene_file)
+        try:
+            return scene_renderer(self.scene, self.rate)
+        except BinauralError as exc:
+            raise BackendUnavailable(f"the simulated KEMAR cannot hear: {exc}") from exc
 
     def _produce(self, count: int) -> npt.NDArray[np.int32]:
         assert self.renderer is not None, "read before open"
-        return self.renderer.render(count, float(self.azimuth()))
+        sources = self.source_azimuths() if self.source_azimuths is not None else None
+        return self.renderer.render(count, float(self.azimuth()), sources)

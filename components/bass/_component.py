@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 from ..audio import (
     MAX_FRAMES_PER_CHUNK, RATE_RANGE, AudioError, Azimuth, CaptureBackend, FormatRefused, SocketPorts,
-    list_capture_devices, open_for_host,
+    list_capture_devices, open_for_host, prepare_for_host,
 )
 from ..core import (
     Component, ComponentHost, Out, OutPort, OverBudget, Reservation, String, Task, ThrottledLog, ULong, activity,
@@ -63,6 +63,7 @@ class Bass(Component, name="bass", version="1.0"):
         """Publish an empty port: readers may connect before the first acquisition."""
         await super().on_start()
         self.Audio.publish(AudioSnapshot.empty())
+        await prepare_for_host(self.host, self.clock, 44100)   # a sim acquisition at the default rate starts at once
 
     async def on_stop(self) -> None:
         if self._server is not None:

@@ -2,7 +2,8 @@
 
 Pure computation (no I/O besides reading the HRIRs once): the capture scene
 renders through :class:`BinauralRenderer`, and a ``binauloc`` component runs
-:class:`BinauralLocaliser`. Conventions throughout: azimuths in degrees,
+:class:`BinauralLocaliser` and turns a :class:`TurnableHead` as :class:`FrontBackPolicy`
+says. Conventions throughout: azimuths in degrees,
 counter-clockwise seen from above (positive to the LEFT), room or head frame
 as named; ear 0 is the left; samples are floats with full scale 1; the
 localiser reports radians in the head frame, as the Two!Ears code read
@@ -10,6 +11,7 @@ localiser reports radians in the head frame, as the Two!Ears code read
 references and the measured figures.
 """
 
+from ._active import FrontBackPolicy, HeadTurnFailed, TurnableHead
 from ._cues import band_ilds, gcc_phat_itd, third_octave_centres
 from ._errors import BinauralError, HrirError, HrirUnavailable, LocalisationError
 from ._filters import AzimuthFilters, DiffuseFilters, azimuth_filters, diffuse_filters
@@ -17,7 +19,7 @@ from ._hrir_set import HrirSet, wrap_degrees
 from ._interpolation import HorizontalInterpolator
 from ._kemar import KEMAR_RATE, kemar_cache_path, load_kemar
 from ._likelihood import GRID_DEGREES, AzimuthLikelihood, combine_in_room
-from ._localiser import AzimuthEstimate, BinauralLocaliser, LocaliserSetup
+from ._localiser import MOTION_TOLERANCE, WINDOWS, AzimuthEstimate, BinauralLocaliser, LocaliserSetup, Window
 from ._renderer import BinauralRenderer
 from ._signals import SIGNALS, speech_like, tone_complex, white_noise
 
@@ -28,6 +30,9 @@ __all__ = [
     "BinauralRenderer", "AzimuthFilters", "azimuth_filters", "DiffuseFilters", "diffuse_filters",
     # Localisation
     "BinauralLocaliser", "LocaliserSetup", "AzimuthEstimate", "AzimuthLikelihood", "combine_in_room", "GRID_DEGREES",
+    "Window", "WINDOWS", "MOTION_TOLERANCE",
+    # Active listening
+    "TurnableHead", "FrontBackPolicy", "HeadTurnFailed",
     # Cues
     "gcc_phat_itd", "band_ilds", "third_octave_centres",
     # Test signals

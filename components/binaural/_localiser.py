@@ -25,11 +25,19 @@ directions of the horizontal plane, every 5°); nothing is learnt from the
 signals to be localised. The log-likelihood on the template grid is carried to
 a 1° grid by a periodic cubic spline. Estimates at several head azimuths combine
 in the room frame (:func:`combine_in_room`).
+
+A head that turns while an estimate's frames go by: :meth:`BinauralLocaliser.feed`
+takes the head azimuth of every sample (from the positions carried with the
+audio). The frames of an estimate are split into runs within which the head
+moves less than :data:`MOTION_TOLERANCE`; each run is matched in its own head
+frame, turned into the room frame with its head azimuth, and the runs add there.
+The estimate is then seen from the head at its last frame. A still head is one run.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -38,13 +46,26 @@ from scipy import interpolate
 from ._errors import LocalisationError
 from ._hrir_set import HrirSet
 from ._kemar import load_kemar
-from ._likelihood import GRID_DEGREES, AzimuthLikelihood, radians
+from ._likelihood import GRID_DEGREES, AzimuthLikelihood, combine_in_room, radians
 
-__all__ = ["LocaliserSetup", "BinauralLocaliser", "AzimuthEstimate"]
+__all__ = ["LocaliserSetup", "BinauralLocaliser", "AzimuthEstimate", "Window", "WINDOWS", "MOTION_TOLERANCE"]
 
 #: How sharp the log-likelihood is for each frame and unit of weighted match: chosen so that the
 #: confidence (posterior within ±10° of the peak) follows how often estimates are that close.
 _SHARPNESS = 0.1
+#: The analysis windows, by name (``binauloc``'s ``::binauloc::HANNING``, ...).
+Window = Literal["hanning", "hamming", "blackman", "rectangular"]
+WINDOWS: tuple[Window, ...] = ("hanning", "hamming", "blackman", "rectangular")
+#: Degrees the head may turn within the frames matched in one head frame (a fifth of the templates' spacing).
+MOTION_TOLERANCE = 1.0
+
+
+def _window(name: str, frame: int) -> npt.NDArray[np.float64]:
+    """The periodic *name* window of *frame* samples (the DFT-even form: its frames overlap-add evenly)."""
+    if name == "rectangular":
+        return np.ones(frame)
+    make = {"hanning": np.hanning, "hamming": np.hamming, "blackman": np.blackman}[name]
+    return np.asarray(make(frame + 1)[:frame])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -59,6 +80,7 @@ class LocaliserSetup:
             1024 every 512 samples).
         smoothing: Frames per estimate when streaming.
         min_frequency: Lowest frequency used, Hz.
+        window: The analysis window: ``hanning``, ``hamming``, ``blackman`` or ``rectangular``.
     """
 
     rate: float = 24_414.0
@@ -67,6 +89,7 @@ class LocaliserSetup:
     hop: int = 512
     smoothing: int = 10
     min_frequency: float = 100.0
+    window: Window = "hanning"
 
     def check(self) -> None:
         """Refuse parameters that make no analysis.
@@ -86,6 +109,8 @@ class LocaliserSetup:
             raise LocalisationError("the frequency range is empty")
         if self.min_frequency > self.rate / 2:
             raise LocalisationError("the lowest frequency is above the Nyquist frequency")
+        if self.window not in WINDOWS:
+            raise LocalisationError(f"the window is one of {', '.join(WINDOWS)}, not {self.window!r}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -97,7 +122,9 @@ class AzimuthEstimate:
         confidence: Posterior probability within ±10° of it (about 0.5 when front and back tie).
         likelihood: The whole head-frame likelihood (for combining with others).
         frames: Analysis frames it rests on.
-        end: Sample index (since the localiser started) just after its last frame.
+        end: Sample index (since the stream started) just after its last frame.
+        head_azimuth: The head's room azimuth at the last frame, degrees (None when the audio
+            carried none); the head frame is the head's there.
     """
 
     azimuth: float
@@ -105,11 +132,17 @@ class AzimuthEstimate:
     likelihood: AzimuthLikelihood
     frames: int
     end: int
+    head_azimuth: float | None = None
 
     @property
     def degrees(self) -> float:
         """:attr:`azimuth` in degrees."""
         return float(np.degrees(self.azimuth))
+
+    @property
+    def room(self) -> AzimuthLikelihood | None:
+        """The likelihood in the room frame (None when the head azimuth is unknown)."""
+        return None if self.head_azimuth is None else self.likelihood.in_room(self.head_azimuth)
 
 
 class _Covariance:
@@ -166,11 +199,10 @@ class BinauralLocaliser:
         steering = np.fft.rfft(responses, frame, axis=1)[:, self._bins]                # (templates, bins, 2)
         steering /= np.maximum(np.linalg.norm(steering, axis=-1, keepdims=True), 1e-300)
         self._steering_conj = np.conj(steering)
-        self._window = np.hanning(frame + 1)[:frame]
+        self._window = _window(self.setup.window, frame)
+        self._spline = self._spline_matrix()
         self._noise: _Covariance | None = None
-        self._pending = np.zeros((0, 2))
-        self._streamed = _Covariance(len(self._bins))
-        self._consumed = 0
+        self.reset_stream()
 
     # -- noise ---------------------------------------------------------------------------------
 
@@ -189,6 +221,14 @@ class BinauralLocaliser:
     def forget_noise(self) -> None:
         """Localise without a noise estimate again."""
         self._noise = None
+
+    def reset_stream(self) -> None:
+        """Start a new stream: forget the samples and frames fed since the last estimate (after a gap)."""
+        self._pending = np.zeros((0, 2))
+        self._pending_heads: npt.NDArray[np.float64] | None = None
+        self._frames: list[npt.NDArray[np.complex128]] = []
+        self._frame_heads: list[float] = []
+        self._consumed = 0
 
     # -- estimates -----------------------------------------------------------------------------
 
@@ -209,30 +249,74 @@ class BinauralLocaliser:
         end = (covariance.frames - 1) * self.setup.hop + self.setup.frame
         return self._estimate(covariance, end)
 
-    def feed(self, audio: npt.ArrayLike) -> list[AzimuthEstimate]:
+    def feed(self, audio: npt.ArrayLike, heads: npt.ArrayLike | None = None) -> list[AzimuthEstimate]:
         """Stream audio in; an estimate comes out every ``setup.smoothing`` frames.
 
         Args:
             audio: ``(frames, 2)`` samples following those fed before.
+            heads: The head's room azimuth at each of these samples, degrees (from the positions
+                carried with the audio), or None when unknown. The estimates then account for a
+                head that turned during their frames, and carry the head azimuth of their last frame.
 
         Returns:
             The estimates completed by this audio, oldest first.
         """
         frame, hop, smoothing = self.setup.frame, self.setup.hop, self.setup.smoothing
-        self._pending = np.concatenate([self._pending, np.asarray(audio, dtype=np.float64).reshape(-1, 2)])
+        samples = np.asarray(audio, dtype=np.float64).reshape(-1, 2)
+        if heads is None:
+            self._pending_heads = None
+        else:
+            given = np.asarray(heads, dtype=np.float64).reshape(len(samples))
+            if self._pending_heads is None or len(self._pending_heads) != len(self._pending):
+                # Azimuths unknown so far: the earlier samples take the first one given.
+                earlier = np.full(len(self._pending), given[0] if len(given) else 0.0)
+                self._pending_heads = earlier
+            self._pending_heads = np.concatenate([self._pending_heads, given])
+        self._pending = np.concatenate([self._pending, samples])
         estimates = []
         while len(self._pending) >= frame:
-            wanted = smoothing - self._streamed.frames
-            available = (len(self._pending) - frame) // hop + 1
-            take = min(wanted, available)
-            self._streamed.add(self._spectra(self._pending[:(take - 1) * hop + frame]))
+            take = min(smoothing - len(self._frames), (len(self._pending) - frame) // hop + 1)
+            spectra = self._spectra(self._pending[:(take - 1) * hop + frame])
+            self._frames.extend(spectra)
+            if self._pending_heads is not None:
+                centres = np.arange(take) * hop + frame // 2
+                self._frame_heads.extend(float(h) for h in self._pending_heads[centres])
+                self._pending_heads = self._pending_heads[take * hop:]
             self._pending = self._pending[take * hop:]
             self._consumed += take * hop
-            if self._streamed.frames == smoothing:
+            if len(self._frames) == smoothing:
                 end = self._consumed - hop + frame
-                estimates.append(self._estimate(self._streamed, end))
-                self._streamed = _Covariance(len(self._bins))
+                known = len(self._frame_heads) == smoothing
+                estimates.append(self._streamed_estimate(end, self._frame_heads if known else None))
+                self._frames, self._frame_heads = [], []
         return estimates
+
+    def _streamed_estimate(self, end: int, heads: list[float] | None) -> AzimuthEstimate:
+        """The estimate of the frames kept, the head turning through *heads* (one per frame) or unknown."""
+        spectra = np.stack(self._frames)
+        if heads is None:
+            covariance = _Covariance(len(self._bins))
+            covariance.add(spectra)
+            return self._estimate(covariance, end)
+        runs: list[tuple[int, int]] = []
+        first = 0
+        for index in range(1, len(heads) + 1):
+            if index == len(heads) or abs(heads[index] - heads[first]) > MOTION_TOLERANCE:
+                runs.append((first, index))
+                first = index
+        last = heads[-1]
+        if len(runs) == 1 and heads[0] == last:
+            covariance = _Covariance(len(self._bins))
+            covariance.add(spectra)
+            return dataclasses.replace(self._estimate(covariance, end), head_azimuth=last)
+        observations = []
+        for lo, hi in runs:
+            covariance = _Covariance(len(self._bins))
+            covariance.add(spectra[lo:hi])
+            observations.append((self._log_likelihood(covariance), float(np.mean(heads[lo:hi]))))
+        likelihood = combine_in_room(observations).relative_to(last)
+        peak = likelihood.peak()
+        return AzimuthEstimate(radians(peak), likelihood.mass_near(peak), likelihood, len(heads), end, last)
 
     def _spectra(self, samples: npt.NDArray[np.float64]) -> npt.NDArray[np.complex128]:
         """``(frames, bins, 2)`` windowed spectra of every full frame, at the analysed bins."""
@@ -246,6 +330,12 @@ class BinauralLocaliser:
         return np.ascontiguousarray(spectra.transpose(0, 2, 1))
 
     def _estimate(self, covariance: _Covariance, end: int) -> AzimuthEstimate:
+        likelihood = self._log_likelihood(covariance)
+        peak = likelihood.peak()
+        return AzimuthEstimate(radians(peak), likelihood.mass_near(peak), likelihood, covariance.frames, end)
+
+    def _log_likelihood(self, covariance: _Covariance) -> AzimuthLikelihood:
+        """The head-frame likelihood of the frames summed in *covariance*."""
         count = covariance.frames
         a, d, b = covariance.r11 / count, covariance.r22 / count, covariance.r12 / count
         if self._noise is not None:
@@ -268,12 +358,20 @@ class BinauralLocaliser:
         match = np.abs(np.einsum("tfe,fe->tf", self._steering_conj, vector)) ** 2              # (templates, bins)
         score = match @ weight
         log_likelihood = _SHARPNESS * count * (score - score.max())
-        likelihood = AzimuthLikelihood(self._on_grid(log_likelihood), "head")
-        peak = likelihood.peak()
-        return AzimuthEstimate(radians(peak), likelihood.mass_near(peak), likelihood, count, end)
+        return AzimuthLikelihood(self._on_grid(log_likelihood), "head")
 
     def _on_grid(self, values: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Template values carried to the 1° grid by a periodic cubic spline."""
+        return np.asarray(self._spline @ values)
+
+    def _spline_matrix(self) -> npt.NDArray[np.float64]:
+        """The periodic cubic spline through the templates as a matrix (1° grid × templates).
+
+        A spline is linear in the values it passes through: its matrix, made once from the
+        templates' unit vectors, carries any values to the grid in one product (an estimate of a
+        turning head makes one likelihood per run of frames).
+        """
         x = np.append(self.template_azimuths, self.template_azimuths[0] + 360.0)
-        spline = interpolate.CubicSpline(x, np.append(values, values[0]), bc_type="periodic")
+        basis = np.eye(len(self.template_azimuths))
+        spline = interpolate.CubicSpline(x, np.vstack([basis, basis[:1]]), bc_type="periodic")
         return np.asarray(spline(np.where(GRID_DEGREES < x[0], GRID_DEGREES + 360.0, GRID_DEGREES)))

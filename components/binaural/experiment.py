@@ -13,9 +13,15 @@ For each signal, signal-to-noise ratio and source azimuth:
 * **static**: three segments with the head still, combined;
   **rotation**: the head turns by +``turn`` and −``turn`` degrees between the
   segments (0.2 s per turn, audio during the turns unused), and the three
-  estimates are combined in the room frame.
+  estimates are combined in the room frame;
+  **sweep**: the head turns all the time, from −``turn`` to +``turn`` degrees
+  of its start at constant speed, while three segments' worth of audio goes by;
+  the streaming localiser gets the head azimuth of every sample (as binauloc gets
+  it from kemarcapture's positions), makes one estimate per segment, each made of
+  runs of frames within which the head moved under a degree, and the three are
+  combined in the room frame.
 
-So both cases rest on the same amount of audio; only the head's movement differs.
+So the three cases rest on the same amount of audio; only the head's movement differs.
 
 Measures: the median absolute azimuth error over the full circle, the median
 error of the lateral angle (front and back folded onto each other), and the
@@ -35,8 +41,8 @@ import numpy.typing as npt
 
 from ._hrir_set import HrirSet, wrap_degrees
 from ._kemar import load_kemar
-from ._likelihood import combine_in_room
-from ._localiser import BinauralLocaliser, LocaliserSetup
+from ._likelihood import AzimuthLikelihood, combine_in_room
+from ._localiser import AzimuthEstimate, BinauralLocaliser, LocaliserSetup
 from ._renderer import BinauralRenderer
 from ._signals import SIGNALS
 
@@ -96,6 +102,8 @@ class CaseResult:
     rotation: float
     static_confidence: float
     rotation_confidence: float
+    sweep: float = float("nan")
+    sweep_confidence: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -111,6 +119,9 @@ class Summary:
     rotation_lateral_median: float
     rotation_median: float
     rotation_front_back: float
+    sweep_lateral_median: float = float("nan")
+    sweep_median: float = float("nan")
+    sweep_front_back: float = float("nan")
 
 
 @dataclasses.dataclass
@@ -166,6 +177,7 @@ def run_experiment(config: ExperimentConfig = ExperimentConfig(), *, hrirs: Hrir
     setup = dataclasses.replace(config.setup, rate=rate)
     localiser = BinauralLocaliser(setup, hrirs=hrirs)
     segment = round(config.segment * rate)
+    streaming = _streaming(localiser, segment, hrirs)
     turn = round(_TURN_SECONDS * rate)
     total = 3 * segment + 2 * turn
     timing = Timing()
@@ -177,17 +189,18 @@ def run_experiment(config: ExperimentConfig = ExperimentConfig(), *, hrirs: Hrir
                 rng = np.random.default_rng([config.seed, s_index, r_index, a_index])
                 head = float(rng.uniform(-10.0, 10.0))
                 dry = make(total / rate, rate, rng) * 10.0 ** (_SOURCE_LEVEL / 20.0)
-                results.append(_case(name, snr, float(azimuth), head, dry, hrirs, localiser, config, segment,
-                                     turn, rng, timing))
+                results.append(_case(name, snr, float(azimuth), head, dry, hrirs, (localiser, streaming), config,
+                                     segment, turn, rng, timing))
             if progress is not None:
                 progress(f"{name} at {snr:g} dB: {len(config.azimuths)} azimuths")
     return results, timing
 
 
 def _case(name: str, snr: float, azimuth: float, head: float, dry: npt.NDArray[np.float64], hrirs: HrirSet,
-          localiser: BinauralLocaliser, config: ExperimentConfig, segment: int, turn: int,
+          localisers: tuple[BinauralLocaliser, BinauralLocaliser], config: ExperimentConfig, segment: int, turn: int,
           rng: np.random.Generator, timing: Timing) -> CaseResult:
     rate = config.rate
+    localiser, streaming = localisers
     seed = int(rng.integers(2**31))
     static_heads = [head, head, head]
     turning_heads = [head, head + config.turn, head - config.turn]
@@ -213,9 +226,51 @@ def _case(name: str, snr: float, azimuth: float, head: float, dry: npt.NDArray[n
         room = combine_in_room(observations)
         timing.localise += time.process_time() - started
         estimates[label] = (room.peak(), room.confidence())
-    timing.audio += 2 * 3 * segment / rate
+    estimates["sweep"] = _sweep(dry[:3 * segment], azimuth, head, snr, hrirs, streaming, config, segment, seed, rng,
+                                timing)
+    timing.audio += 3 * 3 * segment / rate
     return CaseResult(name, snr, azimuth, head, estimates["static"][0], estimates["rotation"][0],
-                      estimates["static"][1], estimates["rotation"][1])
+                      estimates["static"][1], estimates["rotation"][1], estimates["sweep"][0],
+                      estimates["sweep"][1])
+
+
+def _streaming(localiser: BinauralLocaliser, segment: int, hrirs: HrirSet) -> BinauralLocaliser:
+    """The localiser of the sweep: the same analysis, one estimate per segment of audio."""
+    per_estimate = (segment - localiser.setup.frame) // localiser.setup.hop + 1
+    return BinauralLocaliser(dataclasses.replace(localiser.setup, smoothing=per_estimate), hrirs=hrirs)
+
+
+def _sweep(dry: npt.NDArray[np.float64], azimuth: float, head: float, snr: float, hrirs: HrirSet,
+           streaming: BinauralLocaliser, config: ExperimentConfig, segment: int, seed: int,
+           rng: np.random.Generator, timing: Timing) -> tuple[float, float]:
+    """The head turning all the time while three segments go by; estimates streamed with its azimuths."""
+    rate = config.rate
+    total = 3 * segment
+    streaming.reset_stream()
+    heads = head - config.turn + 2.0 * config.turn * np.arange(1, total + 1) / total
+    # The renderer moves the head linearly within each block (filters cross-faded every sub-block of 741
+    # samples), so blocks of 4096 samples make the same constant-speed turn as smaller ones.
+    chunk = 4096
+    started = time.process_time()
+    source = BinauralRenderer(rate, 1, hrirs=hrirs)
+    ears = np.concatenate([source.render(dry[np.newaxis, at:at + chunk], float(heads[min(at + chunk, total) - 1]),
+                                         [azimuth]) for at in range(0, total, chunk)])
+    field = BinauralRenderer(rate, 0, hrirs=hrirs, diffuse_level=0.0, seed=seed + 1)
+    noise = field.render(np.zeros((0, total + segment)), head)
+    timing.render += time.process_time() - started
+    gain = np.sqrt(np.mean(ears**2) / 10.0 ** (snr / 10.0))
+    sensor = 10.0 ** (_SENSOR_NOISE / 20.0)
+    learn, noise = noise[:segment], noise[segment:]
+    mixed = ears + gain * noise + sensor * rng.standard_normal(ears.shape)
+    started = time.process_time()
+    streaming.learn_noise(gain * learn + sensor * rng.standard_normal(learn.shape))
+    estimates: list[AzimuthEstimate] = []
+    for at in range(0, total, chunk):
+        estimates += streaming.feed(mixed[at:at + chunk], heads[at:at + chunk])
+    rooms = [e.room for e in estimates if e.room is not None]
+    room = AzimuthLikelihood(np.sum([r.log_likelihood for r in rooms], axis=0), "room")
+    timing.localise += time.process_time() - started
+    return room.peak(), room.confidence()
 
 
 def _errors(results: Sequence[CaseResult], which: str) -> tuple[float, float, float]:
@@ -239,5 +294,6 @@ def summarise(results: Sequence[CaseResult]) -> list[Summary]:
         chosen = [r for r in results if (r.signal, r.snr) == (signal_name, snr)]
         static = _errors(chosen, "static")
         rotation = _errors(chosen, "rotation")
-        summaries.append(Summary(signal_name, snr, len(chosen), *static, *rotation))
+        sweep = _errors(chosen, "sweep")
+        summaries.append(Summary(signal_name, snr, len(chosen), *static, *rotation, *sweep))
     return summaries

@@ -9,7 +9,7 @@ from typing import Annotated, Any, ClassVar
 
 from ..audio import (
     MAX_FRAMES_PER_CHUNK, RATE_RANGE, AudioError, Azimuth, CaptureBackend, Chunk, ChunkWindow,
-    DedicatedSocketServer, DeviceNotFound, SocketPorts, list_capture_devices, open_for_host,
+    DedicatedSocketServer, DeviceNotFound, SocketPorts, list_capture_devices, open_for_host, prepare_for_host,
 )
 from ..core import (
     Component, ComponentHost, OutPort, OverBudget, Reservation, String, Task, ThrottledLog, ULong, activity, attribute,
@@ -101,6 +101,7 @@ class Capture(Component, name="capture", version="1.1"):
         """Publish an empty Port: incremental readers may start before the first capture."""
         await super().on_start()
         self.Port.publish(PortView(None, make=self.port_data))
+        await prepare_for_host(self.host, self.clock, self._config.transfer_rate)   # sim starts at once
 
     @classmethod
     def service_defaults(cls, host: ComponentHost) -> dict[str, dict[str, Any]]:

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Annotated, Any, ClassVar, TypeVar
 
 from ._exceptions import (
     GenomException, InputError, NoSuchPort, NoSuchRequest, NoSuchService, PortUnavailable, disallowed, interrupted,
-    no_such_activity, no_such_inport, no_such_outport, no_such_service, too_many_activities, unkex,
+    no_such_activity, no_such_inport, no_such_outport, no_such_service, port_io, too_many_activities, unkex,
 )
 from ._log_limits import ThrottledLog
 from ._ports import ComputedOutPort, InPortRuntime, OutPortRuntime, PortSpec
@@ -485,12 +485,14 @@ class Component:
         if request.running:
             await self.interrupt(request, by="abort_activity")
 
-    @function(throws=(no_such_inport, no_such_outport))
+    @function(throws=(no_such_inport, no_such_outport, port_io))
     async def connect_port(self, local: Annotated[str, Bound(128)], remote: Annotated[str, Bound(128)]) -> None:
         """Connect the in port ``local`` to the out port ``remote`` ("component/port[/element]").
 
-        The out port may belong to a component of another process when the host finds
-        remote components (``aiogenomix-component --zenoh-...``).
+        The out port must publish the in port's type (``port_io`` names both types otherwise, and
+        the in ports of this component that read the out port's type). It may belong to a
+        component of another process when the host finds remote components
+        (``aiogenomix-component --zenoh-...``).
         """
         spec = self._ports.get(local)
         if spec is None or spec.direction != "in":
@@ -505,6 +507,13 @@ class Component:
             raise no_such_outport() from None
         if not isinstance(target, OutPortRuntime):
             raise no_such_outport()
+        if target.type.name != spec.type.name:
+            # Connected anyway, the reader would take one struct for another: refuse, and say what fits.
+            fitting = [name for name, other in self._ports.items()
+                       if other.direction == "in" and other.type.name == target.type.name]
+            hint = f"; {', '.join(fitting)} of {self.instance} reads it" if fitting else ""
+            raise port_io(what=f"{self.instance}/{local} reads {spec.type.name}, {remote.strip('/')} publishes "
+                               f"{target.type.name}{hint}")
         self.port(local).connect(target, remote, parts[2] if len(parts) > 2 else None)  # type: ignore[union-attr]
 
     @function(throws=(no_such_service,))

@@ -243,7 +243,7 @@ class OutPortRuntime(_PortRuntime, Generic[T]):
         if not self.spec.multiple:
             return self._value
         if name is None:
-            raise port_io()
+            raise port_io(what=f"port {self.name} is multiple: name an element ({', '.join(self._elements)})")
         if name not in self._elements:
             raise NoSuchPort(f"port {self.name} has no element {name!r} (elements: {', '.join(self._elements)})")
         return self._elements[name]
@@ -307,10 +307,10 @@ class InPortRuntime(_PortRuntime, Generic[T]):
         """Connect to *remote* (whose data type must be the same).
 
         Raises:
-            port_io: when the data types differ.
+            port_io: when the data types differ (naming both).
         """
         if remote.type.name != self.type.name:
-            raise port_io()
+            raise port_io(what=f"{self.name} reads {self.type.name}, {remote_name} publishes {remote.type.name}")
         self.remote, self.remote_name, self.element = remote, remote_name, element
         if self._connected is not None:
             self._connected.set()

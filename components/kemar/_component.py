@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import contextlib
+import logging
 import math
 from collections.abc import Callable, Iterator
 from typing import Annotated
 
 from ..audio import HeadAzimuth
+from ..binaural import TurnableHead
 from ..core import Component, ComponentHost, Double, Out, OutPort, Task, activity, function
 from ._driver import HarmonicaDriver
 from ._errors import (
@@ -18,6 +20,7 @@ from ._errors import (
     DriveTimeout,
     HomingFailed,
     InvalidCommand,
+    KemarError,
     MotionStopped,
     MotionTimeout,
     NotHomed,
@@ -41,7 +44,9 @@ from ._types import (
     Timestamp,
 )
 
-__all__ = ["Kemar", "simulated_rig", "parse_bus", "SIMULATED_BUS"]
+__all__ = ["Kemar", "simulated_rig", "parse_bus", "SIMULATED_BUS", "TURN_LIMITS"]
+
+log = logging.getLogger(__name__)
 
 #: The ``can`` setting of a simulated drive in-process, on a python-can virtual bus.
 SIMULATED_BUS = "virtual"
@@ -50,6 +55,10 @@ SIMULATED_BUS = "virtual"
 MOTIONS = ("Homing", "MoveAbsolutePosition", "MoveRelativePosition", "ControlInSpeed")
 
 _BUS_THROWS = (DRIVE_FAULT, BUS_TIMEOUT, BUS_ERROR, DRIVE_ERROR)
+
+#: The azimuths active listening may turn the head to: the rig's limit switches at ±90°, less the
+#: 0.5° that moves keep inside them (the drive clamps targets to the limits homing found).
+TURN_LIMITS = (-89.5, 89.5)
 
 
 def parse_bus(setting: str) -> tuple[str, str | None]:
@@ -148,6 +157,8 @@ class Kemar(Component, name="kemar", version="1.0"):
             # The simulated sound scene turns with the simulated head, whoever captures it.
             self.provide(HeadAzimuth, HeadAzimuth(lambda: rig.head_azimuth))
             self.head()
+        # Active listening (binauloc's FaceSource) turns the head through MoveAbsolutePosition.
+        self.provide(TurnableHead, TurnableHead.by_service(self, self.azimuth_now, TURN_LIMITS))
 
     async def on_stop(self) -> None:
         # The head stays open with the host (another component may drive it): the host closes it.
@@ -175,6 +186,14 @@ class Kemar(Component, name="kemar", version="1.0"):
         driver = HarmonicaDriver.open(interface, channel, timeout=self.host.settings.can_timeout, clock=self.clock)
         driver.start()
         return KemarHead(driver, self.clock, self.config, on_state=self._listeners.publish)
+
+    async def azimuth_now(self) -> float:
+        """The head's azimuth read from the drive now (degrees), NaN when the drive does not answer."""
+        try:
+            return await self.head().read_position()
+        except (KemarError, BUS_ERROR) as exc:
+            log.warning("%s: head position unavailable (%s)", self.instance, exc)
+            return math.nan
 
     def _publish(self, state: HeadState) -> None:
         self.currentState.publish(

@@ -3,20 +3,21 @@
 As in the seed, it writes speed commands on ``RobotMotion`` (a Twist, angular.z in rad/s) and reads the
 head's pose on ``RobotPose``; its services take degrees and deg/s, positive to the left, like ``kemar``.
 While it is loaded, a capture of the simulated scene hears the world's sound-source markers, from where
-its KEMAR stands, turning with its head (it provides the host's ``HeadAzimuth`` and ``SoundScene``).
+its KEMAR stands, turning with its head (it provides the host's ``HeadAzimuth`` and ``SoundScene``), and
+active listening may turn its head (it provides a ``TurnableHead``).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from typing import Annotated
 
-from ..audio import HeadAzimuth, Scene, SoundScene, Source
+from ..audio import HeadAzimuth, SoundScene
+from ..binaural import TurnableHead
 from ..core import Component, Double, GenomException, InPort, OutPort, String, Task, activity
-from ..world import KEMAR_LIMIT, KEMAR_ORIGIN, SOUND_SOURCES, Image, PoseStamped, Twist, Vector3, attach
+from ..world import KEMAR_LIMIT, KEMAR_ORIGIN, Image, PoseStamped, Twist, Vector3, attach, marker_scene
 
-__all__ = ["MorseKemar", "INVALID_VALUE", "WIRING", "yaw_of", "marker_scene"]
+__all__ = ["MorseKemar", "INVALID_VALUE", "WIRING", "yaw_of"]
 
 #: The default wiring to ``world``: {morse_kemar port: world port}.
 WIRING = {"CameraL": "kemar_camera_left", "CameraR": "kemar_camera_right", "RobotPose": "kemar_pose",
@@ -46,21 +47,6 @@ def yaw_of(pose: PoseStamped) -> float:
     """The head azimuth of *pose* in degrees (positive = left)."""
     q = pose.pose.orientation
     return math.degrees(math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z)))
-
-
-def marker_scene() -> Scene:
-    """The binaural scene of the world's sound-source markers, as heard from the KEMAR's place.
-
-    Each marker becomes a source in its direction from the KEMAR (degrees, positive to the left
-    of the KEMAR's front at azimuth 0): the first a noise, the second a tone, the next clicks.
-    """
-    kinds = (Source(type="noise", level=-26.0), Source(type="tone", level=-30.0, frequency=500.0),
-             Source(type="clicks", level=-12.0, rate=2.0))
-    sources = []
-    for i, (x, y, _z) in enumerate(SOUND_SOURCES.values()):
-        azimuth = math.degrees(math.atan2(y - KEMAR_ORIGIN[1], x - KEMAR_ORIGIN[0]))
-        sources.append(dataclasses.replace(kinds[i % len(kinds)], azimuth=round(azimuth, 6)))
-    return Scene(sources=tuple(sources), seed=7, noise_floor=-80.0)
 
 
 def _twist(deg_per_s: float) -> Twist:
@@ -106,8 +92,14 @@ class MorseKemar(Component, name="morse_kemar", version="1.0"):
         await attach(self, WIRING)
         self._read_position()
         # The simulated sound scene hears the world's markers and turns with this head.
-        self.provide(SoundScene, SoundScene(marker_scene()))
+        self.provide(SoundScene, SoundScene(marker_scene(*KEMAR_ORIGIN)))
         self.provide(HeadAzimuth, HeadAzimuth(self._pose_azimuth))
+        # Active listening (binauloc's FaceSource) turns this head through MoveAbsolutePosition.
+        limit = math.degrees(KEMAR_LIMIT) - LIMIT_MARGIN
+        self.provide(TurnableHead, TurnableHead.by_service(self, self._azimuth_now, (-limit, limit)))
+
+    async def _azimuth_now(self) -> float:
+        return self._pose_azimuth()
 
     def _pose_azimuth(self) -> float:
         """The head azimuth of the newest RobotPose (degrees, positive = left), without touching currentPosition."""

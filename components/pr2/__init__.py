@@ -3,6 +3,10 @@
 Each activity publishes its goal on its out port, as the seed's codels did for the Python script
 that turned them into ROS action goals, and ends when the robot, seen on the world's joint states
 and odometry, is there (within a tolerance) — not when the goal was sent.
+
+The Two!Ears project mounted the KEMAR's binaural head on top of the PR2's head (seed section 8.1.4):
+while ``pr2`` is loaded, a capture of the simulated scene hears the world's sound-source markers from
+that head, wherever the base drives, turning with the base's heading and the head's pan.
 """
 
 from __future__ import annotations
@@ -14,12 +18,13 @@ from typing import Annotated, Any
 
 import numpy as np
 
+from ..audio import HeadAzimuth, SoundScene
 from ..core import (
     Component, Double, GenomException, InPort, InPortRuntime, OutPort, OutPortRuntime, String, Task, activity,
 )
 from ..world import (
     ARM_JOINTS, HEAD_LIMITS, ROOM, TORSO_RANGE, HeadCommand, Image, JointState, LeftArmCommand,
-    Odometry, PositionCommand, RightArmCommand, TorsoCommand, arm_limits, attach,
+    Odometry, PositionCommand, RightArmCommand, TorsoCommand, arm_limits, attach, marker_azimuths, marker_scene,
 )
 
 __all__ = ["Pr2", "INVALID_TORSO", "INVALID_VALUE", "WIRING"]
@@ -39,6 +44,9 @@ TORSO_STILL = 0.005
 BASE_TOLERANCE = 0.005
 HEADING_TOLERANCE = math.radians(0.25)
 BASE_STILL = 0.02
+#: Where the head pans, ahead of the base's centre in its frame (m): the torso lift link at -0.05 m
+#: and the head pan link 0.017 m behind it, as in the world's model.
+HEAD_PAN_X = -0.067
 
 
 class INVALID_TORSO(GenomException):
@@ -92,9 +100,33 @@ class Pr2(Component, name="pr2", version="1.0"):
     JointStates = InPort(JointState, doc="The joint states (world/pr2_joints): the joint motions end on them")
 
     async def on_start(self) -> None:
-        """Load the world if needed and wire the ports."""
+        """Load the world if needed, wire the ports, and let the simulated scene hear from the head."""
         self.frames = 0
         await attach(self, WIRING)
+        # The sources move relative to a head carried by the base: their azimuths are read at every chunk.
+        heard = SoundScene(marker_scene(*self.head_position()), azimuths=lambda: marker_azimuths(*self.head_position()))
+        self.provide(SoundScene, heard)
+        self.provide(HeadAzimuth, HeadAzimuth(self.head_azimuth))
+
+    # -- where the binaural head is ----------------------------------------------------------
+
+    def _pan(self) -> float:
+        state = self.JointStates.read()
+        if state is None or "head_pan_joint" not in state.name:
+            return 0.0
+        return float(state.position[list(state.name).index("head_pan_joint")])
+
+    def head_azimuth(self) -> float:
+        """The head's azimuth in the room: the base's heading plus the head's pan (degrees, positive = left)."""
+        odom = self.Odom.read()
+        return math.degrees((odom.w if odom is not None else 0.0) + self._pan())
+
+    def head_position(self) -> tuple[float, float]:
+        """Where the head pans in the room, (x, y) in metres, from the base's odometry."""
+        odom = self.Odom.read()
+        if odom is None:
+            return HEAD_PAN_X, 0.0
+        return odom.x + HEAD_PAN_X * math.cos(odom.w), odom.y + HEAD_PAN_X * math.sin(odom.w)
 
     # -- following the robot -----------------------------------------------------------------
 

@@ -9,13 +9,15 @@ from ._wiring import WORLD_INSTANCE, attach
 from ._mjcf import (
     arm_limits, ARM_LIMITS, HEAD_LIMITS, KEMAR_LIMIT, KEMAR_ORIGIN, OBJECTS, ROOM, SOUND_SOURCES, TORSO_RANGE,
 )
+from ._sound import marker_azimuths, marker_scene
 from ._types import (
     ARM_JOINTS, Header, HeadCommand, Image, JointState, LaserScan, LeftArmCommand, Odometry, Point, Pose,
     PoseStamped, PositionCommand, Quaternion, RightArmCommand, Timestamp, TorsoCommand, Twist, Vector3,
 )
 
 __all__ = [
-    "World", "parse_size", "render_memory", "SENSOR_DOWN", "attach", "WORLD_INSTANCE",
+    "World", "parse_size", "render_memory", "SENSOR_DOWN", "attach", "WORLD_INSTANCE", "marker_scene",
+    "marker_azimuths",
     "CAMERA_PORTS", "arm_limits",
     "KEMAR_ORIGIN", "OBJECTS", "SOUND_SOURCES", "ARM_LIMITS", "HEAD_LIMITS", "KEMAR_LIMIT", "ROOM", "TORSO_RANGE",
     "ARM_JOINTS", "Header", "HeadCommand", "Image", "JointState", "LaserScan", "LeftArmCommand", "Odometry", "Point",

@@ -254,8 +254,14 @@ async def test_ports_publish_wait_and_elements(host: ComponentHost) -> None:
     assert gadget.Named.encoded("left") == {"value": 1.0}
     with pytest.raises(NoSuchPort, match="no element 'right'"):
         gadget.Named.read("right")
-    with pytest.raises(port_io):
+    with pytest.raises(port_io, match="name an element"):
         gadget.Named.read()
+    assert gadget.Input.read() is None
+    # An out port of another type is refused, both types named: the reader would take one struct for another.
+    refused = await gadget.send("connect_port", {"local": "Input", "remote": "gadget/genom_state"})
+    state_type = gadget.genom_state.type.name
+    assert refused.exception == {"ex": "::genom::port_io", "detail": {
+        "what": f"gadget/Input reads ::gadget::reading, gadget/genom_state publishes {state_type}"}}
     assert gadget.Input.read() is None
     connected = await gadget.send("connect_port", {"local": "Input", "remote": "gadget/Level"})
     assert connected.status == "done"

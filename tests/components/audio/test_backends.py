@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from aiogenomix.components.audio import (
-    DeviceNotFound, SceneError, SphericalHeadRenderer, DEFAULT_SCENE, open_backend, split_device,
+    DeviceNotFound, SceneError, scene_renderer, DEFAULT_SCENE, open_backend, split_device,
 )
 from aiogenomix.components.audio._alsa import AlsaBackend, alsa_capture_devices
 from aiogenomix.components.audio._handoff import ThreadHandoff
@@ -58,7 +58,7 @@ async def test_simulated_scene_is_paced_by_the_clock() -> None:
         await clock.advance(0.001)
         chunk = await read
     assert chunk.frames.shape == (FPC, 2) and chunk.frames.dtype == np.int32
-    reference = SphericalHeadRenderer(DEFAULT_SCENE, 44100).render(FPC, 0.0)
+    reference = scene_renderer(DEFAULT_SCENE, 44100).render(FPC, 0.0)
     np.testing.assert_array_equal(chunk.frames, reference)
     assert chunk.time == pytest.approx(clock.wall() - 0.05)
     assert not chunk.overrun

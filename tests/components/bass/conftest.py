@@ -10,7 +10,7 @@ import pytest
 
 from aiogenomix.components.basc import Basc
 from aiogenomix.components.bass import Bass
-from aiogenomix.components.audio import DEFAULT_SCENE, SphericalHeadRenderer
+from aiogenomix.components.audio import DEFAULT_SCENE, scene_renderer
 from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
 from aiogenomix.components.kemar import Kemar
 from aiogenomix.gateway import GatewayConfig, serve
@@ -44,7 +44,7 @@ async def url(host: ComponentHost) -> AsyncIterator[str]:
 def reference_frames(count: int, azimuths: list[float] | None = None, rate: int = 44100,
                      frames_per_chunk: int = 2205) -> np.ndarray:
     """The first *count* frames the default simulated scene renders, chunk by chunk, at the given head azimuths."""
-    renderer = SphericalHeadRenderer(DEFAULT_SCENE, rate)
+    renderer = scene_renderer(DEFAULT_SCENE, rate)
     chunks = -(-count // frames_per_chunk)
     angles = azimuths if azimuths is not None else [0.0] * chunks
     return np.concatenate([renderer.render(frames_per_chunk, az) for az in angles[:chunks]])[:count]

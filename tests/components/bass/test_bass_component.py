@@ -45,6 +45,8 @@ async def test_acquire_publishes_frames_and_a_new_acquire_interrupts_it(bass: Ba
                                          "nChunksOnPort": 8})
     await first.ended.wait()
     assert first.exception == {"ex": "::genom::interrupted", "detail": {"by": "Acquire"}}
+    while bass.snapshot.sample_rate != 16000:   # the second acquisition's port, once its scene is open
+        await bass.Audio.wait_published()
     await wait_for_frame(bass, 320)
     assert bass.snapshot.sample_rate == 16000 and bass.snapshot.last_frame_index < 20 * 320  # restarted at 0
     stop = await bass.send("Stop")

@@ -22,7 +22,7 @@ from aiogenomix.components.basc import Basc
 from aiogenomix.components.bass import Bass
 from aiogenomix.components.core import ComponentHost
 
-from .conftest import MatlabSocket, reference_frames
+from .conftest import MatlabSocket, reference_frames, wait_for_frame
 
 # 100 chunks (5 s) on the port: half a second of real time for a reader delayed by a busy machine.
 RATE, FPC, CHUNKS_ON_PORT = 44100, 2205, 100
@@ -106,6 +106,7 @@ async def test_a_minute_of_bass_reaches_every_reader_without_a_gap(url: str, hos
     start = bass.clock.now()
     acquiring = await bass.send("Acquire", {"device": "sim", "sampleRate": RATE, "nFramesPerChunk": FPC,
                                             "nChunksOnPort": CHUNKS_ON_PORT})
+    await wait_for_frame(bass, 1)   # the scene is open (its renderer is built off the event loop)
     results = await asyncio.gather(
         matlab_reader(bass, port), matlab_reader(bass, port), python_reader(bass, port),
         python_reader(bass, port), since_reader(bass, url), basc_reader(basc))

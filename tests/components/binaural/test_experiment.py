@@ -20,7 +20,7 @@ def test_offset_azimuths_avoid_every_measured_direction() -> None:
 
 def test_twelve_azimuths_meet_the_goals(kemar: HrirSet) -> None:
     config = ExperimentConfig(azimuths=tuple(offset_azimuths(12)), signals=("noise", "speech-like"), seed=25)
-    results, timing = run_experiment(config, hrirs=kemar)
+    results, _timing = run_experiment(config, hrirs=kemar)   # speed: ./run bench --only localisation
     summaries = summarise(results)
     assert [(s.signal, s.snr, s.cases) for s in summaries] == [
         ("noise", 20.0, 12), ("noise", 5.0, 12), ("speech-like", 20.0, 12), ("speech-like", 5.0, 12)]
@@ -28,4 +28,6 @@ def test_twelve_azimuths_meet_the_goals(kemar: HrirSet) -> None:
         assert summary.static_lateral_median <= 5.0, summary
         assert summary.rotation_front_back <= 0.02, summary
         assert summary.rotation_median <= 5.0, summary
-    assert timing.render_factor >= 10.0 and timing.localise_factor >= 10.0
+        # The head turning while the audio goes by, its azimuth known at every sample, does as well.
+        assert summary.sweep_front_back <= 0.02, summary
+        assert summary.sweep_median <= 5.0, summary

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -148,11 +146,4 @@ def test_the_first_block_needs_the_sources_azimuths(kemar: HrirSet) -> None:
         renderer.render(np.zeros((2, 10)), 0.0, [0.0])
 
 
-def test_rendering_runs_well_over_ten_times_real_time(kemar: HrirSet) -> None:
-    # Four sources, the diffuse field and sensor noise at 44.1 kHz, the head turning all the time.
-    renderer = BinauralRenderer(RATE, 4, hrirs=kemar, diffuse_level=-40.0, sensor_noise=-80.0)
-    seconds = 5
-    dry = np.random.default_rng(8).standard_normal((4, int(seconds * RATE)))
-    started = time.process_time()
-    render_in_chunks(renderer, dry, lambda i: 0.5 * i, [10.0, 50.0, -70.0, 160.0], 4096)
-    assert seconds / (time.process_time() - started) > 10.0
+# Speed (10× real time or more on one core) is met in a benchmark, not here: ./run bench --only localisation.

@@ -24,7 +24,7 @@ import pytest
 
 from aiogenomix.clients import aconnect
 from aiogenomix.clients.audio_socket import AsyncAudioSocketClient, AudioBlock
-from aiogenomix.components.audio import DEFAULT_SCENE, SphericalHeadRenderer
+from aiogenomix.components.audio import DEFAULT_SCENE, scene_renderer
 from aiogenomix.components.capture import Capture
 from aiogenomix.components.core import ComponentHost, HostSettings, ScaledClock
 from aiogenomix.gateway import GatewayConfig, serve
@@ -40,7 +40,7 @@ def head_motion() -> list[float]:
 
 
 def reference_frames(count: int) -> np.ndarray:
-    renderer = SphericalHeadRenderer(DEFAULT_SCENE, RATE)
+    renderer = scene_renderer(DEFAULT_SCENE, RATE)
     return np.concatenate([renderer.render(FPC, az) for az in head_motion()[:count]])
 
 

@@ -129,3 +129,45 @@ async def test_the_simulated_sound_sources_are_the_worlds_markers(host: Componen
     assert scene("sim:my_scene.json") is None                     # a scene file of the user's wins
     await host.unload("morse_kemar")
     assert scene("sim") is DEFAULT_SCENE                          # gone with the component that provided it
+
+
+async def test_the_pr2_carries_a_kemar_head_that_hears_the_markers_as_it_drives(host: ComponentHost) -> None:
+    from aiogenomix.components.audio import HeadAzimuth, open_for_host
+    from aiogenomix.components.audio._sim_backend import SimulatedSceneBackend
+    from aiogenomix.components.world import SOUND_SOURCES
+
+    pr2 = await host.load("pr2")
+    backend = open_for_host(host, "sim", 44100, 2205, host.clock)
+    assert isinstance(backend, SimulatedSceneBackend) and backend.source_azimuths is not None
+    start = backend.source_azimuths()
+    # The head pans 0.067 m behind the base's centre at the origin; source_1 is at (2.0, 2.5).
+    assert start[0] == pytest.approx(math.degrees(math.atan2(2.5, 2.067)), abs=0.01)
+    await _run(pr2, "go_to_position", x=1.0, y=0.5, w=0.3)
+    await _run(pr2, "move_head", pan=0.5, tilt=0.0, time_to_finish=0.5)
+    assert host.require(HeadAzimuth).read() == pytest.approx(math.degrees(0.8), abs=0.3)
+    assert backend.azimuth() == pytest.approx(math.degrees(0.8), abs=0.3)
+    head_x, head_y = 1.0 - 0.067 * math.cos(0.3), 0.5 - 0.067 * math.sin(0.3)
+    expected = [math.degrees(math.atan2(y - head_y, x - head_x)) for x, y, _z in SOUND_SOURCES.values()]
+    assert backend.source_azimuths() == pytest.approx(expected, abs=0.05)
+
+
+async def test_the_virtual_kemar_hears_the_markers_through_the_measured_hrirs(host: ComponentHost) -> None:
+    from aiogenomix.components.binaural import gcc_phat_itd, load_kemar
+    from aiogenomix.components.capture import Capture
+
+    kemar = await host.load("morse_kemar")
+    await _run(kemar, "MoveAbsolutePosition", target=-20.0, velocity=200.0)
+    capture = await host.load("capture")
+    assert isinstance(capture, Capture)
+    request = await capture.send("StartCapture", {"device": "sim", "Port_chunks": 10})
+    while capture.Port.read().index < 10:
+        await capture.Port.wait_published()
+    await capture.send("StopCapture")
+    await request.ended.wait()
+    port = capture.Port.read()
+    ears = np.stack([port.left, port.right], axis=1)[4096:].astype(np.float64)
+    # The noise of source_1, 14° to the left of the KEMAR's stand, is 34° to the left of a head at -20°:
+    # the ITD of the measured response there (the tone of source_2 is a few frequencies among many).
+    hrirs = load_kemar()
+    measured = gcc_phat_itd(*hrirs.taps[hrirs.index(35.0)].T, max_lag=50)
+    assert gcc_phat_itd(*ears.T, max_lag=40) == pytest.approx(measured, abs=1.5)

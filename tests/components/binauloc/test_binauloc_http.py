@@ -1,0 +1,84 @@
+"""Issue 25, acceptance 2 (first half): binauloc on bass/Audio over the protocol, as the Two!Ears scripts drove it.
+
+``binauloc.connect_port('Audio', 'bass/Audio'); binauloc.Setup(24414, 5000, 1024, 512, HANNING, 10);
+binauloc.LearnNoise(2); binauloc.LocalizeSources(...)``, then ``binauloc.Azimuths()`` read while it
+runs: every step an HTTP GET to a real gateway. The host's clock is a ``ManualClock`` that the test
+steps between the reads, so the source, the noise and the estimates meet where the test says.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import statistics
+from collections.abc import AsyncIterator
+from pathlib import Path
+from typing import Any
+
+import aiohttp
+import pytest
+
+from aiogenomix.components.core import ComponentHost, HostSettings, ManualClock
+from aiogenomix.gateway import GatewayConfig, serve
+
+from .conftest import FACTORIES, source_scene
+
+SUMMER_SCHOOL_SETUP = {"sampleRate": 24414, "maxFrequency": 5000, "frameSize": 1024, "overlap": 512,
+                       "window": "::binauloc::HANNING", "smoothing": 10}
+
+
+@pytest.fixture
+async def gateway(tmp_path: Path) -> AsyncIterator[tuple[aiohttp.ClientSession, ManualClock]]:
+    clock = ManualClock()
+    settings = HostSettings(audio_socket_port=0, audio_files=(str(tmp_path),))
+    async with ComponentHost(clock=clock, settings=settings, factories=FACTORIES) as host, \
+            serve(GatewayConfig(port=0), host) as url, aiohttp.ClientSession(url) as http:
+        yield http, clock
+
+
+async def get(http: aiohttp.ClientSession, path: str, inputs: dict[str, Any] | None = None) -> Any:
+    params = {"input": json.dumps(inputs)} if inputs is not None else {}
+    async with http.get(path, params=params) as reply:
+        assert reply.status == 200, await reply.text()
+        return await reply.json()
+
+
+async def test_binauloc_on_bass_over_http_reports_62_5_degrees(gateway: tuple[aiohttp.ClientSession, ManualClock],
+                                                              tmp_path: Path) -> None:
+    http, clock = gateway
+    for name in ("bass", "binauloc"):
+        async with http.get(f"/load/{name}") as reply:
+            assert await reply.text() == name
+    connect = await get(http, "/module/binauloc/send/connect_port", {"local": "Audio", "remote": "bass/Audio"})
+    assert connect["status"] == "done"
+    setup = await get(http, "/module/binauloc/send/Setup", SUMMER_SCHOOL_SETUP)
+    assert setup["status"] == "done"
+    # A talker at 62.5° (lateral, not on a measured direction) starts after 2.5 s of a diffuse field 20 dB below.
+    device = source_scene(tmp_path, 62.5, seed=25, kind="speech", onset=2.5, snr=20.0)
+    learning = await get(http, "/module/binauloc/send/LearnNoise", {"seconds": 2})
+    await get(http, "/module/bass/send/Acquire", {"device": device, "sampleRate": 24414, "nFramesPerChunk": 4096,
+                                                   "nChunksOnPort": 20})
+    await clock.advance(2.6)
+    learnt = await get(http, f"/module/binauloc/status/{learning['id']}")
+    assert learnt["status"] == "done" and learnt["output"]["nFrames"] >= 90
+    localizing = await get(http, "/module/binauloc/send/LocalizeSources", {"nEstimates": 20})
+    estimates: list[dict[str, Any]] = []
+    while not estimates or estimates[-1]["estimate"] < 20:
+        # Less than a chunk of bass (168 ms) a step, so that no step brings two estimates (one per 210 ms).
+        await clock.advance(0.1)
+        estimate = (await get(http, "/module/binauloc/read/Azimuths"))["Azimuths"]
+        if estimate["estimate"] and (not estimates or estimate["estimate"] != estimates[-1]["estimate"]):
+            estimates.append(estimate)
+    assert [e["estimate"] for e in estimates] == list(range(1, 21))
+    ended = await get(http, f"/module/binauloc/wait/{localizing['id']}")
+    assert ended["status"] == "done" and ended["output"] == {"nEstimates": 20}
+    laterals = [lateral(e["azimuth"]) for e in estimates]
+    assert abs(statistics.median(laterals) - 62.5) <= 5.0, laterals
+    sure = [value for value, e in zip(laterals, estimates, strict=True) if e["confidence"] >= 0.9]
+    assert sure and all(abs(value - 62.5) <= 5.0 for value in sure), laterals
+    assert all(e["headAzimuth"] is None for e in estimates)          # no head: NaN travels as null
+    assert len(estimates[-1]["logLikelihood"]) == 360
+
+
+def lateral(radians: float) -> float:
+    return math.degrees(math.asin(math.sin(radians)))
