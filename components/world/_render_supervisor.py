@@ -24,7 +24,6 @@ from ._render import RenderError, SensorRenderer
 __all__ = ["RenderSupervisor", "BACKOFF_FIRST", "BACKOFF_MAX"]
 
 log = logging.getLogger(__name__)
-_log = ThrottledLog(log)
 
 #: Real seconds before the second attempt to start a render process (the first is at once).
 BACKOFF_FIRST = 0.25
@@ -58,6 +57,9 @@ class RenderSupervisor:
         self.failures = 0
         self.start_failures = 0
         self.last_error = ""
+        # Each world's faults count against a limit of their own: a world that keeps failing must not
+        # hide another world's first failure.
+        self._log = ThrottledLog(log)
         # Done at the next change (a start, a failure, a recovery), then replaced.
         self._change: asyncio.Future[None] | None = None
 
@@ -99,11 +101,11 @@ class RenderSupervisor:
             self.failures += 1
             self._on_down(str(exc))
             self._notify()
-            _log.error("world %s: %s; cameras and laser are down, starting a new render process", self.name, exc)
+            self._log.error("world %s: %s; cameras and laser are down, starting a new render process", self.name, exc)
             raise
         if not self.up:
             if self.failures:
-                _log.info("world %s: cameras and laser back after %d failures", self.name, self.failures)
+                self._log.info("world %s: cameras and laser back after %d failures", self.name, self.failures)
             self.up = True
             self._notify()
         return frames
@@ -126,7 +128,7 @@ class RenderSupervisor:
                 self.start_failures += 1
                 self.last_error = str(exc)
                 delay = min(BACKOFF_MAX, max(BACKOFF_FIRST, 2 * delay))
-                _log.error("world %s: a new render process failed (%s); next attempt in %.2g s", self.name, exc,
+                self._log.error("world %s: a new render process failed (%s); next attempt in %.2g s", self.name, exc,
                            delay)
                 self._notify()
 
