@@ -103,13 +103,13 @@ async def _zenoh_floor(args: argparse.Namespace) -> None:
     A component host hands each query to its loop the same way: this is the floor of a remote call.
     """
     # Here, not at the top: the gateway's memory is measured from this module without them.
-    from aiogenomix.gateway.remote._session import ZenohEndpoints, on_zenoh_thread, open_session
+    from aiogenomix.remote._session import ZenohSettings, on_zenoh_thread, open_session
 
     from ._common import free_port
 
     loop = asyncio.get_running_loop()
     listen = f"tcp/127.0.0.1:{free_port()}"
-    session = open_session(ZenohEndpoints(listen=[listen]))
+    session, _ = open_session(ZenohSettings(listen=[listen]))
 
     def answer(query: zenoh.Query) -> None:
         query.reply(query.key_expr, b'{"ok":{"id":"demo::0","status":"done","output":{}}}', express=True)

@@ -25,8 +25,8 @@ import zenoh
 
 from aiogenomix.clients import aconnect
 from aiogenomix.clients._binary import decode_binary
-from aiogenomix.gateway._errors import RemoteUnreachable
-from aiogenomix.gateway.remote._session import ZenohEndpoints, ask, open_session
+from aiogenomix.components.core.runtime import RemoteUnreachable
+from aiogenomix.remote._session import ZenohSettings, ask, open_session
 
 from ._common import ROOT, Result, cpu_seconds, free_port, summary
 
@@ -66,7 +66,7 @@ async def _gateways() -> AsyncIterator[tuple[str, str, int]]:
     gateway = ["-m", "aiogenomix.gateway", "--port", "0", "--audio-socket-port", "0", "--log-level", "warning"]
     async with (
         _process(gateway, r"listening on (http://\S+)", "stdout") as (local, _),
-        _process(["-m", "aiogenomix.gateway.remote._host_main", "demo", "capture", "--audio-socket-port", "0",
+        _process(["-m", "aiogenomix.remote._host_main", "demo", "capture", "--audio-socket-port", "0",
                   "--zenoh-listen", endpoint], r"offering", "stderr"),
         _process([*gateway, "--zenoh-connect", endpoint], r"listening on (http://\S+)", "stdout") as (remote, pid),
     ):
@@ -77,11 +77,11 @@ async def _gateways() -> AsyncIterator[tuple[str, str, int]]:
 async def _zenoh_floor() -> AsyncIterator[zenoh.Session]:
     """A session connected to a process that answers bare Zenoh queries from its event loop."""
     async with _process(["-m", "bench._server", "zenoh"], r"ready (\S+)", "stdout") as (found, _):
-        session = await asyncio.to_thread(open_session, ZenohEndpoints(connect=[found.group(1)]))
+        session, _ = await asyncio.to_thread(open_session, ZenohSettings(connect=[found.group(1)]))
         try:
             while True:  # connected once a query is answered
                 with contextlib.suppress(RemoteUnreachable):
-                    await ask(session, "bench/floor", None, timeout=1.0)
+                    await ask(session, "bench/floor", None, 1.0, what="the floor")
                     break
             yield session
         finally:
@@ -94,7 +94,7 @@ async def _service_blocks(urls: tuple[str, str], floor: zenoh.Session, calls: in
         demos = (await local.load("demo"), await remote.load("demo"))
 
         async def floor_call() -> None:
-            await ask(floor, "bench/floor", {"service": "GetSpeed"})
+            await ask(floor, "bench/floor", {"service": "GetSpeed"}, 5.0, what="the floor")
 
         calls_of = (demos[0].GetSpeed, demos[1].GetSpeed, floor_call)
         for call in calls_of:

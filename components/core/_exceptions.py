@@ -9,6 +9,9 @@
     ├── NoSuchPort (LookupError)         unknown port, or unknown element of a multiple port
     ├── NoSuchRequest (LookupError)      unknown request id
     ├── RequestRunning                   ``clean`` of a request that has not ended
+    ├── AmbiguousModule (LookupError)    a name that several component hosts offer: say which
+    ├── RemoteUnreachable                an instance of another process did not answer, or is not heard from
+    ├── RemoteRefusal                    an instance of another process refused: its error, as answered there
     └── GenomException                   an exception in the genom3 sense, with an id and a detail
         ├── (declared by components, e.g. ::demo::TOO_FAR_AWAY)
         └── the standard ::genom::* exceptions (interrupted, too_many_activities, ...)
@@ -25,8 +28,9 @@ from typing import Any, ClassVar
 
 __all__ = [
     "ComponentError", "InputError", "NoSuchModule", "NoSuchService", "NoSuchPort", "NoSuchRequest",
-    "RequestRunning", "GenomException", "interrupted", "too_many_activities", "unkex", "syserr",
-    "no_such_service", "no_such_outport", "no_such_inport", "port_io", "serialization", "disallowed",
+    "RequestRunning", "AmbiguousModule", "RemoteUnreachable", "RemoteRefusal", "GenomException", "interrupted",
+    "too_many_activities", "unkex", "syserr", "no_such_service", "no_such_outport", "no_such_inport", "port_io",
+    "serialization", "disallowed",
 ]
 
 
@@ -66,6 +70,30 @@ class NoSuchRequest(ComponentError, LookupError):
 
 class RequestRunning(ComponentError):
     """The request has not ended yet, so it cannot be cleaned."""
+
+
+class AmbiguousModule(ComponentError, LookupError):
+    """A name that several component hosts offer: the load must say which (``NAME@HOST``)."""
+
+
+class RemoteUnreachable(ComponentError):
+    """An instance of another process did not answer in time, or was not heard from within the bound.
+
+    Its process died, froze, or the network between is cut: answered as ``::genom::remote_io``.
+    """
+
+
+class RemoteRefusal(ComponentError):
+    """An instance of another process refused: its genomix error, answered as the host of the instance answers it.
+
+    Args:
+        status: The HTTP status of the error.
+        body: The genomix error body (``ex``, ``detail``, ``message``).
+    """
+
+    def __init__(self, status: int, body: dict[str, Any]) -> None:
+        super().__init__(body.get("message", body.get("ex", "")))
+        self.status, self.body = status, body
 
 
 class GenomException(ComponentError):

@@ -15,8 +15,9 @@ import orjson
 import pytest
 
 from aiogenomix.components.core import ComponentHost
-from aiogenomix.gateway.remote import _proxy
-from aiogenomix.gateway.remote._proxy import RemoteComponent
+from aiogenomix.remote import _proxy
+from aiogenomix.remote._proxy import RemoteInstance, RemoteLink, RemoteTimeouts
+from aiogenomix.remote._wire import OfferKey
 
 _DESCRIPTION = {"component": "demo", "version": "1.0", "services": [], "ports": []}
 
@@ -34,7 +35,7 @@ class _Publisher:
 class _Rig:
     """A proxy whose queries get scripted replies and whose events the test delivers."""
 
-    def __init__(self, proxy: RemoteComponent, announced: list[dict[str, Any]]) -> None:
+    def __init__(self, proxy: RemoteInstance, announced: list[dict[str, Any]]) -> None:
         self.proxy = proxy
         self.announced = announced
         self.replies: list[dict[str, Any]] = []
@@ -50,11 +51,13 @@ async def rig(monkeypatch: pytest.MonkeyPatch) -> AsyncIterator[_Rig]:
     announced: list[dict[str, Any]] = []
     async with ComponentHost(factories={}) as host:
         host.add_request_listener(lambda request: announced.append(request.status_object()))
-        proxy = RemoteComponent(host, "demo", None, _DESCRIPTION)  # type: ignore[arg-type]
+        link = RemoteLink(None, "gateway1", RemoteTimeouts(), lambda zid: 0.0)  # type: ignore[arg-type]
+        offer = OfferKey(2, "robot1", "zid1", "demo", "aiogenomix/offer/2/robot1/zid1/demo")
+        proxy = RemoteInstance(host, link, offer, "demo", _DESCRIPTION, dict)
         proxy._cleans = _Publisher()
         test_rig = _Rig(proxy, announced)
 
-        async def ask(session: Any, key: str, payload: Any, timeout: float) -> dict[str, Any]:
+        async def ask(session: Any, key: str, payload: Any, timeout: float, **_: Any) -> dict[str, Any]:
             test_rig.asked.append((key.rsplit("/", 1)[-1], dict(payload)))
             return test_rig.replies.pop(0)
 

@@ -100,11 +100,28 @@ async def test_every_request_endpoint_over_http(demo_rig: tuple[str, Process, st
         events.close()
 
 
-async def test_a_component_nobody_offers_still_loads_in_the_gateway(demo_rig: tuple[str, Process, str]) -> None:
-    # countclient is not offered on Zenoh: the gateway runs it itself, as without --zenoh.
-    with connect(demo_rig[0]) as client:
+async def test_a_name_runs_in_the_gateway_only_when_the_gateway_was_told_so(demo_rig: tuple[str, Process, str],
+                                                                            started: list[Process]) -> None:
+    # countclient is offered by no host: a gateway with remote components never runs it by itself.
+    async with aiohttp.ClientSession(base_url=demo_rig[0]) as http:
+        status, error = await _get(http, "/load/countclient")
+        assert status == 404 and error["ex"] == "::genomix::no_such_module"  # type: ignore[index]
+        assert "--local countclient" in error["message"]  # type: ignore[index]
+        assert "countclient" not in (await _get(http, "/"))[1]["available"]  # type: ignore[index]
+    gateway, url = await start_gateway([demo_rig[2]], extra=["--local", "countclient"])
+    started.append(gateway)
+    with connect(url) as client:
         countclient = client.load("countclient")
         assert "connect_port" in dir(countclient)
+    async with aiohttp.ClientSession(base_url=url) as http:
+        async with http.get("/load/demo") as reply:
+            assert reply.status == 200
+            assert json.loads(reply.headers["Aiogenomix-Where"])["host"] == "robot"
+        index = (await _get(http, "/"))[1]
+        assert index["where"]["countclient"] == {  # type: ignore[index]
+            "runs": "here", "component": "countclient", "version": "1.0"}
+        assert index["where"]["demo"]["runs"] == "remote"  # type: ignore[index]
+        assert index["where"]["demo"]["endpoints"] == [demo_rig[2]]  # type: ignore[index]
 
 
 async def test_token_and_allow_list_apply_to_remote_components(demo_rig: tuple[str, Process, str],
