@@ -92,9 +92,9 @@ class OfferKey:
 
     Attributes:
         protocol: The remote protocol version of the host.
-        host: The host id (empty for a protocol this gateway cannot read).
+        host: The host id (empty for another protocol's offer).
         zid: The host's Zenoh session id (empty likewise).
-        instance: The instance offered (empty likewise).
+        instance: The instance offered (for another protocol's offer: the key's last chunk).
         key: The token's key, as it came.
     """
 
@@ -128,7 +128,9 @@ def parse_offer(key: str) -> OfferKey | None:
         return None
     if protocol == PROTOCOL and len(chunks) == 6:
         return OfferKey(protocol, chunks[3], chunks[4], chunks[5], key)
-    return OfferKey(protocol, "", "", chunks[-1] if protocol == PROTOCOL else "", key)
+    # Another version's layout is not ours to read: its last chunk is taken for the instance, to name it
+    # when its load is refused.
+    return OfferKey(protocol, "", "", chunks[-1], key)
 
 
 def gateway_token(zid: str) -> str:

@@ -1,0 +1,165 @@
+"""Several hosts and several gateways on one Zenoh network: one name moves one robot, each gateway keeps its
+own sessions, a vanished gateway's motions stop, and a restarting host is never replaced by a local copy.
+
+Heavy (five processes): run once, on the default Python (``AIOGENOMIX_HEAVY=0`` skips them).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import signal
+import time
+import urllib.parse
+from collections.abc import AsyncIterator
+
+import aiohttp
+import pytest
+
+from tests.conftest import RawEventStream
+
+from ._processes import Process, free_port, start_component_host, start_gateway
+
+pytestmark = pytest.mark.skipif(os.environ.get("AIOGENOMIX_HEAVY") == "0",
+                                reason="several hosts and gateways: run once, on the default Python")
+
+
+async def _get(http: aiohttp.ClientSession, url: str) -> tuple[int, dict]:
+    async with http.get(url) as reply:
+        return reply.status, await reply.json(content_type=None)
+
+
+async def _text(http: aiohttp.ClientSession, url: str) -> tuple[int, str]:
+    async with http.get(url) as reply:
+        return reply.status, await reply.text()
+
+
+def _input(value: object) -> str:
+    return urllib.parse.quote(json.dumps(value))
+
+
+async def _heard(http: aiohttp.ClientSession, url: str, hosts: set[str]) -> None:
+    """Return once the gateway at *url* hears every host of *hosts* (it lists them in ``/``)."""
+    async with asyncio.timeout(30):
+        while {run["host"] for run in (await _get(http, f"{url}/"))[1]["zenoh"]["hosts"]} != hosts:
+            await asyncio.sleep(0.05)
+
+
+async def _positions(http: aiohttp.ClientSession, url: str) -> AsyncIterator[dict]:
+    """Each publication of demo's Mobile port, as the gateway at *url* streams it."""
+    async with http.get(f"{url}/module/demo/watch/Mobile") as reply:
+        async for line in reply.content:
+            if line.startswith(b"data:"):
+                yield json.loads(line[5:])["Mobile"]
+
+
+async def test_one_name_two_hosts_two_gateways(started: list[Process]) -> None:
+    # Real time: the dead-man check below needs a move that lasts seconds.
+    endpoints = [f"tcp/127.0.0.1:{free_port()}" for _ in range(2)]
+    robots = await asyncio.gather(*(start_component_host(["demo"], listen=endpoint, host_id=f"robot{n}",
+                                                         extra=["--time-scale", "1"])
+                                    for n, endpoint in enumerate(endpoints, 1)))
+    started.extend(robots)
+    gateways = await asyncio.gather(start_gateway(endpoints), start_gateway(endpoints[:1]),
+                                    start_gateway(endpoints[1:]))
+    started.extend(process for process, _ in gateways)
+    (both_process, both), (_, first), (_, second) = gateways
+    async with aiohttp.ClientSession() as http:
+        await _heard(http, both, {"robot1", "robot2"})
+        # Two hosts offer demo: the gateway that sees both does not guess.
+        status, error = await _get(http, f"{both}/load/demo")
+        assert status == 409 and error["ex"] == "::genomix::ambiguous_module", error
+        assert "robot1 (tcp/127.0.0.1:" in error["message"] and "robot2 (tcp/127.0.0.1:" in error["message"]
+        assert "load demo@robot1 or demo@robot2" in error["message"]
+        # Each is reached by its host's name, under a name of its own here.
+        for name, argv, runs_on in (("demo@robot1", "", "robot1"), ("demo@robot2", "&argv=-i%20demo2", "robot2")):
+            async with http.get(f"{both}/load/{name}?{argv}") as reply:
+                assert reply.status == 200, await reply.text()
+                assert json.loads(reply.headers["Aiogenomix-Where"])["host"] == runs_on
+        where = (await _get(http, f"{both}/"))[1]["where"]
+        assert (where["demo"]["host"], where["demo2"]["host"]) == ("robot1", "robot2")
+        assert where["demo"]["endpoints"] == endpoints[:1] and where["demo"]["protocol"] == 2
+        for url in (first, second):
+            async with http.get(f"{url}/load/demo") as reply:  # one host each: no doubt
+                assert (reply.status, await reply.text()) == (200, "demo")
+
+        # Two sessions named s1, one per gateway.
+        for url in (both, first):
+            assert await _text(http, f"{url}/session/start?s=s1") == (200, "s1")
+        streams = {url: await RawEventStream.open(url, "s1") for url in (both, first)}
+        try:
+            # One request moves one robot.
+            status, sent = await _get(http, f"{both}/module/demo/send/GotoPosition?s=s1&input={_input({'posRef': 0.3})}")
+            assert sent == {"id": "demo::0", "status": "sent"}
+            assert await _get(http, f"{both}/module/demo/wait/demo::0?timeout=60") == (
+                200, {"id": "demo::0", "status": "done", "output": {}})
+            assert (await _get(http, f"{first}/module/demo/read/Mobile"))[1]["Mobile"]["position"] == 0.3
+            assert (await _get(http, f"{second}/module/demo/read/Mobile"))[1]["Mobile"]["position"] == 0.0
+            assert (await _get(http, f"{both}/module/demo2/read/Mobile"))[1]["Mobile"]["position"] == 0.0
+
+            # Each gateway's s1 hears its own requests only, and cannot see the other's.
+            assert await streams[both].next_event() == ("request", '{"id":"demo::0","status":"sent"}')
+            assert (await streams[both].next_event())[1] == '{"id":"demo::0","status":"done","output":{}}'
+            status, error = await _get(http, f"{first}/module/demo/status/demo::0")
+            assert status == 404 and error["ex"] == "::genomix::no_such_request", error
+            status, done = await _get(http, f"{first}/module/demo/send/SetSpeed?s=s1&input={_input({'speedRef': '::demo::SLOW'})}")
+            assert done["status"] == "done"
+            assert (await streams[first].next_event())[1] == json.dumps(done, separators=(",", ":"))
+            status, mine = await _get(http, f"{both}/module/demo/send/GetSpeed?s=s1")
+            assert (await streams[both].next_event())[1] == json.dumps(mine, separators=(",", ":"))
+
+            # The gateway that started a motion dies: the robot stops within Zenoh's lease (here: at once,
+            # its link closes), while another gateway watches.
+            status, sent = await _get(http, f"{both}/module/demo/send/GotoPosition?s=s1&input={_input({'posRef': -0.9})}")
+            assert sent["status"] == "sent"
+            async with asyncio.timeout(60):
+                positions = _positions(http, first)
+                async for mobile in positions:
+                    if mobile["speed"] != 0.0:
+                        break
+                both_process.kill(signal.SIGKILL)
+                killed = time.monotonic()
+                async for mobile in positions:
+                    if mobile["speed"] == 0.0:
+                        break
+                stopped_after = time.monotonic() - killed
+            assert mobile["position"] > -0.8, mobile  # stopped on the way, far from the goal
+            assert stopped_after < 10.0, f"the robot stopped {stopped_after:.1f} s after its gateway died"
+            assert (await _get(http, f"{first}/module/demo/read/Mobile"))[1]["Mobile"] == mobile
+            # The other robot never moved.
+            assert (await _get(http, f"{second}/module/demo/read/Mobile"))[1]["Mobile"]["position"] == 0.0
+        finally:
+            for stream in streams.values():
+                stream.close()
+
+
+async def test_loads_raced_against_a_restarting_host_never_run_in_the_gateway(started: list[Process]) -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    host = await start_component_host(["kemar"], listen=endpoint, host_id="robot1")
+    started.append(host)
+    gateway, url = await start_gateway([endpoint])
+    started.append(gateway)
+    async with aiohttp.ClientSession() as http:
+        await _heard(http, url, {"robot1"})
+        host.kill(signal.SIGKILL)
+        async with asyncio.timeout(30):
+            while "kemar" in (await _get(http, f"{url}/"))[1]["offered"]:
+                await asyncio.sleep(0.05)
+
+        async def load(delay: float) -> tuple[int, dict | None]:
+            await asyncio.sleep(delay)  # the race's stimulus: loads spread over the restart
+            async with http.get(f"{url}/load/kemar") as reply:
+                where = reply.headers.get("Aiogenomix-Where")
+                return reply.status, json.loads(where) if where else None
+
+        # Loads while the host restarts (they wait for it), then 20 over the 3 s after it offers kemar again.
+        during = [asyncio.ensure_future(load(0.1 * n)) for n in range(5)]
+        started.append(await start_component_host(["kemar"], listen=endpoint, host_id="robot1"))
+        after = await asyncio.gather(*(load(0.15 * n) for n in range(20)))
+        replies = [*await asyncio.gather(*during), *after]
+    assert all(where is None or where["runs"] == "remote" for _, where in replies), replies
+    assert [status for status, _ in after] == [200] * 20, after
+    async with aiohttp.ClientSession() as http:
+        index = (await _get(http, f"{url}/"))[1]
+    assert index["where"]["kemar"]["runs"] == "remote" and index["where"]["kemar"]["host"] == "robot1"
