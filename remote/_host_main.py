@@ -84,7 +84,7 @@ async def serve(args: argparse.Namespace, stop: asyncio.Event) -> None:
     """Load the components, offer them until *stop* is set (or every one was killed), then withdraw them."""
     from ._directory import ZenohDirectory
     from ._host_node import HostNode
-    from ._session import listen_endpoints
+    from ._session import connect_endpoints, listen_endpoints
 
     settings = rig_settings(can=args.can, can_timeout=args.can_timeout, audio_device=args.audio_device,
                             audio_socket_port=args.audio_socket_port, audio_socket_host=args.audio_socket_host,
@@ -106,7 +106,8 @@ async def serve(args: argparse.Namespace, stop: asyncio.Event) -> None:
         host.shared("zenoh", lambda: directory)
         # connect_port of a component here may name an out port of another process.
         host.finder = directory
-        endpoints = listen_endpoints(directory.config) or list(args.zenoh_connect)
+        # Where gateways reach this host: where it listens, else whom it connects to (a router, a gateway).
+        endpoints = listen_endpoints(directory.config) or connect_endpoints(directory.config)
         node = HostNode(directory.session, host, args.host_id, endpoints)
 
         def withdraw(instance: str) -> None:

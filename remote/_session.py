@@ -20,7 +20,7 @@ from ..components.core.runtime import RemoteRefusal, RemoteUnreachable
 
 __all__ = [
     "ZenohSettings", "ZenohSessionError", "open_session", "on_zenoh_thread", "ask", "ask_all", "alive",
-    "listen_endpoints", "GONE", "Answer",
+    "listen_endpoints", "connect_endpoints", "GONE", "Answer",
 ]
 
 T = TypeVar("T")
@@ -106,7 +106,7 @@ class ZenohSettings:
     def summary(self, config: zenoh.Config) -> str:
         """What a session of *config* does, in one line for its start-up message."""
         listen = listen_endpoints(config)
-        connect = _endpoints(config.get_json("connect/endpoints"))
+        connect = connect_endpoints(config)
         scouting = [what for what, key in (("multicast", "scouting/multicast/enabled"),
                                            ("gossip", "scouting/gossip/enabled"))
                     if config.get_json(key) != "false"]
@@ -118,6 +118,11 @@ class ZenohSettings:
 def listen_endpoints(config: zenoh.Config) -> list[str]:
     """The endpoints a session of *config* listens on."""
     return _endpoints(config.get_json("listen/endpoints"), json.loads(config.get_json("mode")) or "peer")
+
+
+def connect_endpoints(config: zenoh.Config) -> list[str]:
+    """The endpoints a session of *config* connects to."""
+    return _endpoints(config.get_json("connect/endpoints"), json.loads(config.get_json("mode")) or "peer")
 
 
 def _endpoints(raw: str, mode: str = "peer") -> list[str]:

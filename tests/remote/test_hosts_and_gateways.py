@@ -9,7 +9,9 @@ from __future__ import annotations
 import asyncio
 import json
 import os
+import pathlib
 import signal
+import sys
 import time
 import urllib.parse
 from collections.abc import AsyncIterator
@@ -90,7 +92,8 @@ async def test_one_name_two_hosts_two_gateways(started: list[Process]) -> None:
         streams = {url: await RawEventStream.open(url, "s1") for url in (both, first)}
         try:
             # One request moves one robot.
-            status, sent = await _get(http, f"{both}/module/demo/send/GotoPosition?s=s1&input={_input({'posRef': 0.3})}")
+            goto = f"{both}/module/demo/send/GotoPosition?s=s1&input="
+            status, sent = await _get(http, goto + _input({"posRef": 0.3}))
             assert sent == {"id": "demo::0", "status": "sent"}
             assert await _get(http, f"{both}/module/demo/wait/demo::0?timeout=60") == (
                 200, {"id": "demo::0", "status": "done", "output": {}})
@@ -103,7 +106,8 @@ async def test_one_name_two_hosts_two_gateways(started: list[Process]) -> None:
             assert (await streams[both].next_event())[1] == '{"id":"demo::0","status":"done","output":{}}'
             status, error = await _get(http, f"{first}/module/demo/status/demo::0")
             assert status == 404 and error["ex"] == "::genomix::no_such_request", error
-            status, done = await _get(http, f"{first}/module/demo/send/SetSpeed?s=s1&input={_input({'speedRef': '::demo::SLOW'})}")
+            slow = _input({"speedRef": "::demo::SLOW"})
+            status, done = await _get(http, f"{first}/module/demo/send/SetSpeed?s=s1&input={slow}")
             assert done["status"] == "done"
             assert (await streams[first].next_event())[1] == json.dumps(done, separators=(",", ":"))
             status, mine = await _get(http, f"{both}/module/demo/send/GetSpeed?s=s1")
@@ -111,7 +115,7 @@ async def test_one_name_two_hosts_two_gateways(started: list[Process]) -> None:
 
             # The gateway that started a motion dies: the robot stops within Zenoh's lease (here: at once,
             # its link closes), while another gateway watches.
-            status, sent = await _get(http, f"{both}/module/demo/send/GotoPosition?s=s1&input={_input({'posRef': -0.9})}")
+            status, sent = await _get(http, goto + _input({"posRef": -0.9}))
             assert sent["status"] == "sent"
             async with asyncio.timeout(60):
                 positions = _positions(http, first)
@@ -163,3 +167,41 @@ async def test_loads_raced_against_a_restarting_host_never_run_in_the_gateway(st
     async with aiohttp.ClientSession() as http:
         index = (await _get(http, f"{url}/"))[1]
     assert index["where"]["kemar"]["runs"] == "remote" and index["where"]["kemar"]["host"] == "robot1"
+
+
+#: A Zenoh router, as zenohd runs one, from the Python package (zenohd is not on the package index).
+_ROUTER = """
+import json, sys, threading, zenoh
+config = zenoh.Config()
+for key, value in (("mode", '"router"'), ("scouting/multicast/enabled", "false"),
+                   ("scouting/gossip/enabled", "false"), ("listen/endpoints", json.dumps([sys.argv[1]]))):
+    config.insert_json5(key, value)
+session = zenoh.open(config)
+print("router ready", file=sys.stderr, flush=True)
+threading.Event().wait()
+"""
+
+
+async def test_hosts_and_gateways_meet_at_a_router(tmp_path: pathlib.Path, started: list[Process]) -> None:
+    router_endpoint = f"tcp/127.0.0.1:{free_port()}"
+    router = Process(await asyncio.create_subprocess_exec(
+        sys.executable, "-c", _ROUTER, router_endpoint, stdin=asyncio.subprocess.DEVNULL,
+        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE), "router")
+    started.append(router)
+    await router.line_matching("router ready")
+    router.drain()
+    # Both are Zenoh clients of the router, from Zenoh's own configuration file.
+    client = tmp_path / "client.json5"
+    client.write_text(f'{{mode: "client", connect: {{endpoints: ["{router_endpoint}"]}}}}')
+    started.append(await start_component_host(["demo"], host_id="robot1", extra=["--zenoh-config", str(client)]))
+    gateway, url = await start_gateway([], extra=["--zenoh-config", str(client)])
+    started.append(gateway)
+    async with aiohttp.ClientSession() as http:
+        await _heard(http, url, {"robot1"})
+        async with http.get(f"{url}/load/demo") as reply:
+            assert reply.status == 200
+            assert json.loads(reply.headers["Aiogenomix-Where"])["endpoints"] == [router_endpoint]
+        status, sent = await _get(http, f"{url}/module/demo/send/GotoPosition?input={_input({'posRef': 0.2})}")
+        assert sent["status"] == "sent"
+        assert (await _get(http, f"{url}/module/demo/wait/demo::0?timeout=30"))[1]["status"] == "done"
+        assert (await _get(http, f"{url}/"))[1]["zenoh"]["links"] == [router_endpoint]
