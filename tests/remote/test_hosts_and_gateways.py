@@ -10,7 +10,9 @@ import asyncio
 import json
 import os
 import pathlib
+import shutil
 import signal
+import subprocess
 import sys
 import time
 import urllib.parse
@@ -205,3 +207,85 @@ async def test_hosts_and_gateways_meet_at_a_router(tmp_path: pathlib.Path, start
         assert sent["status"] == "sent"
         assert (await _get(http, f"{url}/module/demo/wait/demo::0?timeout=30"))[1]["status"] == "done"
         assert (await _get(http, f"{url}/"))[1]["zenoh"]["links"] == [router_endpoint]
+
+
+def _certificates(folder: pathlib.Path) -> None:
+    """A lab's certificate authority, and certificates it signs for robot1, the gateway and an intruder."""
+    def openssl(*args: str) -> None:
+        subprocess.run(["openssl", *args], cwd=folder, check=True, capture_output=True, timeout=30)
+
+    openssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", "ca-key.pem", "-out", "ca.pem", "-days", "2",
+            "-subj", "/CN=lab-ca")
+    for name, usage in (("robot1", "serverAuth"), ("gateway", "clientAuth"), ("intruder", "clientAuth")):
+        # rustls (Zenoh's TLS) takes X.509 v3 certificates only: the extensions make them v3.
+        (folder / f"{name}.ext").write_text(f"subjectAltName=IP:127.0.0.1\nextendedKeyUsage={usage}\n")
+        openssl("req", "-newkey", "rsa:2048", "-nodes", "-keyout", f"{name}-key.pem", "-out", f"{name}.csr",
+                "-subj", f"/CN={name}")
+        openssl("x509", "-req", "-in", f"{name}.csr", "-CA", "ca.pem", "-CAkey", "ca-key.pem", "-CAcreateserial",
+                "-out", f"{name}.pem", "-days", "2", "-extfile", f"{name}.ext")
+
+
+#: What the robot lets certificates named ``gateway`` do; everybody else may do nothing.
+_ACCESS = """access_control: {
+    enabled: true, default_permission: "deny",
+    rules: [{id: "aiogenomix", permission: "allow", flows: ["ingress", "egress"], key_exprs: ["aiogenomix/**"],
+             messages: ["put", "query", "reply", "declare_subscriber", "declare_queryable", "liveliness_token",
+                        "liveliness_query", "declare_liveliness_subscriber"]}],
+    subjects: [{id: "gateways", cert_common_names: ["gateway"]}],
+    policies: [{rules: ["aiogenomix"], subjects: ["gateways"]}],
+}"""
+
+#: A session that connects with a certificate (or none) and says what it reaches.
+_TLS_PEER = """
+import json, sys, zenoh
+config = zenoh.Config()
+tls = {"root_ca_certificate": sys.argv[2] + "/ca.pem"}
+if sys.argv[3]:
+    tls |= {"connect_certificate": f"{sys.argv[2]}/{sys.argv[3]}.pem",
+            "connect_private_key": f"{sys.argv[2]}/{sys.argv[3]}-key.pem", "enable_mtls": True}
+for key, value in (("scouting/multicast/enabled", "false"), ("scouting/gossip/enabled", "false"),
+                   ("listen/endpoints", "[]"), ("connect/endpoints", json.dumps([sys.argv[1]])),
+                   ("connect/timeout_ms", "2000"), ("connect/exit_on_failure", "false"),
+                   ("transport/link/tls", json.dumps(tls))):
+    config.insert_json5(key, value)
+session = zenoh.open(config)
+links = [str(link.dst) for link in session.info.links()]
+replies = [str(reply.ok.key_expr) for reply in session.get("aiogenomix/**", timeout=2) if reply.ok is not None]
+session.close()
+print(json.dumps({"links": links, "replies": replies}))
+"""
+
+
+async def test_mutual_tls_and_access_control_by_certificate(tmp_path: pathlib.Path, started: list[Process]) -> None:
+    if shutil.which("openssl") is None:
+        pytest.skip("openssl is not installed")
+    _certificates(tmp_path)
+    endpoint = f"tls/127.0.0.1:{free_port()}"
+    (tmp_path / "robot1.json5").write_text(f"""{{
+        transport: {{link: {{tls: {{root_ca_certificate: "{tmp_path}/ca.pem", enable_mtls: true,
+            listen_certificate: "{tmp_path}/robot1.pem", listen_private_key: "{tmp_path}/robot1-key.pem"}}}}}},
+        {_ACCESS}
+    }}""")
+    (tmp_path / "gateway.json5").write_text(f"""{{
+        transport: {{link: {{tls: {{root_ca_certificate: "{tmp_path}/ca.pem", enable_mtls: true,
+            connect_certificate: "{tmp_path}/gateway.pem", connect_private_key: "{tmp_path}/gateway-key.pem"}}}}}}
+    }}""")
+    started.append(await start_component_host(["demo"], listen=endpoint, host_id="robot1",
+                                              extra=["--zenoh-config", str(tmp_path / "robot1.json5")]))
+    gateway, url = await start_gateway([endpoint], extra=["--zenoh-config", str(tmp_path / "gateway.json5")])
+    started.append(gateway)
+    async with aiohttp.ClientSession() as http:
+        await _heard(http, url, {"robot1"})
+        async with http.get(f"{url}/load/demo") as reply:
+            assert reply.status == 200
+        status, done = await _get(http, f"{url}/module/demo/send/GetSpeed")
+        assert done["status"] == "done", done
+    # A certificate of the lab's authority but another name: linked (TLS is satisfied), refused everything.
+    # No certificate at all: not even linked.
+    for certificate, expected in (("intruder", ([endpoint], [])), ("", ([], []))):
+        process = await asyncio.create_subprocess_exec(
+            sys.executable, "-c", _TLS_PEER, endpoint, str(tmp_path), certificate,
+            stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE)
+        out, err = await asyncio.wait_for(process.communicate(), 60)
+        seen = json.loads(out.decode().splitlines()[-1])
+        assert (seen["links"], seen["replies"]) == expected, (certificate, seen, err.decode()[-500:])

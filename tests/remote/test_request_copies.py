@@ -15,6 +15,7 @@ import orjson
 import pytest
 
 from aiogenomix.components.core import ComponentHost
+from aiogenomix.components.core.runtime import RemoteUnreachable
 from aiogenomix.remote import _proxy
 from aiogenomix.remote._proxy import RemoteInstance, RemoteLink, RemoteTimeouts
 from aiogenomix.remote._wire import OfferKey
@@ -128,3 +129,24 @@ async def test_a_clean_no_query_carries_is_published(rig: _Rig) -> None:
     published = rig.proxy._cleans.published  # type: ignore[attr-defined]
     await published.wait()
     assert [orjson.loads(body) for body in rig.proxy._cleans.sent] == [{"ids": ["0"]}]  # type: ignore[attr-defined]
+
+
+class _SilentSession:
+    """A Zenoh session whose queries get no reply (the host is frozen, or about to be found gone)."""
+
+    def get(self, *args: Any, **kwargs: Any) -> None:
+        pass
+
+
+async def test_a_host_found_gone_ends_the_queries_waiting_for_it_at_once() -> None:
+    async with ComponentHost(factories={}) as host:
+        link = RemoteLink(_SilentSession(), "gateway1", RemoteTimeouts(send=60.0), lambda zid: 0.0)  # type: ignore[arg-type]
+        offer = OfferKey(2, "robot1", "zid1", "demo", "aiogenomix/offer/2/robot1/zid1/demo")
+        proxy = RemoteInstance(host, link, offer, "demo", _DESCRIPTION, dict)
+        sending = asyncio.ensure_future(proxy.send("GotoPosition", {"posRef": 0.5}))
+        await asyncio.sleep(0)  # the send's first step: its query is asked, and waits for a reply
+        assert len(proxy._pending) == 1
+        proxy.lost("demo ran on component host robot1, which stopped or cannot be reached")
+        with pytest.raises(RemoteUnreachable) as gone:
+            await sending  # at once, not after the send's 60 s
+        assert "send GotoPosition of demo on robot1: its host went away before it answered" in str(gone.value)
