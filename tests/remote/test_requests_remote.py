@@ -167,3 +167,20 @@ def test_zenoh_is_not_imported_unless_asked_for() -> None:
              "assert 'zenoh' not in sys.modules, 'zenoh was imported'\n")
     done = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
+
+
+def test_a_component_host_carries_no_http_gateway() -> None:
+    # Beside the import-linter contract: what a robot's process really imports, its components loaded.
+    check = ("import asyncio, sys\n"
+             "import aiogenomix.remote, aiogenomix.remote._host_main\n"
+             "from aiogenomix.components.core import ComponentHost\n"
+             "async def main():\n"
+             "    async with ComponentHost() as host:\n"
+             "        for name in ('demo', 'kemar', 'capture', 'bass'):\n"
+             "            await host.load(name)\n"
+             "asyncio.run(main())\n"
+             "web = sorted(m for m in sys.modules\n"
+             "             if m.startswith('aiogenomix.gateway') or m.split('.')[0] == 'aiohttp')\n"
+             "assert not web, web\n")
+    done = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr

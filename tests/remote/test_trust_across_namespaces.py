@@ -46,19 +46,8 @@ session.close()
 print(json.dumps({{"links": links, "replies": replies, "tokens": tokens}}))
 """
 
-#: Reads the 2015 dedicated socket of bass on the robot, from the workstation, as the README shows.
-_SOCKET_READER = """
-import json, time
-from aiogenomix.clients import FrameSocketClient
-with FrameSocketClient({address!r}, 8081) as audio:
-    deadline = time.monotonic() + 30
-    while True:
-        block = audio.read(4410)
-        if len(block.left) or time.monotonic() > deadline:
-            break
-        time.sleep(0.05)  # polling a socket whose server publishes every 50 ms of sound
-print(json.dumps({{"frames": block.count, "first": block.first_frame}}))
-"""
+#: The README's read of the robot's 2015 socket: ten frames from the oldest, the reply's header as int32s.
+_README_SOCKET_READ = "printf 'Read Port - N 10 - nfr 0\\nClose\\n' | nc {address} 8081 | od -An -td4 -N16"
 
 
 def _credentials(folder: pathlib.Path) -> dict[str, pathlib.Path]:
@@ -134,11 +123,14 @@ async def test_an_authenticated_isolated_deployment(tmp_path: pathlib.Path, star
         # said where it listens when it started.
         assert any(re.search(rf"bass listen on {ROBOT_ADDRESS}:8081", line) for line in robot1.lines), robot1.lines
         assert await curl(ws, f"{url}/load/bass") == (200, "bass")
-        acquire = urllib.parse.quote(json.dumps({"device": "sim"}))
-        assert (await curl(ws, f"{url}/module/bass/send/Acquire?input={acquire}"))[1]["status"] == "sent"  # type: ignore[index]
         assert (await curl(ws, f"{url}/module/bass/send/DedicatedSocket"))[1]["status"] == "sent"  # type: ignore[index]
-        read = await python_in(ws, _SOCKET_READER.format(address=ROBOT_ADDRESS))
-        assert read["frames"] > 0, read  # type: ignore[index]
+        assert (await curl(ws, f"{url}/module/bass/send/Acquire"))[1]["status"] == "sent"  # type: ignore[index]
+        async with asyncio.timeout(30):  # until the port holds ten frames (the gateway's copy says so)
+            while (await curl(ws, f"{url}/module/bass/read/Audio"))[1]["Audio"]["lastFrameIndex"] < 10:  # type: ignore[index]
+                await asyncio.sleep(0.05)
+        header = await run_in(ws, "sh", "-c", _README_SOCKET_READ.format(address=ROBOT_ADDRESS))
+        count, lost, *_ = (int(word) for word in header.split())
+        assert (count, lost) == (10, 0), header
 
         # 4. A cut link: within the stale bound (1 s here) reads of robot1's ports are refused, not answered
         # with the last value; mended before Zenoh's lease (10 s) ends, everything goes on.
