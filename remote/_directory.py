@@ -137,6 +137,8 @@ class ZenohDirectory:
             place = "this gateway" if where.get("runs") == "here" else f"{where.get('instance')}@{where.get('host')}"
             raise LoadError(f"instance name {local_name!r} is taken by {place}: load {name} with -i ANOTHER_NAME")
         host.check_room()
+        if not self._book.facts(offer.zid):
+            await self._ask_facts(offer.zid)  # where it runs, said from the first load on
         description = await describe_remote(self.session, offer, self.timeouts.control)
         proxy = RemoteInstance(host, self.link, offer, local_name, description,
                                lambda: self._book.facts(offer.zid))
