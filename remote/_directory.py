@@ -126,6 +126,9 @@ class ZenohDirectory:
         if (isinstance(existing, RemoteInstance) and existing.remote_instance == instance
                 and host_id in (None, existing.offer.host)):
             return existing
+        # What the load's reply (or its refusal) says of each host that offers it: its endpoints.
+        await asyncio.gather(*(self._ask_facts(o.zid) for o in self._book.offers_of(instance, host_id)
+                               if not self._book.facts(o.zid)))
         offer = await self._resolve(name, instance, host_id)
         if offer is None:
             if host.knows(instance):
@@ -138,7 +141,7 @@ class ZenohDirectory:
             raise LoadError(f"instance name {local_name!r} is taken by {place}: load {name} with -i ANOTHER_NAME")
         host.check_room()
         if not self._book.facts(offer.zid):
-            await self._ask_facts(offer.zid)  # where it runs, said from the first load on
+            await self._ask_facts(offer.zid)  # heard of while the load waited: where it runs, said at once
         description = await describe_remote(self.session, offer, self.timeouts.control)
         proxy = RemoteInstance(host, self.link, offer, local_name, description,
                                lambda: self._book.facts(offer.zid))
