@@ -86,6 +86,9 @@ async def serve(args: argparse.Namespace, stop: asyncio.Event) -> None:
     from ._host_node import HostNode
     from ._session import connect_endpoints, listen_endpoints
 
+    zenoh_settings = ZenohSettings(connect=args.zenoh_connect, listen=args.zenoh_listen,
+                                   config_file=args.zenoh_config, scout=args.zenoh_scout)
+    zenoh_settings.config()  # refused now, before any hardware is opened, when it cannot work
     settings = rig_settings(can=args.can, can_timeout=args.can_timeout, audio_device=args.audio_device,
                             audio_socket_port=args.audio_socket_port, audio_socket_host=args.audio_socket_host,
                             audio_socket_token=args.token, audio_files=args.audio_files)
@@ -97,8 +100,6 @@ async def serve(args: argparse.Namespace, stop: asyncio.Event) -> None:
         for item in args.names:
             name, _, options = item.partition(":")
             await host.load(name, options.split())
-        zenoh_settings = ZenohSettings(connect=args.zenoh_connect, listen=args.zenoh_listen,
-                                       config_file=args.zenoh_config, scout=args.zenoh_scout)
         components = [c for c in host.instances.values() if isinstance(c, Component)]
         # This process is no gateway: it sends no request.  Its finder serves connect_port to an out port
         # of another process; what runs here was loaded above.
