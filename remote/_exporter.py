@@ -260,14 +260,15 @@ class ComponentExporter:
         return error_reply(404, {"ex": "::genomix::http", "message": f"no request operation {operation!r}"})
 
     def _owned(self, request_id: str, gateway: str) -> Request:
-        """The request *request_id* when gateway *gateway* sent it.
+        """The request *request_id* when gateway *gateway* sent it, or adopted it (its sender vanished).
 
         Raises:
             NoSuchRequest: when there is none, or another gateway sent it (sessions, requests and events of
                 one gateway never reach another's clients).
         """
         request = self.component.requests.get(request_id)
-        if self._owners.get(request, gateway) != gateway:
+        owner = self._owners.setdefault(request, gateway)  # an orphan's: adopted, its events go there now
+        if owner != gateway:
             raise NoSuchRequest(f"no request {request.id} of this gateway (another gateway sent it)")
         return request
 
@@ -304,19 +305,22 @@ class ComponentExporter:
 
     # -- the dead-man -------------------------------------------------------------------------
 
-    async def stop_motions_of(self, gateway: str) -> list[Request]:
-        """Interrupt the motions gateway *gateway* started (it vanished); return them once stopped.
+    async def orphan(self, gateway: str) -> list[Request]:
+        """Gateway *gateway* vanished: interrupt the motions it started; return them once stopped.
 
-        Only activities declared ``motion=True`` stop: a capture or a recording goes on, its
-        data kept for whoever reads it next.
+        Only activities declared ``motion=True`` stop: a capture or a recording goes on, its data
+        kept for whoever reads it next.  Its other requests then belong to no gateway: the first
+        gateway that asks for one (its status, an abort, a clean) adopts it, and hears its events.
         """
-        orphans = [request for request in self.component.requests.running()
-                   if request.service.motion and self._owners.get(request) == gateway]
-        for request in orphans:
+        theirs = [request for request in self.component.requests.running() if self._owners.get(request) == gateway]
+        motions = [request for request in theirs if request.service.motion]
+        for request in motions:
             log.warning("%s: stopping %s (%s): the gateway that started it is gone (dead-man)",
                         self.instance, request.id, request.service.name)
-        await asyncio.gather(*(self.component.interrupt(request, by="gateway_gone") for request in orphans))
-        return orphans
+        await asyncio.gather(*(self.component.interrupt(request, by="gateway_gone") for request in motions))
+        for request in theirs:
+            self._owners.pop(request, None)
+        return motions
 
     # -- publications -----------------------------------------------------------------------
 

@@ -114,7 +114,7 @@ class HostNode:
 
     async def _gateway_gone(self, gateway: str) -> None:
         for exporter in list(self.exporters.values()):
-            await exporter.stop_motions_of(gateway)
+            await exporter.orphan(gateway)
             exporter.forget_gateway(gateway)
 
     def expect_gateway(self, gateway: str) -> None:

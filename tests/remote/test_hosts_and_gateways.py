@@ -132,6 +132,10 @@ async def test_one_name_two_hosts_two_gateways(started: list[Process]) -> None:
             # its link closes), while another gateway watches.
             status, sent = await _get(http, goto + _input({"posRef": -0.9}))
             assert sent["status"] == "sent"
+            # An activity that is no motion (it waits for the robot to cross a place it will never reach).
+            monitor = f"{both}/module/demo/send/Monitor?s=s1&input={_input({'monitor': 0.95})}"
+            status, watching = await _get(http, monitor)
+            assert watching["status"] == "sent"
             async with asyncio.timeout(60):
                 positions = _positions(http, first)
                 async for mobile in positions:
@@ -148,6 +152,11 @@ async def test_one_name_two_hosts_two_gateways(started: list[Process]) -> None:
             assert (await _get(http, f"{first}/module/demo/read/Mobile"))[1]["Mobile"] == mobile
             # The other robot never moved.
             assert (await _get(http, f"{second}/module/demo/read/Mobile"))[1]["Mobile"]["position"] == 0.0
+            # What was no motion goes on, and belongs to no gateway now: another one may see it and end it.
+            orphan = watching["id"]
+            assert await _get(http, f"{first}/module/demo/status/{orphan}") == (200, watching)
+            status, aborted = await _get(http, f"{first}/module/demo/abort/{orphan}")
+            assert aborted["exception"] == {"ex": "::genom::interrupted", "detail": {"by": "abort"}}, aborted
         finally:
             for stream in streams.values():
                 stream.close()
