@@ -70,9 +70,10 @@ async def _positions(http: aiohttp.ClientSession, url: str) -> AsyncIterator[dic
 async def test_one_name_two_hosts_two_gateways(started: list[Process]) -> None:
     # Real time: the dead-man check below needs a move that lasts seconds.
     endpoints = [f"tcp/127.0.0.1:{free_port()}" for _ in range(2)]
-    robots = await asyncio.gather(*(start_component_host(["demo"], listen=endpoint, host_id=f"robot{n}",
+    robots = await asyncio.gather(*(start_component_host(names, listen=endpoint, host_id=f"robot{n}",
                                                          extra=["--time-scale", "1"])
-                                    for n, endpoint in enumerate(endpoints, 1)))
+                                    for n, (endpoint, names) in enumerate(zip(endpoints, (["demo", "kemar"], ["demo"]),
+                                                                              strict=True), 1)))
     started.extend(robots)
     gateways = await asyncio.gather(start_gateway(endpoints), start_gateway(endpoints[:1]),
                                     start_gateway(endpoints[1:]))
@@ -132,6 +133,10 @@ async def test_one_name_two_hosts_two_gateways(started: list[Process]) -> None:
             # its link closes), while another gateway watches.
             status, sent = await _get(http, goto + _input({"posRef": -0.9}))
             assert sent["status"] == "sent"
+            # The head homes meanwhile (seconds of real time: it is still turning when the gateway dies).
+            assert (await _text(http, f"{both}/load/kemar"))[0] == 200
+            status, homing = await _get(http, f"{both}/module/kemar/send/Homing?s=s1")
+            assert homing["status"] == "sent", homing
             # An activity that is no motion (it waits for the robot to cross a place it will never reach).
             monitor = f"{both}/module/demo/send/Monitor?s=s1&input={_input({'monitor': 0.95})}"
             status, watching = await _get(http, monitor)
@@ -152,6 +157,11 @@ async def test_one_name_two_hosts_two_gateways(started: list[Process]) -> None:
             assert (await _get(http, f"{first}/module/demo/read/Mobile"))[1]["Mobile"] == mobile
             # The other robot never moved.
             assert (await _get(http, f"{second}/module/demo/read/Mobile"))[1]["Mobile"]["position"] == 0.0
+            # The head stopped too, by the same switch: its request, now nobody's, says so to another gateway.
+            assert (await _text(http, f"{first}/load/kemar"))[0] == 200
+            status, homed = await _get(http, f"{first}/module/kemar/wait/{homing['id']}?timeout=30")
+            assert homed["exception"] == {"ex": "::genom::interrupted", "detail": {"by": "gateway_gone"}}, homed
+            assert time.monotonic() - killed < 10.0
             # What was no motion goes on, and belongs to no gateway now: another one may see it and end it.
             orphan = watching["id"]
             assert await _get(http, f"{first}/module/demo/status/{orphan}") == (200, watching)
