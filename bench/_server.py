@@ -1,6 +1,6 @@
 """The processes a benchmark talks to: the gateway (with a probe component) and the floors.
 
-Run as ``python -m bench._server gateway|aiohttp|socket|zenoh [options]``; each prints
+Run as ``python -m bench._server gateway|aiohttp|socket|zenoh|relay [options]``; each prints
 ``ready <port> [<port>]`` (``ready <endpoint>`` for Zenoh) once it listens, then serves until killed.
 """
 
@@ -103,13 +103,13 @@ async def _zenoh_floor(args: argparse.Namespace) -> None:
     A component host hands each query to its loop the same way: this is the floor of a remote call.
     """
     # Here, not at the top: the gateway's memory is measured from this module without them.
-    from aiogenomix.gateway.remote._session import ZenohEndpoints, on_zenoh_thread, open_session
+    from aiogenomix.remote._session import ZenohSettings, on_zenoh_thread, open_session
 
     from ._common import free_port
 
     loop = asyncio.get_running_loop()
     listen = f"tcp/127.0.0.1:{free_port()}"
-    session = open_session(ZenohEndpoints(listen=[listen]))
+    session, _ = open_session(ZenohSettings(listen=[listen]))
 
     def answer(query: zenoh.Query) -> None:
         query.reply(query.key_expr, b'{"ok":{"id":"demo::0","status":"done","output":{}}}', express=True)
@@ -125,14 +125,67 @@ async def _zenoh_floor(args: argparse.Namespace) -> None:
         session.close()
 
 
+async def _zenoh_relay(args: argparse.Namespace) -> None:
+    """A bare aiohttp server that forwards each request through one Zenoh query (to ``bench/floor``).
+
+    With the Zenoh floor's process on the other end, it is the relay floor F of a remote call: the
+    same three processes (HTTP client, a process that relays, a process that answers from its event
+    loop) and nothing else: no genomix, no component, no bookkeeping.
+    """
+    import zenoh
+
+    from aiogenomix.remote._session import ZenohSettings, on_zenoh_thread, open_session
+
+    loop = asyncio.get_running_loop()
+    session, _ = open_session(ZenohSettings(connect=[args.connect]))
+
+    def ask() -> asyncio.Future[bytes]:
+        answer: asyncio.Future[bytes] = loop.create_future()
+
+        def settle(body: bytes) -> None:
+            if not answer.done():
+                answer.set_result(body)
+
+        def on_reply(reply: zenoh.Reply) -> None:
+            if reply.ok is not None:
+                loop.call_soon_threadsafe(settle, reply.ok.payload.to_bytes())
+
+        session.get("bench/floor", on_zenoh_thread(on_reply), payload=b'{"service":"GetSpeed"}', timeout=5.0,
+                    express=True, consolidation=zenoh.ConsolidationMode.NONE)
+        return answer
+
+    async def handler(request: web.Request) -> web.Response:
+        return web.Response(body=await ask(), content_type="application/json")
+
+    while True:  # connected once a query is answered
+        try:
+            async with asyncio.timeout(1.0):
+                await ask()
+            break
+        except TimeoutError:
+            continue
+    app = web.Application()
+    app.router.add_get("/{tail:.*}", handler)
+    runner = web.AppRunner(app, access_log=None)
+    await runner.setup()
+    await web.TCPSite(runner, "127.0.0.1", 0).start()
+    print("ready", runner.addresses[0][1], flush=True)
+    try:
+        await asyncio.Event().wait()
+    finally:
+        session.close()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("kind", choices=["gateway", "aiohttp", "socket", "zenoh"])
+    parser.add_argument("kind", choices=["gateway", "aiohttp", "socket", "zenoh", "relay"])
     parser.add_argument("--profile", metavar="FILE", help="profile with cProfile; write the stats on SIGTERM")
     parser.add_argument("--max-sessions", type=int, default=GatewayConfig.max_sessions,
                         help="the gateway's cap on sessions")
+    parser.add_argument("--connect", help="the relay's Zenoh endpoint to connect to (the Zenoh floor's)")
     args = parser.parse_args()
-    runner = {"gateway": _gateway, "aiohttp": _bare_aiohttp, "socket": _socket_floor, "zenoh": _zenoh_floor}[args.kind]
+    runner = {"gateway": _gateway, "aiohttp": _bare_aiohttp, "socket": _socket_floor, "zenoh": _zenoh_floor,
+              "relay": _zenoh_relay}[args.kind]
     if not args.profile:
         asyncio.run(runner(args))
         return

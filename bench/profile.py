@@ -37,7 +37,7 @@ FUNCTIONS = [
     ("the publication's struct with chunked arrays", "capture/_port_view.py", "chunked"),
     ("build a JSON body (splice the chunks' texts)", "gateway/_pieces.py", "json_pieces"),
     ("a new chunk's JSON text (orjson)", "core/_chunked.py", "json"),
-    ("build a binary body (list the chunks' memory)", "gateway/_binary.py", "encode_binary"),
+    ("build a binary body (list the chunks' memory)", "core/_binary.py", "encode_binary"),
     ("the gathered write (writev: the kernel's copy)", "gateway/_gather.py", "write_gathered"),
     ("aiohttp: handle a request through the routes (/version)", "web_protocol.py", "_handle_request"),
     ("the guard, route and handler", "gateway/_guard.py", "guard"),

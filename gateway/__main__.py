@@ -10,9 +10,8 @@ import sys
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from ._budget_arguments import add_budget_arguments, budgets_from
+from ..components.core.runtime import add_budget_arguments, add_rig_arguments, budgets_from
 from ._config import GatewayConfig
-from ._rig_arguments import add_rig_arguments
 from ._signals import StopSignal, ignore_stop_signals, raise_on_stop_signals
 
 if TYPE_CHECKING:
@@ -31,7 +30,7 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
     parser.add_argument("--host", default=defaults.host, help="address to bind (default %(default)s)")
     parser.add_argument("--port", type=int, default=defaults.port,
                         help="HTTP port, 0 for a free one (default %(default)s)")
-    add_rig_arguments(parser, defaults)
+    add_rig_arguments(parser)
     parser.add_argument("--load", action="append", default=[], metavar="NAME[:ARGS]",
                         help="load a component at start (repeatable), e.g. demo or demo:-i demo2")
     parser.add_argument("--components", help="comma-separated allow-list of loadable components")
@@ -43,18 +42,34 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
                              "this machine's names (repeatable; '*' for any)")
     parser.add_argument("--allow-origin", action="append", default=[], metavar="ORIGIN",
                         help="a web origin (scheme://host:port) whose pages may use the gateway (repeatable)")
-    remote = parser.add_argument_group("remote components", "components that run in other processes or on "
-                                       "other hosts (aiogenomix-component), found on Zenoh")
+    remote = parser.add_argument_group(
+        "remote components", "components that run in other processes or on other hosts (aiogenomix-component), "
+                              "found on Zenoh; the gateway talks to nobody but the endpoints given")
     remote.add_argument("--zenoh", action="store_true",
-                        help="also load components offered on Zenoh (off: every component runs in this process)")
+                        help="load components offered on Zenoh (implied by the options below): every name then runs "
+                             "where a host offers it, never in this gateway unless named with --local")
     remote.add_argument("--zenoh-connect", action="append", default=[], metavar="ENDPOINT",
-                        help="a Zenoh endpoint to connect to, e.g. tcp/192.168.1.10:7447 (repeatable; implies "
-                             "--zenoh; with any endpoint, multicast scouting is off)")
+                        help="a Zenoh endpoint to connect to, e.g. tcp/192.168.1.10:7447 (repeatable)")
     remote.add_argument("--zenoh-listen", action="append", default=[], metavar="ENDPOINT",
-                        help="a Zenoh endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable; implies --zenoh)")
+                        help="a Zenoh endpoint to listen on, for hosts that connect to the gateway (repeatable; "
+                             "none by default)")
+    remote.add_argument("--zenoh-config", default=None, metavar="FILE",
+                        help="Zenoh's own configuration file (JSON5): TLS, user/password, access control, a "
+                             "router; --zenoh-connect and --zenoh-listen replace its endpoints")
+    remote.add_argument("--zenoh-scout", action="store_true",
+                        help="find hosts by multicast scouting and gossip and listen on every interface (Zenoh's "
+                             "defaults): only on a network where every machine is trusted")
+    remote.add_argument("--local", action="append", default=[], metavar="NAME",
+                        help="a component that runs in this gateway even with remote components (repeatable); "
+                             "any other name runs only where a component host offers it")
     remote.add_argument("--zenoh-timeout", type=_at_least(float, 0.1), default=defaults.zenoh_timeout,
-                        metavar="SECONDS", help="time a component host has to answer before the gateway answers "
-                                                "::genom::remote_io (default %(default)s)")
+                        metavar="SECONDS", help="time a component host has to answer, or to offer again a name it "
+                                                "offered, before the gateway answers ::genom::remote_io "
+                                                "(default %(default)s)")
+    remote.add_argument("--zenoh-stale", type=_at_least(float, 0.5), default=defaults.zenoh_stale,
+                        metavar="SECONDS", help="time without news of a component host after which reads of its "
+                                                "ports answer ::genom::remote_io rather than old data "
+                                                "(default %(default)s)")
     limits = parser.add_argument_group("limits", "what one client can hold or send")
     limits.add_argument("--header-timeout", type=_at_least(float, 0.001), default=defaults.header_timeout,
                         metavar="SECONDS", help="time a client has to send a request's line and headers, "
@@ -79,8 +94,10 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
         components=args.components.split(",") if args.components else None, preload=args.load,
         header_timeout=args.header_timeout, max_url_bytes=args.max_url_bytes, session_idle=args.session_idle,
         max_sessions=args.max_sessions, max_instances=args.max_instances, budgets=budgets,
-        zenoh=args.zenoh or bool(args.zenoh_connect or args.zenoh_listen), zenoh_connect=args.zenoh_connect,
-        zenoh_listen=args.zenoh_listen, zenoh_timeout=args.zenoh_timeout,
+        zenoh=bool(args.zenoh or args.zenoh_connect or args.zenoh_listen or args.zenoh_config or args.zenoh_scout),
+        zenoh_connect=args.zenoh_connect, zenoh_listen=args.zenoh_listen, zenoh_config=args.zenoh_config,
+        zenoh_scout=args.zenoh_scout, zenoh_local=args.local, zenoh_timeout=args.zenoh_timeout,
+        zenoh_stale=args.zenoh_stale,
     )
 
 
@@ -114,15 +131,19 @@ def main(argv: list[str] | None = None) -> int:
             # Every user of the machine can read a process's command line (/proc/PID/cmdline).
             print("aiogenomix gateway: warning: a --token on the command line can be read by every user of this "
                   "machine (ps, /proc); set AIOGENOMIX_TOKEN in the environment instead", file=sys.stderr, flush=True)
-        from ._errors import ZenohSessionError
         from ._run import ListenError, run
 
+        zenoh_errors: tuple[type[Exception], ...] = ()
+        if config.zenoh:
+            from ..remote import ZenohSessionError  # imports Zenoh: only when asked for
+
+            zenoh_errors = (ZenohSessionError,)
         try:
             run(config)
         except ListenError as exc:
             print(f"aiogenomix gateway: {exc}; {_listen_hint(exc)}", file=sys.stderr, flush=True)
             return 1
-        except ZenohSessionError as exc:
+        except zenoh_errors as exc:
             print(f"aiogenomix gateway: {exc}", file=sys.stderr, flush=True)
             return 1
     except StopSignal as stop:

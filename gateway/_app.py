@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import sys
 from collections.abc import AsyncIterator, Callable
 
 import orjson
@@ -99,13 +100,18 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
 
 async def _find_remote_components(app: web.Application) -> None:
     """Let ``load`` find the components other processes offer on Zenoh (imported only when asked for)."""
-    from .remote import RemoteTimeouts, ZenohDirectory, ZenohEndpoints
+    from ..remote import RemoteTimeouts, ZenohDirectory, ZenohSettings
 
-    config, host = app[CONFIG], app[HOST]
-    timeouts = RemoteTimeouts(control=config.zenoh_timeout,
-                              send=2 * config.zenoh_timeout + config.function_grace)
-    directory = await ZenohDirectory.open(ZenohEndpoints(connect=config.zenoh_connect, listen=config.zenoh_listen),
-                                          timeouts)
+    config, host, sessions = app[CONFIG], app[HOST], app[SESSIONS]
+    timeouts = RemoteTimeouts(control=config.zenoh_timeout, send=2 * config.zenoh_timeout + config.function_grace,
+                              stale=config.zenoh_stale)
+    settings = ZenohSettings(connect=config.zenoh_connect, listen=config.zenoh_listen,
+                             config_file=config.zenoh_config, scout=config.zenoh_scout)
+    directory = await ZenohDirectory.open(
+        settings, timeouts, local=config.zenoh_local,
+        on_offered=lambda offer: sessions.broadcast(format_event("offered", orjson.dumps(offer))))
+    print(f"aiogenomix gateway: Zenoh session {directory.zid}: {settings.summary(directory.config)}",
+          file=sys.stderr, flush=True)
     host.finder = directory
     # The host closes its shared resources last, after unloading the proxies that use the session.
     host.shared("zenoh", lambda: directory)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 
 from ..components.core import Budgets, HostSettings
+from ..components.core.runtime import rig_settings
 
 __all__ = ["GatewayConfig"]
 
@@ -44,12 +45,21 @@ class GatewayConfig:
         max_instances: How many component instances may be loaded at once (429 beyond).
         budgets: The bounds of what clients can make the components hold: audio ports, dedicated-socket
             clients and their unsent replies, ``basc`` blocks, worlds' render memory (``--max-port-bytes``...).
-        zenoh: Also load components that other processes offer on Zenoh (``aiogenomix-component``).
-        zenoh_connect: Zenoh endpoints to connect to (``tcp/HOST:PORT``); with any endpoint given,
-            multicast scouting is off: the gateway talks to these and to whoever connects to it.
-        zenoh_listen: Zenoh endpoints to listen on.
+        zenoh: Load components that other processes offer on Zenoh (``aiogenomix-component``); every
+            name then runs where a component host offers it, except the ``zenoh_local`` ones.
+        zenoh_connect: Zenoh endpoints to connect to (``tcp/HOST:PORT``): the gateway talks to these
+            and to nobody else (no scouting, no gossip).
+        zenoh_listen: Zenoh endpoints to listen on (none by default: hosts do not connect to a gateway).
+        zenoh_config: Zenoh's own configuration file (JSON5: TLS, user/password, access control, a
+            router); ``zenoh_connect`` and ``zenoh_listen`` replace its endpoints.
+        zenoh_scout: Find hosts by multicast scouting and gossip, listening on every interface.
+        zenoh_local: Component names that run in the gateway even with ``zenoh`` (an explicit choice:
+            a host that restarts can never be replaced by a copy in the gateway).
         zenoh_timeout: Seconds a component host has to answer a query (a send gets twice that plus
-            ``function_grace``) before the gateway answers ``::genom::remote_io``.
+            ``function_grace``), and to offer again a name it offered, before the gateway answers
+            ``::genom::remote_io``.
+        zenoh_stale: Seconds without news of a component host after which reads of its ports answer
+            ``::genom::remote_io`` and sends to it are refused (it beats every 0.25 s).
     """
 
     host: str = "127.0.0.1"
@@ -77,16 +87,17 @@ class GatewayConfig:
     zenoh: bool = False
     zenoh_connect: list[str] = dataclasses.field(default_factory=list)
     zenoh_listen: list[str] = dataclasses.field(default_factory=list)
+    zenoh_config: str | None = None
+    zenoh_scout: bool = False
+    zenoh_local: list[str] = dataclasses.field(default_factory=list)
     zenoh_timeout: float = 5.0
+    zenoh_stale: float = 2.0
 
     def host_settings(self) -> HostSettings:
         """The settings handed to the components: the rig, and the dedicated socket beside the HTTP port."""
-        kind, _, path = self.audio_device.partition(":")
-        operator_file = [path] if kind in ("file", "sim") and path else []
-        return HostSettings(can=self.can, can_timeout=self.can_timeout, audio_device=self.audio_device,
+        return rig_settings(can=self.can, can_timeout=self.can_timeout, audio_device=self.audio_device,
                             audio_socket_port=self.audio_socket_port, audio_socket_host=self.host,
-                            audio_socket_token=self.token, audio_files=(*self.audio_files, *operator_file),
-                            budgets=self.budgets)
+                            audio_socket_token=self.token, audio_files=self.audio_files, budgets=self.budgets)
 
     def simulated_parts(self) -> list[str]:
         """Plain words for the parts of the rig that are simulated."""

@@ -15,7 +15,10 @@ from ._errors import BadQuery, LoadForbidden
 from ._keys import CONFIG, DOOR, HOST, SESSIONS
 from ._replies import SERVER_HEADER, SERVER_VERSION, json_reply, text_reply
 
-__all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "FEATURES"]
+__all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "FEATURES", "WHERE_HEADER"]
+
+#: The header of a load's reply that says where the instance runs (JSON: ``runs``, ``host``, ``endpoints``...).
+WHERE_HEADER = "Aiogenomix-Where"
 
 #: The genomixd release whose protocol this gateway speaks (clients check it at connection).
 GENOMIX_PROTOCOL_VERSION = "1.7.3"
@@ -30,17 +33,24 @@ routes = web.RouteTableDef()
 async def index(request: web.Request) -> web.Response:
     """What runs here: versions, loaded modules, loadable components, sessions."""
     host = request.app[HOST]
-    return json_reply({
+    instances = host.instances
+    index: dict[str, object] = {
         "server": f"aiogenomix {SERVER_VERSION}",
         "genomix": GENOMIX_PROTOCOL_VERSION,
-        "loaded": {name: c.genom_name for name, c in host.instances.items()},
+        "loaded": {name: c.genom_name for name, c in instances.items()},
+        # Where each loaded instance runs: here, or on which component host (its endpoints, its protocol).
+        "where": {name: c.placement() for name, c in instances.items()},
         "available": _allowed(request),
         # Components that other processes offer on Zenoh (gateway --zenoh), loadable as the others.
         "offered": host.finder.offered() if host.finder is not None else [],
         "sessions": len(request.app[SESSIONS]),
         "simulated": request.app[CONFIG].simulated_parts(),
         "features": FEATURES,
-    })
+    }
+    if host.finder is not None:
+        # This gateway's Zenoh session and links, each host heard (what it offers), the hosts refused.
+        index["zenoh"] = host.finder.view()
+    return json_reply(index)
 
 
 _CONSOLE = (pathlib.Path(__file__).parent / "console.html").read_bytes()
@@ -109,16 +119,23 @@ def _argv(request: web.Request) -> list[str]:
 
 @routes.get("/load/{name:.+}", allow_head=False)
 async def load(request: web.Request) -> web.Response:
-    """Load a registered component (``argv`` may hold ``-i INSTANCE``). Reply: the instance name."""
+    """Load a registered component (``argv`` may hold ``-i INSTANCE``). Reply: the instance name.
+
+    With remote components, ``NAME@HOST`` loads the instance a given component host offers.  The
+    ``Aiogenomix-Where`` header says where the instance runs (the placement ``/`` shows).
+    """
     name = request.match_info["name"]
     if "/" in name or name.endswith(".so"):
         raise LoadForbidden(
             f"cannot load {name!r}: only registered components load, by name ({', '.join(_allowed(request))})"
         )
-    if name not in _allowed(request):
+    allow = request.app[CONFIG].components
+    if allow is not None and name.partition("@")[0] not in allow:
         raise NoSuchModule(f"no component {name!r} (available: {', '.join(_allowed(request))})")
     component = await request.app[HOST].load(name, _argv(request))
-    return text_reply(component.instance)
+    reply = text_reply(component.instance)
+    reply.headers[WHERE_HEADER] = orjson.dumps(component.placement()).decode()
+    return reply
 
 
 @routes.get("/unload/{name}", allow_head=False)

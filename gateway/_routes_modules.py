@@ -12,7 +12,7 @@ from typing import Any
 
 from aiohttp import web
 
-from ..components.core import Component
+from ..components.core.runtime import LoadedInstance
 from ._errors import BadQuery, UnsupportedBody
 from ._input import parse_input
 from ._keys import HOST, SESSIONS, SHUTDOWN
@@ -27,7 +27,7 @@ MAX_WAIT = 3600.0
 routes = web.RouteTableDef()
 
 
-def _component(request: web.Request) -> Component:
+def _component(request: web.Request) -> LoadedInstance:
     return request.app[HOST].get(request.match_info["module"])
 
 

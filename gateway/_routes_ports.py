@@ -20,7 +20,7 @@ import orjson
 from aiohttp import web
 
 from ..components.core import Chunked, Incremental, OutPortRuntime
-from ._binary import CONTENT_TYPE, encode_binary
+from ..components.core.runtime import BINARY_CONTENT_TYPE, encode_binary
 from ._errors import BadQuery
 from ._keys import HOST, READ_BODIES, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, WatchFrames
 from ._pieces import PiecesPayload, body_of, json_pieces
@@ -35,7 +35,7 @@ routes = web.RouteTableDef()
 
 def wants_binary(fmt: str, accept: str) -> bool:
     """Whether a read gets the binary form, given its ``format`` (checked: empty, json or binary) and ``Accept``."""
-    return fmt == "binary" or (not fmt and CONTENT_TYPE in accept)
+    return fmt == "binary" or (not fmt and BINARY_CONTENT_TYPE in accept)
 
 
 def _wants_binary(request: web.Request) -> bool:
@@ -89,7 +89,7 @@ def _require_incremental(port: Any, value: Any) -> Incremental:
 
 
 #: The headers of a read's reply, binary or not.
-READ_HEADERS = {binary: {"Content-Type": CONTENT_TYPE if binary else "application/json", **SERVER_HEADER}
+READ_HEADERS = {binary: {"Content-Type": BINARY_CONTENT_TYPE if binary else "application/json", **SERVER_HEADER}
                 for binary in (False, True)}
 
 
@@ -102,7 +102,7 @@ def _is_chunked(kind: type) -> bool:
 def _body(name: str, port: Any, value: Any, binary: bool, extra: dict[str, Any]) -> bytes | PiecesPayload:
     data = None if value is None else port.type.encode(value)
     if binary:
-        return body_of(encode_binary(name, data, **extra), CONTENT_TYPE)
+        return body_of(encode_binary(name, data, **extra), BINARY_CONTENT_TYPE)
     return body_of(json_pieces({name: data, **extra}), "application/json")
 
 

@@ -24,7 +24,7 @@ from collections.abc import Callable
 
 import orjson
 
-from ..components.core.runtime import Request
+from ..components.core.runtime import RequestStatus
 from ._errors import BadQuery, NoSuchSession, TooManySessions
 from ._sse import FINAL_ID, event_id, format_event
 
@@ -288,7 +288,7 @@ class SessionStore:
         self.get(name).stop()
         self._forget(name)
 
-    def route_request(self, request: Request) -> None:
+    def route_request(self, request: RequestStatus) -> None:
         """Deliver a ``request`` event to the request's session, if it has one (and it has not expired)."""
         if request.session is None:
             return

@@ -17,7 +17,7 @@ from collections.abc import Awaitable, Callable
 
 from aiohttp import web
 
-from ..components.core.runtime import Request
+from ..components.core.runtime import RequestStatus
 from ._keys import HOST, SESSIONS, SHUTDOWN
 from ._replies import json_reply
 
@@ -61,7 +61,7 @@ async def _stop_components(app: web.Application) -> None:
                   STOP_COMPONENTS_WITHIN)
 
 
-def shutting_down_reply(request: Request) -> web.Response:
+def shutting_down_reply(request: RequestStatus) -> web.Response:
     """The reply to a ``wait`` on a request that had not ended when the gateway shut down."""
     return json_reply({"ex": "::genomix::shutting_down",
                        "message": f"the gateway is shutting down; request {request.id} had not ended"}, status=503)

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import asyncio
 
-from ..components.core import Component, ComponentHost
+from ..components.core import ComponentHost
+from ..components.core.runtime import LoadedInstance
 
 __all__ = ["Unloads"]
 
@@ -24,12 +25,12 @@ class Unloads:
 
     def __init__(self, host: ComponentHost) -> None:
         self._host = host
-        self._futures: dict[Component, asyncio.Future[None]] = {}
+        self._futures: dict[LoadedInstance, asyncio.Future[None]] = {}
 
-    def _loaded(self, component: Component) -> bool:
+    def _loaded(self, component: LoadedInstance) -> bool:
         return self._host.instances.get(component.instance) is component
 
-    def of(self, component: Component) -> asyncio.Future[None]:
+    def of(self, component: LoadedInstance) -> asyncio.Future[None]:
         """A future done when *component* is unloaded (already done if it is); never cancel it (it is shared)."""
         future = self._futures.get(component)
         if future is None:

@@ -242,7 +242,8 @@ class Binauloc(Component, name="binauloc", version="1.0"):
         if self.host.find(TurnableHead) is None:
             raise e_noHead(what="no component of this host turns a head: load kemar, kemarcapture or morse_kemar")
 
-    @activity(task=localize, interrupts=ANALYSES, throws=(e_setup, e_noData, e_rate, e_noHead, e_head),
+    # A motion: it turns the head, so a component host stops it when the gateway that asked is gone.
+    @activity(motion=True, task=localize, interrupts=ANALYSES, throws=(e_setup, e_noData, e_rate, e_noHead, e_head),
               validate=_validate_face)
     async def FaceSource(
         self,

@@ -29,6 +29,7 @@ from ._types import Bound, ULong
 if TYPE_CHECKING:
     from ._clock import Clock
     from ._host import ComponentHost
+    from ._instance import Placement
 
 __all__ = ["Component"]
 
@@ -184,6 +185,10 @@ class Component:
         from ._describe import describe
 
         return describe(self)
+
+    def placement(self) -> Placement:
+        """Where the instance runs: in this process."""
+        return {"runs": "here", "component": self.genom_name, "version": self.version}
 
     def port(self, name: str) -> OutPortRuntime[Any] | InPortRuntime[Any]:
         """The runtime of a port.

@@ -10,6 +10,9 @@
     ├── NoSuchRequest (LookupError)      unknown request id
     ├── RequestRunning                   ``clean`` of a request that has not ended
     ├── PortUnavailable                  a read of a port whose data is withdrawn (its sensor is down)
+    ├── AmbiguousModule (LookupError)    a name that several component hosts offer: say which
+    ├── RemoteUnreachable                an instance of another process did not answer, or is not heard from
+    ├── RemoteRefusal                    an instance of another process refused: its error, as answered there
     └── GenomException                   an exception in the genom3 sense, with an id and a detail
         ├── (declared by components, e.g. ::demo::TOO_FAR_AWAY)
         └── the standard ::genom::* exceptions (interrupted, too_many_activities, ...)
@@ -26,9 +29,9 @@ from typing import Any, ClassVar
 
 __all__ = [
     "ComponentError", "InputError", "NoSuchModule", "NoSuchService", "NoSuchPort", "NoSuchRequest",
-    "RequestRunning", "GenomException", "interrupted", "too_many_activities", "unkex", "syserr",
-    "no_such_service", "no_such_outport", "no_such_inport", "port_io", "serialization", "disallowed",
-    "no_such_activity", "PortUnavailable",
+    "RequestRunning", "PortUnavailable", "AmbiguousModule", "RemoteUnreachable", "RemoteRefusal", "GenomException",
+    "interrupted", "too_many_activities", "unkex", "syserr", "no_such_service", "no_such_outport", "no_such_inport",
+    "port_io", "serialization", "disallowed", "no_such_activity",
 ]
 
 
@@ -81,6 +84,30 @@ class PortUnavailable(ComponentError):
     def __init__(self, port: str, reason: GenomException) -> None:
         self.port, self.reason = port, reason
         super().__init__(f"port {port} has no current data: {reason}")
+
+
+class AmbiguousModule(ComponentError, LookupError):
+    """A name that several component hosts offer: the load must say which (``NAME@HOST``)."""
+
+
+class RemoteUnreachable(ComponentError):
+    """An instance of another process did not answer in time, or was not heard from within the bound.
+
+    Its process died, froze, or the network between is cut: answered as ``::genom::remote_io``.
+    """
+
+
+class RemoteRefusal(ComponentError):
+    """An instance of another process refused: its genomix error, answered as the host of the instance answers it.
+
+    Args:
+        status: The HTTP status of the error.
+        body: The genomix error body (``ex``, ``detail``, ``message``).
+    """
+
+    def __init__(self, status: int, body: dict[str, Any]) -> None:
+        super().__init__(body.get("message", body.get("ex", "")))
+        self.status, self.body = status, body
 
 
 class GenomException(ComponentError):

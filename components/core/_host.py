@@ -21,8 +21,9 @@ from ._budgets import Ledgers
 from ._clock import Clock, RealClock
 from ._component import Component
 from ._exceptions import ComponentError, NoSuchModule
+from ._instance import LoadedInstance
 from ._log_limits import ThrottledLog
-from ._requests import Request
+from ._requests import RequestStatus
 from ._settings import HostSettings
 
 __all__ = ["ComponentHost", "LoadError", "TooManyInstances", "RemoteFinder", "NoCapability"]
@@ -56,15 +57,33 @@ class NoCapability(ComponentError, LookupError):
 class RemoteFinder(Protocol):
     """Finds components that run in other processes and gives a local proxy of them.
 
-    A host with a finder (``host.finder``) loads a component advertised elsewhere as
-    its proxy, which the gateway serves like any instance (see ``aiogenomix.gateway.remote``).
+    A host with a finder (``host.finder``) asks it first for every name it loads: the finder
+    answers with the proxy of an instance another process offers (which the gateway serves like
+    any instance, see ``aiogenomix.remote``), refuses the name, or says that it runs in this
+    process.  The finder decides, so that no race with a host that restarts can change where a
+    robot's commands go.
     """
 
-    async def find(self, host: ComponentHost, name: str, argv: list[str]) -> Component | None:
-        """A started proxy of the remote instance *name*, or None when no process offers it."""
+    async def find(self, host: ComponentHost, name: str, argv: list[str]) -> LoadedInstance | None:
+        """The started proxy that *name* designates (the one loaded already, if any); None: it runs here.
+
+        A new proxy is made only after ``host.check_room()``; the host then holds it.
+
+        Raises:
+            NoSuchModule: when no process offers *name* and it may not run here.
+            AmbiguousModule: when several processes offer *name*.
+            LoadError: for load options a remote instance does not take, or an instance name taken.
+            RemoteUnreachable: when the process that offers it does not answer.
+        """
 
     def offered(self) -> list[str]:
-        """The instances other processes offer now, as far as this finder knows."""
+        """The names other processes offer now and a load may name, as far as this finder knows."""
+
+    def may_run_here(self, name: str) -> bool:
+        """Whether a load of the component *name* may run it in this process."""
+
+    def view(self) -> dict[str, Any]:
+        """What this finder knows, for ``/``: the hosts it hears (where each runs, what each offers)."""
 
 
 class ComponentHost:
@@ -91,10 +110,10 @@ class ComponentHost:
         self.function_grace = function_grace
         self.max_instances = max_instances
         self._factories = factories if factories is not None else self._entry_points()
-        self._instances: dict[str, Component] = {}
+        self._instances: dict[str, LoadedInstance] = {}
         self._shared: dict[object, Any] = {}
         self._capabilities: dict[type, list[tuple[str, object]]] = {}
-        self._request_listeners: list[Callable[[Request], None]] = []
+        self._request_listeners: list[Callable[[RequestStatus], None]] = []
         self._unload_listeners: list[Callable[[str], None]] = []
         self._background: set[asyncio.Task[Any]] = set()
         self._lock = asyncio.Lock()
@@ -111,9 +130,15 @@ class ComponentHost:
     # -- what can be loaded ----------------------------------------------------------------
 
     def available(self) -> list[str]:
-        """The names of the loadable components (with a finder, those other processes offer too)."""
-        offered = self.finder.offered() if self.finder is not None else []
-        return sorted({*self._factories, *offered})
+        """The names of the loadable components (with a finder: those other processes offer, those it lets run here)."""
+        if self.finder is None:
+            return sorted(self._factories)
+        finder = self.finder
+        return sorted({*finder.offered(), *(name for name in self._factories if finder.may_run_here(name))})
+
+    def knows(self, name: str) -> bool:
+        """Whether a component *name* can be made in this process (it is registered)."""
+        return name in self._factories
 
     def register(self, name: str, factory: Callable[..., Component]) -> None:
         """Make a component class loadable under *name*."""
@@ -127,8 +152,6 @@ class ComponentHost:
         """
         factory = self._factories.get(name)
         if factory is None:
-            if self.finder is not None and name in self.finder.offered():
-                raise NoSuchModule(f"{name} runs in another process, which did not answer: load it again")
             raise NoSuchModule(f"no component {name!r} (available: {', '.join(self.available())})")
         return factory.load() if isinstance(factory, _LazyFactory) else factory  # type: ignore[return-value]
 
@@ -139,11 +162,11 @@ class ComponentHost:
     # -- instances -------------------------------------------------------------------------
 
     @property
-    def instances(self) -> dict[str, Component]:
+    def instances(self) -> dict[str, LoadedInstance]:
         """The loaded instances by name."""
         return dict(self._instances)
 
-    def get(self, instance: str) -> Component:
+    def get(self, instance: str) -> LoadedInstance:
         """The loaded instance *instance*.
 
         Raises:
@@ -155,11 +178,12 @@ class ComponentHost:
             loaded = ", ".join(self._instances) or "none"
             raise NoSuchModule(f"no module {instance!r} is loaded (loaded: {loaded})") from None
 
-    async def load(self, name: str, argv: list[str] | None = None) -> Component:
+    async def load(self, name: str, argv: list[str] | None = None) -> LoadedInstance:
         """Load component *name* (``-i INSTANCE`` in *argv* picks the instance name).
 
         Loading a component that is already loaded under the same instance name
         returns the running instance, so clients may call ``load`` at every start.
+        With a finder, the finder decides first whether *name* runs in another process.
 
         Raises:
             NoSuchModule: for an unknown component.
@@ -167,18 +191,15 @@ class ComponentHost:
             TooManyInstances: when ``max_instances`` instances are loaded already.
         """
         nested = _LOADING.get() == (self, asyncio.current_task())
-        if self.finder is not None and name not in self._instances:
-            # A component that another process offers runs there, not here: it is what the user
-            # started that process for (and a name unknown here may be known there).
+        if self.finder is not None:
+            # What another process offers runs there, not here: it is what the user started that
+            # process for.  The finder says which names may run here at all.
             async with contextlib.nullcontext() if nested else self._lock:
-                existing = self._instances.get(name)
-                if existing is not None:
-                    return existing
-                self._check_room()
                 proxy = await self.finder.find(self, name, list(argv or []))
                 if proxy is not None:
-                    self._instances[name] = proxy
-                    _client_log.info("loaded %s from another process", name)
+                    if self._instances.get(proxy.instance) is not proxy:
+                        self._instances[proxy.instance] = proxy
+                        _client_log.info("loaded %s from another process as %s", name, proxy.instance)
                     return proxy
         # The first load imports the component's package (scipy, sound and CAN libraries):
         # up to seconds of work that must not stall the gateway's event loop.
@@ -198,7 +219,7 @@ class ComponentHost:
                 if existing.genom_name != self.component_class(name).genom_name:
                     raise LoadError(f"instance name {instance!r} is taken by a {existing.genom_name} component")
                 return existing
-            self._check_room()
+            self.check_room()
             cls = self.component_class(name)
             component = cls(self, instance, args)
             token = _LOADING.set((self, asyncio.current_task()))
@@ -213,13 +234,13 @@ class ComponentHost:
             _client_log.info("loaded %s as %s", name, instance)
             return component
 
-    def _check_room(self) -> None:
+    def check_room(self) -> None:
         """Refuse one more instance beyond ``max_instances`` (the proxy of a remote one counts too)."""
         if len(self._instances) >= self.max_instances:
             raise TooManyInstances(f"{len(self._instances)} instances are loaded, the most this gateway allows: "
                                    f"unload one first")
 
-    async def peer(self, instance: str) -> Component:
+    async def peer(self, instance: str) -> LoadedInstance:
         """The instance *instance*, loaded here or, with a finder, the proxy of one in another process.
 
         Raises:
@@ -229,11 +250,11 @@ class ComponentHost:
             return self.get(instance)
         async with self._lock:
             if instance not in self._instances:
-                self._check_room()
                 proxy = await self.finder.find(self, instance, [])
                 if proxy is None:
                     raise NoSuchModule(f"no module {instance!r} is loaded here or offered by another process")
-                self._instances[instance] = proxy
+                self._instances[proxy.instance] = proxy
+                return proxy
         return self._instances[instance]
 
     async def unload(self, instance: str) -> None:
@@ -324,7 +345,7 @@ class ComponentHost:
                 if not offers:
                     del self._capabilities[offered]
 
-    def add_request_listener(self, listener: Callable[[Request], None]) -> None:
+    def add_request_listener(self, listener: Callable[[RequestStatus], None]) -> None:
         """Call *listener* with every request whose status changed."""
         self._request_listeners.append(listener)
 
@@ -332,7 +353,7 @@ class ComponentHost:
         """Call *listener* with the name of every unloaded instance."""
         self._unload_listeners.append(listener)
 
-    def announce_request(self, request: Request) -> None:
+    def announce_request(self, request: RequestStatus) -> None:
         """Report a request status change to the listeners."""
         for listener in self._request_listeners:
             listener(request)

@@ -18,7 +18,7 @@ from typing import Any, Literal
 from ._exceptions import NoSuchRequest, RequestRunning
 from ._services import ServiceSpec
 
-__all__ = ["Request", "RequestStatus", "RequestTracker", "Status"]
+__all__ = ["Request", "RequestStatus", "RequestTracker", "Status", "parse_request_id"]
 
 Status = Literal["sent", "done", "error"]
 
@@ -26,12 +26,29 @@ Status = Literal["sent", "done", "error"]
 _MAX_ID_DIGITS = 18
 
 
+def parse_request_id(instance: str, request_id: str) -> int:
+    """The ``n`` of a request id of *instance*: ``demo::3``, ``::demo::3`` or ``3`` give 3.
+
+    Raises:
+        NoSuchRequest: for another instance's id or a malformed id.
+    """
+    text = request_id.strip()
+    prefix, sep, number = text.rpartition("::")
+    shown = repr(request_id) if len(request_id) <= 60 else repr(request_id[:57]) + "..."
+    if sep and prefix.lstrip(":") != instance:
+        raise NoSuchRequest(f"request {shown} does not belong to {instance}")
+    # isdigit() alone takes "²" (int() does not); no id has more digits than a request count can.
+    if not (number.isascii() and number.isdigit()) or len(number) > _MAX_ID_DIGITS:
+        raise NoSuchRequest(f"malformed request id {shown} (expected {instance}::<n> or <n>)")
+    return int(number)
+
+
 class RequestStatus:
-    """What a request shows on the wire: its id, whether it runs, its status object.
+    """What a request shows on the wire and to its session: its id, whether it runs, its status object.
 
     Shared by :class:`Request` and the gateway's copy of a request that runs in
-    another process, so that both answer ``status`` and ``request`` events alike.
-    Subclasses hold ``number``, ``instance``, ``status``, ``output`` and ``exception``.
+    another process, so that both answer ``status``, ``wait`` and ``request`` events alike.
+    Subclasses hold every attribute declared here.
     """
 
     number: int
@@ -39,6 +56,14 @@ class RequestStatus:
     status: str
     output: dict[str, Any] | None
     exception: dict[str, Any] | None
+    #: The session its events go to (None: nobody's).
+    session: str | None
+    #: Whether nobody wants its result (no events; forgotten when it ends).
+    oneway: bool
+    #: Its incarnation: two requests that held the same number one after the other differ by it.
+    serial: int
+    #: Set when it ends.
+    ended: asyncio.Event
 
     @property
     def id(self) -> str:
@@ -138,15 +163,7 @@ class RequestTracker:
         Raises:
             NoSuchRequest: for another instance's id or a malformed id.
         """
-        text = request_id.strip()
-        prefix, sep, number = text.rpartition("::")
-        shown = repr(request_id) if len(request_id) <= 60 else repr(request_id[:57]) + "..."
-        if sep and prefix.lstrip(":") != self.instance:
-            raise NoSuchRequest(f"request {shown} does not belong to {self.instance}")
-        # isdigit() alone takes "²" (int() does not); no id has more digits than a request count can.
-        if not (number.isascii() and number.isdigit()) or len(number) > _MAX_ID_DIGITS:
-            raise NoSuchRequest(f"malformed request id {shown} (expected {self.instance}::<n> or <n>)")
-        return int(number)
+        return parse_request_id(self.instance, request_id)
 
     def get(self, request_id: str | int) -> Request:
         """The request of that id.

@@ -95,6 +95,8 @@ class ServiceSpec:
     throws: tuple[type[GenomException], ...] = ()
     validate: Callable[..., Any] | None = None
     task: str | None = None
+    #: Whether the activity moves hardware: its host stops it when the client that started it vanishes.
+    motion: bool = False
     #: How the return value maps to outputs: "none", "single" or "fields".
     output_style: str = "none"
     #: Whether the method is a coroutine function (plain ones run inline).
@@ -244,13 +246,14 @@ def _build_spec(func: Callable[..., Any], declaration: _Declaration) -> ServiceS
         throws=tuple(options.get("throws", ())),
         validate=options.get("validate"),
         task=getattr(task, "name", task),
+        motion=bool(options.get("motion", False)),
         output_style=style,
         is_async=inspect.iscoroutinefunction(func),
     )
 
 
 #: The options every service decorator takes.
-_OPTIONS = ("name", "doc", "interrupts", "throws", "validate", "task")
+_OPTIONS = ("name", "doc", "interrupts", "throws", "validate", "task", "motion")
 
 
 def _check_options(owner: str, kind: ServiceKind, options: Mapping[str, Any]) -> None:
@@ -278,6 +281,12 @@ def _check_options(owner: str, kind: ServiceKind, options: Mapping[str, Any]) ->
     validate = options.get("validate")
     if validate is not None and not callable(validate):
         raise TypeError(f"{owner}: @{kind} option 'validate' must be callable, not {validate!r}")
+    motion = options.get("motion", False)
+    if not isinstance(motion, bool):
+        raise TypeError(f"{owner}: @{kind} option 'motion' is True or False, not {motion!r}")
+    if motion and kind != "activity":
+        # A function or attribute ends within the function grace: there is no motion left to stop.
+        raise TypeError(f"{owner}: only an @activity can be a motion (motion=True), not an @{kind}")
 
 
 class ServiceDecorator(Protocol):
@@ -296,6 +305,7 @@ class ServiceDecorator(Protocol):
         throws: Sequence[type[GenomException]] = (),
         validate: Callable[..., Any] | None = None,
         task: Task | str | None = None,
+        motion: bool = False,
     ) -> Callable[[_F], _F]: ...
 
 
@@ -309,6 +319,9 @@ _OPTIONS_DOC = """
             to refuse a request before it starts (the request then ends in ``error``).
             Its parameters must be the service's inputs: checked when the class is created.
         task: The Task an activity runs in (descriptive; use ``await self.<task>.tick()``).
+        motion: The activity moves hardware (a head, a base): a component host stops it when the
+            gateway that started it vanishes (its process died, or its link stayed cut past Zenoh's
+            lease), as a dead-man switch would.  Other activities (a capture, a recording) go on.
 
     Raises:
         TypeError: for an unknown option (``interupts``) or an option of the wrong shape.
@@ -324,6 +337,7 @@ _DECORATOR_SIGNATURE = inspect.Signature([
     inspect.Parameter("throws", _KEYWORD, default=(), annotation="Sequence[type[GenomException]]"),
     inspect.Parameter("validate", _KEYWORD, default=None, annotation="Callable[..., Any] | None"),
     inspect.Parameter("task", _KEYWORD, default=None, annotation="Task | str | None"),
+    inspect.Parameter("motion", _KEYWORD, default=False, annotation="bool"),
 ], return_annotation="Any")
 
 
@@ -364,6 +378,7 @@ def redeclare(
     throws: Sequence[type[GenomException]] | None = None,
     validate: Callable[..., Any] | None = None,
     task: Task | str | None = None,
+    motion: bool | None = None,
 ) -> Callable[[Callable[..., Any]], _F]:
     """Declare a new implementation of a service declared by a base class (a merged component's).
 
@@ -388,6 +403,7 @@ def redeclare(
         throws: The GenomException classes it may raise (default: the original's).
         validate: Its validate hook (default: the original's).
         task: The Task it runs in (default: the original's).
+        motion: Whether it moves hardware (default: the original's).
 
     Raises:
         TypeError: when *service* declares no service, for an option of the wrong
@@ -399,7 +415,7 @@ def redeclare(
         raise TypeError(f"redeclare: {getattr(service, '__qualname__', service)!r} declares no service "
                         "(decorate it with @function, @activity or @attribute)")
     given = {"name": name, "doc": doc, "interrupts": interrupts, "throws": throws, "validate": validate,
-             "task": task}
+             "task": task, "motion": motion}
     changes = {key: value for key, value in given.items() if value is not None}
 
     def attach(f: Callable[..., Any]) -> _F:

@@ -4,15 +4,20 @@ A component author needs none of this (see :mod:`aiogenomix.components.core`);
 a host of components (the gateway, a remote component host, a test) does.
 """
 
+from ._binary import BINARY_CONTENT_TYPE, BINARY_MAGIC, encode_binary
+from ._budget_arguments import add_budget_arguments, budgets_from, parse_amount
 from ._describe import describe
+from ._error_bodies import REMOTE_IO, error_body, message_of
 from ._exceptions import (
-    ComponentError, InputError, NoSuchModule, NoSuchPort, NoSuchRequest, NoSuchService, PortUnavailable,
-    RequestRunning,
+    AmbiguousModule, ComponentError, InputError, NoSuchModule, NoSuchPort, NoSuchRequest, NoSuchService,
+    PortUnavailable, RemoteRefusal, RemoteUnreachable, RequestRunning,
 )
 from ._host import NoCapability, RemoteFinder, TooManyInstances
+from ._instance import LoadedInstance, Placement
 from ._ports import ComputedOutPortRuntime, PortSpec
 from ._public import show_as_public as _show_as_public
-from ._requests import Request, RequestStatus, RequestTracker
+from ._requests import Request, RequestStatus, RequestTracker, parse_request_id
+from ._rig_arguments import add_rig_arguments, rig_settings
 from ._services import NO_DEFAULT, ParamSpec, ServiceDecorator, ServiceSpec
 from ._tasks import TaskRuntime
 from ._types import (
@@ -20,16 +25,22 @@ from ._types import (
 )
 
 __all__ = [
-    # Describing and hosting components
-    "describe", "TooManyInstances", "RemoteFinder", "Request", "RequestStatus", "RequestTracker", "TaskRuntime",
+    # Describing and hosting components, local or in other processes
+    "describe", "TooManyInstances", "RemoteFinder", "LoadedInstance", "Placement", "Request", "RequestStatus",
+    "RequestTracker", "parse_request_id", "TaskRuntime",
     # What the runtime reads from declarations
     "ServiceSpec", "ParamSpec", "NO_DEFAULT", "ServiceDecorator", "PortSpec", "ComputedOutPortRuntime",
     # IDL type objects: description, decoding and encoding of data
     "IdlType", "Scalar", "StringType", "EnumType", "StructType", "SequenceType", "ArrayType", "OptionalType",
     "idl_type",
-    # What the runtime refuses
+    # Port data on the wire: the binary form of reads and of remote ports
+    "encode_binary", "BINARY_MAGIC", "BINARY_CONTENT_TYPE",
+    # What the runtime refuses, and how a refusal reads on the wire
     "ComponentError", "InputError", "NoSuchModule", "NoSuchService", "NoSuchPort", "NoSuchRequest",
-    "RequestRunning", "NoCapability", "PortUnavailable",
+    "RequestRunning", "NoCapability", "PortUnavailable", "AmbiguousModule", "RemoteUnreachable", "RemoteRefusal",
+    "error_body", "message_of", "REMOTE_IO",
+    # The command line of a rig (the gateway's and a component host's)
+    "add_rig_arguments", "rig_settings", "add_budget_arguments", "budgets_from", "parse_amount",
 ]
 
 _show_as_public(globals(), __all__, __name__, __name__.rsplit(".", 1)[0])

@@ -110,13 +110,13 @@ class Demo(Component, name="demo", version="1.1"):
                 self.Mobile.publish(self.state)
 
     @activity(task=motion, interrupts=("GotoPosition", "MoveDistance"), throws=(TOO_FAR_AWAY, INVALID_VALUE),
-              validate=_validate_goto)
+              validate=_validate_goto, motion=True)
     async def GotoPosition(self, posRef: Annotated[Double, "Goto position in m"] = 0.0) -> None:
         """Move the robot to an absolute position on the track."""
         await self._drive_to(posRef)
 
     @activity(task=motion, interrupts=("GotoPosition", "MoveDistance"), throws=(TOO_FAR_AWAY, INVALID_VALUE),
-              validate=_validate_move)
+              validate=_validate_move, motion=True)
     async def MoveDistance(self, distRef: Annotated[Double, "Distance in m"] = 0.0) -> None:
         """Move the robot by a distance from where it is."""
         await self._drive_to(self.state.position + distRef)

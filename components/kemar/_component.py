@@ -226,7 +226,7 @@ class Kemar(Component, name="kemar", version="1.0"):
 
     # ------------------------------------------------------------------ services
 
-    @activity(task=motion, interrupts=MOTIONS, throws=(HOMING_FAILED, *_BUS_THROWS))
+    @activity(motion=True, task=motion, interrupts=MOTIONS, throws=(HOMING_FAILED, *_BUS_THROWS))
     async def Homing(self) -> None:
         """Find both limit switches, centre the head between them and make that azimuth 0 (speed: 100 deg/s)."""
         with _as_genom_exceptions():
@@ -255,7 +255,7 @@ class Kemar(Component, name="kemar", version="1.0"):
         except InvalidCommand:
             raise INVALID_VELOCITY(velocity=velocity, maximum=self.config.max_speed_deg) from None
 
-    @activity(task=motion, interrupts=MOTIONS, validate=_validate_move,
+    @activity(motion=True, task=motion, interrupts=MOTIONS, validate=_validate_move,
               throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS))
     async def MoveAbsolutePosition(
         self,
@@ -268,7 +268,7 @@ class Kemar(Component, name="kemar", version="1.0"):
             state = await head.move_absolute(target, velocity or None)
         return MoveOutcome(position=state.position, limited=head.clamp(target) != target)
 
-    @activity(task=motion, interrupts=MOTIONS, validate=_validate_move,
+    @activity(motion=True, task=motion, interrupts=MOTIONS, validate=_validate_move,
               throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS))
     async def MoveRelativePosition(
         self,
@@ -282,8 +282,8 @@ class Kemar(Component, name="kemar", version="1.0"):
             state = await head.move_relative(target, velocity or None)
         return MoveOutcome(position=state.position, limited=head.clamp(start + target) != start + target)
 
-    @activity(task=motion, interrupts=MOTIONS, throws=(NOT_HOMED, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS),
-              validate=_validate_speed_control)
+    @activity(motion=True, task=motion, interrupts=MOTIONS,
+              throws=(NOT_HOMED, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS), validate=_validate_speed_control)
     async def ControlInSpeed(
         self, velocity: Annotated[Double, "Angular speed in deg/s (positive = left); 0 stops the head"] = 0.0
     ) -> None:

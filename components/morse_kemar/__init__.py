@@ -144,7 +144,7 @@ class MorseKemar(Component, name="morse_kemar", version="1.0"):
                 seen, self.frames = pair, self.frames + 1
             await self.ReceiveImage.tick()
 
-    @activity(task=Motion, interrupts=MOTIONS, throws=(INVALID_VALUE,), validate=_validate_rotate)
+    @activity(motion=True, task=Motion, interrupts=MOTIONS, throws=(INVALID_VALUE,), validate=_validate_rotate)
     async def Rotate(self, z: Annotated[Double, "Angular speed in deg/s (positive = left); 0 stops"] = 0.0) -> None:
         """Send one speed command: the head turns at *z* deg/s until told otherwise or a limit stops it."""
         self.RobotMotion.publish(_twist(z))
@@ -164,7 +164,7 @@ class MorseKemar(Component, name="morse_kemar", version="1.0"):
         finally:
             self.RobotMotion.publish(_twist(0.0))  # stop path, whatever ended the move
 
-    @activity(task=Motion, interrupts=MOTIONS, throws=(INVALID_VALUE,), validate=_validate_move)
+    @activity(motion=True, task=Motion, interrupts=MOTIONS, throws=(INVALID_VALUE,), validate=_validate_move)
     async def MoveAbsolutePosition(
         self,
         target: Annotated[Double, "Azimuth in degrees (positive = left), kept 0.5 deg inside ±90"] = 0.0,
@@ -173,7 +173,7 @@ class MorseKemar(Component, name="morse_kemar", version="1.0"):
         """Turn the head to an azimuth and wait until it is there."""
         await self._go(target, velocity)
 
-    @activity(task=Motion, interrupts=MOTIONS, throws=(INVALID_VALUE,), validate=_validate_move)
+    @activity(motion=True, task=Motion, interrupts=MOTIONS, throws=(INVALID_VALUE,), validate=_validate_move)
     async def MoveRelativePosition(
         self,
         target: Annotated[Double, "Degrees to turn from the present azimuth (positive = left)"] = 0.0,
@@ -182,7 +182,7 @@ class MorseKemar(Component, name="morse_kemar", version="1.0"):
         """Turn the head by an angle from where it is (the final azimuth is kept inside the limits)."""
         await self._go(self._read_position() + target, velocity)
 
-    @activity(task=Motion, interrupts=MOTIONS, throws=(INVALID_VALUE,), validate=_validate_speed)
+    @activity(motion=True, task=Motion, interrupts=MOTIONS, throws=(INVALID_VALUE,), validate=_validate_speed)
     async def ControlInSpeed(
         self, velocity: Annotated[Double, "Angular speed in deg/s (positive = left); 0 stops the head"] = 0.0
     ) -> None:

@@ -195,7 +195,8 @@ class Pr2(Component, name="pr2", version="1.0"):
 
     # -- services --------------------------------------------------------------------------------
 
-    @activity(task=PublishPort, interrupts=("move_head",), throws=(INVALID_VALUE,), validate=_validate_head)
+    @activity(task=PublishPort, interrupts=("move_head",), throws=(INVALID_VALUE,), validate=_validate_head,
+              motion=True)
     async def move_head(
         self,
         pan: Annotated[Double, "Head pan in rad (positive = left, -2.857 to 2.857)"] = 0.0,
@@ -208,7 +209,8 @@ class Pr2(Component, name="pr2", version="1.0"):
                  for name, value in (("head_pan_joint", pan), ("head_tilt_joint", tilt))}
         await self._move_joints(goals, JOINT_TOLERANCE, JOINT_STILL)
 
-    @activity(task=PublishPort, interrupts=("go_to_position",), throws=(INVALID_VALUE,), validate=_validate_position)
+    @activity(task=PublishPort, interrupts=("go_to_position",), throws=(INVALID_VALUE,),
+              validate=_validate_position, motion=True)
     async def go_to_position(
         self,
         x: Annotated[Double, "x in the room, m"] = 0.0,
@@ -243,7 +245,7 @@ class Pr2(Component, name="pr2", version="1.0"):
             self.Port_r_arm.publish(RightArmCommand(**joints, time_to_finish=time_to_finish))
         await self._move_joints(goals, JOINT_TOLERANCE, JOINT_STILL)
 
-    @activity(task=PublishPort, interrupts=("move_l_arm",), throws=(INVALID_VALUE,))
+    @activity(motion=True, task=PublishPort, interrupts=("move_l_arm",), throws=(INVALID_VALUE,))
     async def move_l_arm(
         self,
         l_shoulder_pan_joint: Annotated[Double, "rad, -0.715 to 2.285"] = 0.0,
@@ -260,7 +262,7 @@ class Pr2(Component, name="pr2", version="1.0"):
                   l_forearm_roll_joint, l_wrist_flex_joint, l_wrist_roll_joint)
         await self._move_arm("l", values, time_to_finish)
 
-    @activity(task=PublishPort, interrupts=("move_r_arm",), throws=(INVALID_VALUE,))
+    @activity(motion=True, task=PublishPort, interrupts=("move_r_arm",), throws=(INVALID_VALUE,))
     async def move_r_arm(
         self,
         r_shoulder_pan_joint: Annotated[Double, "rad, -2.285 to 0.715"] = 0.0,
@@ -277,7 +279,7 @@ class Pr2(Component, name="pr2", version="1.0"):
                   r_forearm_roll_joint, r_wrist_flex_joint, r_wrist_roll_joint)
         await self._move_arm("r", values, time_to_finish)
 
-    @activity(task=PublishPort, interrupts=("move_torso",), throws=(INVALID_TORSO, INVALID_VALUE),
+    @activity(motion=True, task=PublishPort, interrupts=("move_torso",), throws=(INVALID_TORSO, INVALID_VALUE),
               validate=controlTorso)
     async def move_torso(
         self,

@@ -93,6 +93,7 @@ def test_a_misspelled_option_is_refused_with_a_suggestion() -> None:
     ({"interrupts": "Drive"}, "'interrupts' must be a tuple"),     # a string would be read letter by letter
     ({"throws": (ValueError,)}, "'throws' takes GenomException classes"),
     ({"validate": "check"}, "'validate' must be callable"),
+    ({"motion": "yes"}, "'motion' is True or False"),
 ])
 def test_options_of_the_wrong_shape_are_refused(options: dict[str, object], words: str) -> None:
     with pytest.raises(TypeError, match="Rover.Drive") as refused:
@@ -102,3 +103,36 @@ def test_options_of_the_wrong_shape_are_refused(options: dict[str, object], word
                 """Drive."""
 
     assert words in str(refused.value)
+
+
+def test_a_motion_is_an_activity_declared_so() -> None:
+    class Rover(Component, name="rover"):
+        @activity(motion=True)
+        async def Drive(self) -> None:
+            """Drive: its host stops it when the gateway that started it vanishes."""
+
+        @activity
+        async def Record(self) -> None:
+            """Record: it goes on whoever vanishes."""
+
+    assert Rover.services()["Drive"].motion and not Rover.services()["Record"].motion
+    with pytest.raises(TypeError, match="only an @activity can be a motion"):
+        class Arm(Component, name="arm"):
+            @function(motion=True)
+            def Stop(self) -> None:
+                """Stop."""
+
+
+def test_the_robots_motions_are_declared_so_and_nothing_else_is() -> None:
+    from aiogenomix.components.bass import Bass
+    from aiogenomix.components.capture import Capture
+    from aiogenomix.components.demo import Demo
+    from aiogenomix.components.kemar import Kemar
+
+    def motions(component: type[Component]) -> set[str]:
+        return {name for name, spec in component.services().items() if spec.motion}
+
+    assert motions(Demo) == {"GotoPosition", "MoveDistance"}
+    assert motions(Kemar) == {"Homing", "MoveAbsolutePosition", "MoveRelativePosition", "ControlInSpeed"}
+    # A capture, its socket, a recording go on when their client vanishes: their data is kept for the next.
+    assert motions(Capture) == motions(Bass) == set()

@@ -26,7 +26,7 @@ from aiogenomix.components.core import Chunk, ChunkedArray, Component, Component
 from aiogenomix.components.core.runtime import idl_type
 from aiogenomix.components.kemarcapture import KemarPortData
 from aiogenomix.gateway import GatewayConfig, serve
-from aiogenomix.gateway._binary import encode_binary
+from aiogenomix.components.core.runtime import encode_binary
 from aiogenomix.gateway._gather import direct_socket, write_gathered
 from aiogenomix.gateway._pieces import PiecesPayload, json_pieces
 

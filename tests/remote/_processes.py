@@ -82,15 +82,16 @@ async def _discard(reader: asyncio.StreamReader) -> None:
 
 
 async def start_component_host(names: Sequence[str], *, listen: str | None = None, connect: Sequence[str] = (),
-                               extra: Sequence[str] = (), prefix: Sequence[str] = ()) -> Process:
+                               extra: Sequence[str] = (), prefix: Sequence[str] = (),
+                               host_id: str = "robot") -> Process:
     """``aiogenomix-component NAMES...``; returns once it offers them (run under *prefix*, e.g. ``ip netns exec``)."""
-    args = [*names, "--time-scale", str(TIME_SCALE), "--audio-socket-port", "0", *extra]
+    args = [*names, "--host-id", host_id, "--time-scale", str(TIME_SCALE), "--audio-socket-port", "0", *extra]
     if listen:
         args += ["--zenoh-listen", listen]
     for endpoint in connect:
         args += ["--zenoh-connect", endpoint]
     process = await asyncio.create_subprocess_exec(
-        *prefix, sys.executable, "-m", "aiogenomix.gateway.remote._host_main", *args,
+        *prefix, sys.executable, "-m", "aiogenomix.remote._host_main", *args,
         stdin=asyncio.subprocess.DEVNULL, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE,
     )
     host = Process(process, f"component host {' '.join(names)}")

@@ -30,7 +30,7 @@ async def _next_event(events: RawEventStream, within: float = 30.0) -> tuple[str
                 continue  # RawEventStream gives up after 10 s of silence; keep listening
 
 
-async def test_a_killed_host_ends_its_requests_once_and_a_new_one_is_found(started: list[Process]) -> None:
+async def test_a_killed_host_ends_its_requests_once_and_is_loaded_again_when_it_returns(started: list[Process]) -> None:
     # Real time: the move lasts seconds, and is still running when the host dies.
     host, url, endpoint = await start_host_and_gateway(started, ["demo"], extra=["--time-scale", "1"])
     async with aiohttp.ClientSession(base_url=url) as http:
@@ -59,17 +59,15 @@ async def test_a_killed_host_ends_its_requests_once_and_a_new_one_is_found(start
             status, error = await _get(http, "/module/demo/info")
             assert status == 404 and error["ex"] == "::genomix::no_such_module"
 
-            # A new host on the same endpoint: the gateway connects again, and demo loads again.
+            # A new host on the same endpoint and with the same host id: the gateway connects again, loads demo
+            # again under its name, and says so to every session.
             host2 = await start_component_host(["demo"], listen=endpoint, extra=["--time-scale", "1"])
             started.append(host2)
-            async with asyncio.timeout(30):
-                # The gateway lists what component hosts offer once it hears of them.
-                while "demo" not in (await _get(http, "/"))[1]["offered"]:
-                    await asyncio.sleep(0.1)
-            async with http.get(f"/load/demo?s={session}") as reply:
-                assert reply.status == 200
+            assert await _next_event(events) == ("offered", '{"name":"demo","host":"robot","loaded":"demo"}')
             status, sent = await _get(http, f"/module/demo/send/GetSpeed?s={session}")
             assert sent["status"] == "done"
+            async with http.get(f"/load/demo?s={session}") as reply:
+                assert reply.status == 200  # the instance loaded again: a load returns it
             # It is the new host's demo: when that host stops, the gateway unloads it.
             host2.kill(signal.SIGTERM)
             while (event := await _next_event(events)) != ("unload", '"demo"'):
@@ -90,11 +88,18 @@ async def test_a_frozen_host_gives_clear_errors_in_bounded_time(started: list[Pr
             assert status == 504 and error["ex"] == "::genom::remote_io", error
             assert "no answer" in error["message"]
             assert took < 2 * 1 + 2.0 + 2.0, f"the send failed after {took:.1f} s"
-            # Reads are answered from the gateway's copy meanwhile.
-            status, mobile = await _get(http, "/module/demo/read/Mobile")
-            assert status == 200 and "Mobile" in mobile
+            # Not heard from for longer than the stale bound (2 s): its data is not served as current.
+            status, error = await _get(http, "/module/demo/read/Mobile")
+            assert status == 504 and error["ex"] == "::genom::remote_io", error
+            assert "not heard from" in error["message"] and "robot" in error["message"]
+            status, error = await _get(http, "/module/demo/send/GetSpeed")
+            assert status == 504 and "not heard from" in error["message"], error  # refused at once
         finally:
             host.kill(signal.SIGCONT)
+        # Heard from again (its next heartbeat): its data is current again, and it takes requests.
+        async with asyncio.timeout(10):
+            while (await _get(http, "/module/demo/read/Mobile"))[0] != 200:
+                await asyncio.sleep(0.05)
         status, sent = await _get(http, "/module/demo/send/GetSpeed")
         assert status == 200 and sent["status"] == "done"
 
@@ -114,7 +119,7 @@ async def test_a_gateway_started_before_its_host_finds_it_when_it_comes(started:
 
 async def test_a_malformed_endpoint_is_one_line_and_status_1() -> None:
     for command in (["-m", "aiogenomix.gateway", "--port", "0", "--zenoh-connect", "tcp/robot"],
-                    ["-m", "aiogenomix.gateway.remote._host_main", "demo", "--zenoh-listen", "tcp/robot:x"]):
+                    ["-m", "aiogenomix.remote._host_main", "demo", "--zenoh-listen", "tcp/robot:x"]):
         process = await asyncio.create_subprocess_exec(sys.executable, *command, stdout=asyncio.subprocess.PIPE,
                                                        stderr=asyncio.subprocess.PIPE)
         _, err = await asyncio.wait_for(process.communicate(), 60)

@@ -16,9 +16,9 @@ from aiogenomix.components.core.runtime import idl_type
 from aiogenomix.components.core._ports import OutPort
 from aiogenomix.components.kemarcapture._types import KemarPortData
 from aiogenomix.gateway._pieces import json_pieces
-from aiogenomix.gateway.remote._exporter import PortEncoder
-from aiogenomix.gateway.remote._mirror import MirroredOutPort
-from aiogenomix.gateway.remote._wire import decode_message
+from aiogenomix.remote._exporter import PortEncoder
+from aiogenomix.remote._mirror import MirroredOutPort
+from aiogenomix.remote._wire import decode_message
 
 
 class _Port:
@@ -41,7 +41,7 @@ def _json(port_type: Any, value: Any) -> bytes:
 
 
 def _check_every_read(port: _Port, mirror: MirroredOutPort) -> None:
-    value, copy = port.value, mirror.read()
+    value, copy = port.value, mirror.read_kept()
     assert copy.index == value.index
     assert _json(port.type, value.chunked(None)[0]) == _json(mirror.type, copy.chunked(None)[0])
     for since in range(0, value.index + 3):
@@ -102,5 +102,5 @@ def test_a_missing_message_is_counted_as_lost_not_hidden() -> None:
         port.value = PortView(window)
         _relay(encoder, mirror, drop=chunk == 3)  # the message of chunk 3 never arrives
     assert mirror.gaps == 1
-    data, lost = mirror.read().chunked(1)
+    data, lost = mirror.read_kept().chunked(1)
     assert lost == 1 and list(data["left"].numpy()) == [2, 2, 4, 4] and data["nbframes"] == 4

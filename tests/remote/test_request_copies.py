@@ -15,8 +15,10 @@ import orjson
 import pytest
 
 from aiogenomix.components.core import ComponentHost
-from aiogenomix.gateway.remote import _proxy
-from aiogenomix.gateway.remote._proxy import RemoteComponent
+from aiogenomix.components.core.runtime import RemoteUnreachable
+from aiogenomix.remote import _proxy
+from aiogenomix.remote._proxy import RemoteInstance, RemoteLink, RemoteTimeouts
+from aiogenomix.remote._wire import OfferKey
 
 _DESCRIPTION = {"component": "demo", "version": "1.0", "services": [], "ports": []}
 
@@ -34,7 +36,7 @@ class _Publisher:
 class _Rig:
     """A proxy whose queries get scripted replies and whose events the test delivers."""
 
-    def __init__(self, proxy: RemoteComponent, announced: list[dict[str, Any]]) -> None:
+    def __init__(self, proxy: RemoteInstance, announced: list[dict[str, Any]]) -> None:
         self.proxy = proxy
         self.announced = announced
         self.replies: list[dict[str, Any]] = []
@@ -50,11 +52,13 @@ async def rig(monkeypatch: pytest.MonkeyPatch) -> AsyncIterator[_Rig]:
     announced: list[dict[str, Any]] = []
     async with ComponentHost(factories={}) as host:
         host.add_request_listener(lambda request: announced.append(request.status_object()))
-        proxy = RemoteComponent(host, "demo", None, _DESCRIPTION)  # type: ignore[arg-type]
+        link = RemoteLink(None, "gateway1", RemoteTimeouts(), lambda zid: 0.0)  # type: ignore[arg-type]
+        offer = OfferKey(2, "robot1", "zid1", "demo", "aiogenomix/offer/2/robot1/zid1/demo")
+        proxy = RemoteInstance(host, link, offer, "demo", _DESCRIPTION, dict)
         proxy._cleans = _Publisher()
         test_rig = _Rig(proxy, announced)
 
-        async def ask(session: Any, key: str, payload: Any, timeout: float) -> dict[str, Any]:
+        async def ask(session: Any, key: str, payload: Any, timeout: float, **_: Any) -> dict[str, Any]:
             test_rig.asked.append((key.rsplit("/", 1)[-1], dict(payload)))
             return test_rig.replies.pop(0)
 
@@ -125,3 +129,24 @@ async def test_a_clean_no_query_carries_is_published(rig: _Rig) -> None:
     published = rig.proxy._cleans.published  # type: ignore[attr-defined]
     await published.wait()
     assert [orjson.loads(body) for body in rig.proxy._cleans.sent] == [{"ids": ["0"]}]  # type: ignore[attr-defined]
+
+
+class _SilentSession:
+    """A Zenoh session whose queries get no reply (the host is frozen, or about to be found gone)."""
+
+    def get(self, *args: Any, **kwargs: Any) -> None:
+        pass
+
+
+async def test_a_host_found_gone_ends_the_queries_waiting_for_it_at_once() -> None:
+    async with ComponentHost(factories={}) as host:
+        link = RemoteLink(_SilentSession(), "gateway1", RemoteTimeouts(send=60.0), lambda zid: 0.0)  # type: ignore[arg-type]
+        offer = OfferKey(2, "robot1", "zid1", "demo", "aiogenomix/offer/2/robot1/zid1/demo")
+        proxy = RemoteInstance(host, link, offer, "demo", _DESCRIPTION, dict)
+        sending = asyncio.ensure_future(proxy.send("GotoPosition", {"posRef": 0.5}))
+        await asyncio.sleep(0)  # the send's first step: its query is asked, and waits for a reply
+        assert len(proxy._pending) == 1
+        proxy.lost("demo ran on component host robot1, which stopped or cannot be reached")
+        with pytest.raises(RemoteUnreachable) as gone:
+            await sending  # at once, not after the send's 60 s
+        assert "send GotoPosition of demo on robot1: its host went away before it answered" in str(gone.value)

@@ -100,11 +100,28 @@ async def test_every_request_endpoint_over_http(demo_rig: tuple[str, Process, st
         events.close()
 
 
-async def test_a_component_nobody_offers_still_loads_in_the_gateway(demo_rig: tuple[str, Process, str]) -> None:
-    # countclient is not offered on Zenoh: the gateway runs it itself, as without --zenoh.
-    with connect(demo_rig[0]) as client:
+async def test_a_name_runs_in_the_gateway_only_when_the_gateway_was_told_so(demo_rig: tuple[str, Process, str],
+                                                                            started: list[Process]) -> None:
+    # countclient is offered by no host: a gateway with remote components never runs it by itself.
+    async with aiohttp.ClientSession(base_url=demo_rig[0]) as http:
+        status, error = await _get(http, "/load/countclient")
+        assert status == 404 and error["ex"] == "::genomix::no_such_module"  # type: ignore[index]
+        assert "--local countclient" in error["message"]  # type: ignore[index]
+        assert "countclient" not in (await _get(http, "/"))[1]["available"]  # type: ignore[index]
+    gateway, url = await start_gateway([demo_rig[2]], extra=["--local", "countclient"])
+    started.append(gateway)
+    with connect(url) as client:
         countclient = client.load("countclient")
         assert "connect_port" in dir(countclient)
+    async with aiohttp.ClientSession(base_url=url) as http:
+        async with http.get("/load/demo") as reply:
+            assert reply.status == 200
+            assert json.loads(reply.headers["Aiogenomix-Where"])["host"] == "robot"
+        index = (await _get(http, "/"))[1]
+        assert index["where"]["countclient"] == {  # type: ignore[index]
+            "runs": "here", "component": "countclient", "version": "1.0"}
+        assert index["where"]["demo"]["runs"] == "remote"  # type: ignore[index]
+        assert index["where"]["demo"]["endpoints"] == [demo_rig[2]]  # type: ignore[index]
 
 
 async def test_token_and_allow_list_apply_to_remote_components(demo_rig: tuple[str, Process, str],
@@ -149,4 +166,21 @@ def test_zenoh_is_not_imported_unless_asked_for() -> None:
              "create_app(GatewayConfig(port=0))\n"
              "assert 'zenoh' not in sys.modules, 'zenoh was imported'\n")
     done = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+
+
+def test_a_component_host_carries_no_http_gateway() -> None:
+    # Beside the import-linter contract: what a robot's process really imports, its components loaded.
+    check = ("import asyncio, sys\n"
+             "import aiogenomix.remote, aiogenomix.remote._host_main\n"
+             "from aiogenomix.components.core import ComponentHost\n"
+             "async def main():\n"
+             "    async with ComponentHost() as host:\n"
+             "        for name in ('demo', 'kemar', 'capture', 'bass'):\n"
+             "            await host.load(name)\n"
+             "asyncio.run(main())\n"
+             "web = sorted(m for m in sys.modules\n"
+             "             if m.startswith('aiogenomix.gateway') or m.split('.')[0] == 'aiohttp')\n"
+             "assert not web, web\n")
+    done = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr

@@ -48,7 +48,7 @@ class Rover(Component, name="rover"):
     def Stop(self) -> None:
         """Stop."""
 
-    @activity(interrupts=("Stop",), throws=())
+    @activity(interrupts=("Stop",), throws=(), motion=True)
     async def Goto(self, x: Double, label: Annotated[str, Bound(16)] = "") -> None:
         """Go."""
         assert_type(self.Where, OutPortRuntime[Pose])

@@ -9,7 +9,7 @@ import orjson
 from aiogenomix.components.bass import Bass
 from aiogenomix.components.bass._history import AudioSnapshot, ChunkHistory
 from aiogenomix.components.core.runtime import idl_type
-from aiogenomix.gateway._binary import encode_binary
+from aiogenomix.components.core.runtime import encode_binary
 
 FPC = 50
 NUMPY = orjson.OPT_SERIALIZE_NUMPY

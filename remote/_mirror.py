@@ -1,23 +1,27 @@
 """The gateway's copy of a remote component's out ports, kept up to date by the port messages.
 
 A :class:`MirroredOutPort` is an :class:`~aiogenomix.components.core.OutPortRuntime`, so the read and
-watch routes serve it as they serve a local port.  Its data is already encoded (JSON-ready, arrays
-as numpy arrays), so its type encodes nothing again.  Numbered data (the audio window) is held as a
-:class:`MirroredWindow`: the chunks of every publication arrive once, are kept as long as the
-remote window holds them, and answer whole reads, ``since=`` reads and watchers exactly as the
-remote port would, counting the items that never arrived as lost.
+watch routes serve it as they serve a local port, as long as its host is heard from (its proxy says
+so: beyond the stale bound a read answers ``::genom::remote_io`` rather than an old value).  Its data
+is already encoded (JSON-ready, arrays as numpy arrays), so its type encodes nothing again.  Numbered
+data (the audio window) is held as a :class:`MirroredWindow`: the chunks of every publication arrive
+once, are kept as long as the remote window holds them, and answer whole reads, ``since=`` reads and
+watchers exactly as the remote port would, counting the items that never arrived as lost.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...components.core import Chunk, ChunkedArray, OutPortRuntime
-from ...components.core.runtime import PortSpec
+from ..components.core import Chunk, ChunkedArray, OutPortRuntime
+from ..components.core.runtime import PortSpec
 from ._wire import arrays_of
+
+if TYPE_CHECKING:
+    from ._proxy import RemoteInstance
 
 __all__ = ["MirroredOutPort", "MirroredWindow", "MirroredType"]
 
@@ -200,7 +204,9 @@ class MirroredOutPort(OutPortRuntime[Any]):
         owner: The proxy of the remote component.
     """
 
-    def __init__(self, described: dict[str, Any], owner: Any) -> None:
+    owner: RemoteInstance
+
+    def __init__(self, described: dict[str, Any], owner: RemoteInstance) -> None:
         super().__init__(_MirroredSpec(described), owner)
         self._entries: tuple[_Entry, ...] = ()
         self._index = 0
@@ -208,9 +214,22 @@ class MirroredOutPort(OutPortRuntime[Any]):
         #: Messages that did not follow the previous one (items the gateway never got).
         self.gaps = 0
 
+    def read(self, name: str | None = None) -> Any:
+        """The data as the host last published it, while the host is heard from.
+
+        Raises:
+            RemoteUnreachable: when the host was not heard from within the stale bound.
+        """
+        self.owner.check_heard()
+        return super().read(name)
+
+    def read_kept(self, name: str | None = None) -> Any:
+        """The data as the host last published it, however old."""
+        return super().read(name)
+
     def read_as(self, kind: Any, name: str | None = None) -> Any:
-        """The data decoded as type *kind* (for an in port of this process connected here)."""
-        value = self.read(name)
+        """The data decoded as type *kind*, however old (for an in port of this process connected here)."""
+        value = self.read_kept(name)
         if isinstance(value, MirroredWindow):
             value = value.whole()
         return None if value is None else kind.decode(value, self.name)

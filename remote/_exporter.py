@@ -2,9 +2,10 @@
 
 The component runs on the ordinary runtime; this only translates.  Requests go through the same
 ``Component`` methods the gateway's routes call, and a refusal is answered with the genomix error
-the gateway would answer (:func:`~aiogenomix.gateway._errors.error_body`), so the gateway in front
-of it only relays.  Each out port's publications leave once, whoever reads them: a delta of the
-new items for numbered data (the audio window), the data itself otherwise.
+the gateway would answer (``error_body`` of the runtime), so the gateway in front of it only
+relays.  A request belongs to the gateway that sent it: its events go to that gateway alone, and
+another gateway may not see, abort or clean it.  Each out port's publications leave once, whoever
+reads them: a delta of the new items for numbered data (the audio window), the data itself otherwise.
 """
 
 from __future__ import annotations
@@ -12,24 +13,34 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from collections.abc import Callable
-from typing import Any
+import sys
+import weakref
+from collections.abc import Callable, Coroutine
+from typing import TYPE_CHECKING, Any
 
 import orjson
 import zenoh
 
-from ...components.core import Chunked, Component, Incremental, OutPortRuntime
-from ...components.core.runtime import ComponentError, ComputedOutPortRuntime, Request
-from .._errors import error_body
+from ..components.core import Chunked, Component, Incremental, OutPortRuntime
+from ..components.core.runtime import (
+    ComponentError, ComputedOutPortRuntime, NoSuchRequest, Request, RequestStatus, error_body,
+)
 from ._session import on_zenoh_thread
 from ._wire import (
-    alive_key, arrays_of, encode_message, error_reply, events_key, info_key, ok_reply, port_key, request_key,
-    snapshot_key,
+    arrays_of, cleaned_key, encode_message, error_reply, events_key, info_key, offer_token, ok_reply, port_key,
+    request_key, snapshot_key,
 )
+
+if TYPE_CHECKING:
+    from ._host_node import HostNode
 
 __all__ = ["ComponentExporter", "PortEncoder"]
 
 log = logging.getLogger(__name__)
+
+#: Python 3.12 runs a task's first step at once: a query the component answers without waiting (most of
+#: them) is answered in the loop turn that took it, with no second turn to schedule the task.
+_EAGER: dict[str, Any] = {"eager_start": True} if sys.version_info >= (3, 12) else {}
 
 #: Seconds between two publications of a computed port (its data is made when read, on each change).
 COMPUTED_PERIOD = 0.05
@@ -129,32 +140,33 @@ class ComponentExporter:
     """Offers one component instance on a Zenoh session until :meth:`close`.
 
     Args:
-        session: The open Zenoh session.
+        node: The host's presence on Zenoh (its session, its id, the gateways it hears of).
         component: The started instance.
-        loop: The event loop the component runs on.
     """
 
-    def __init__(self, session: zenoh.Session, component: Component, loop: asyncio.AbstractEventLoop) -> None:
+    def __init__(self, node: HostNode, component: Component) -> None:
+        session = node.session
+        self.node = node
         self.session = session
         self.component = component
-        self.loop = loop
+        self.loop = node.loop
         self.instance = component.instance
+        zid = node.zid
         self._declared: list[Any] = []
         self._tasks: set[asyncio.Task[Any]] = set()
-        self._pending_events: list[tuple[Request, bytes]] = []
+        self._pending_events: list[tuple[RequestStatus, bytes]] = []
         # Requests whose end a send reply carried in this loop turn: their events are news to nobody.
-        self._answered: set[Request] = set()
-        self._events = session.declare_publisher(events_key(self.instance),
-                                                 congestion_control=zenoh.CongestionControl.BLOCK,
-                                                 reliability=zenoh.Reliability.RELIABLE, express=True)
-        self._declared.append(self._events)
-        self._declared.append(session.declare_queryable(info_key(self.instance),
+        self._answered: set[RequestStatus] = set()
+        #: The gateway that sent each request (the requests are the tracker's: they go when it forgets them).
+        self._owners: weakref.WeakKeyDictionary[RequestStatus, str] = weakref.WeakKeyDictionary()
+        self._events: dict[str, Any] = {}
+        self._declared.append(session.declare_queryable(info_key(zid, self.instance),
                                                         on_zenoh_thread(self._on_query(self._info))))
-        self._declared.append(session.declare_queryable(request_key(self.instance, "*"),
+        self._declared.append(session.declare_queryable(request_key(zid, self.instance, "*"),
                                                         on_zenoh_thread(self._on_query(self._request))))
-        self._declared.append(session.declare_queryable(snapshot_key(self.instance, "*"),
+        self._declared.append(session.declare_queryable(snapshot_key(zid, self.instance, "*"),
                                                         on_zenoh_thread(self._on_query(self._snapshot))))
-        self._declared.append(session.declare_subscriber(request_key(self.instance, "clean"),
+        self._declared.append(session.declare_subscriber(cleaned_key(zid, self.instance, "*"),
                                                          on_zenoh_thread(self._on_clean)))
         self._encoders: dict[str, PortEncoder] = {}
         self._publishers: dict[str, Any] = {}
@@ -167,30 +179,31 @@ class ComponentExporter:
             # Reliable and blocking: a dropped delta would be a gap (a loss).  Express like the replies and
             # events: nothing is held back in a batch, so all leave in the order they are made.
             publisher = self._publishers[name] = session.declare_publisher(
-                port_key(self.instance, name), congestion_control=zenoh.CongestionControl.BLOCK,
+                port_key(zid, self.instance, name), congestion_control=zenoh.CongestionControl.BLOCK,
                 reliability=zenoh.Reliability.RELIABLE, express=True)
             self._declared.append(publisher)
-            task = loop.create_task(self._pump(encoder, publisher), name=f"zenoh {self.instance}/{name}")
+            task = self.loop.create_task(self._pump(encoder, publisher), name=f"zenoh {self.instance}/{name}")
             self._tasks.add(task)
         component.host.add_request_listener(self._on_request)
         # Last: the gateway that sees the token finds everything above declared.
-        self._token = session.liveliness().declare_token(alive_key(self.instance))
+        self._token = session.liveliness().declare_token(offer_token(node.host_id, zid, self.instance))
 
     # -- queries ----------------------------------------------------------------------------
 
-    def _on_query(self, handler: Callable[[zenoh.Query], Any]) -> Callable[[zenoh.Query], None]:
+    def _on_query(self, handler: Callable[[zenoh.Query], Coroutine[Any, Any, Any]]) -> Callable[[zenoh.Query], None]:
         def on_query(query: zenoh.Query) -> None:
             # On a Zenoh thread: the component is touched on its loop only.
             self.loop.call_soon_threadsafe(self._start, handler, query)
 
         return on_query
 
-    def _start(self, handler: Callable[[zenoh.Query], Any], query: zenoh.Query) -> None:
-        task = self.loop.create_task(self._answer(handler, query))
-        self._tasks.add(task)
-        task.add_done_callback(self._tasks.discard)
+    def _start(self, handler: Callable[[zenoh.Query], Coroutine[Any, Any, Any]], query: zenoh.Query) -> None:
+        task = asyncio.Task(self._answer(handler, query), loop=self.loop, **_EAGER)
+        if not task.done():
+            self._tasks.add(task)
+            task.add_done_callback(self._tasks.discard)
 
-    async def _answer(self, handler: Callable[[zenoh.Query], Any], query: zenoh.Query) -> None:
+    async def _answer(self, handler: Callable[[zenoh.Query], Coroutine[Any, Any, Any]], query: zenoh.Query) -> None:
         try:
             try:
                 answer = await handler(query)
@@ -221,23 +234,43 @@ class ComponentExporter:
     async def _request(self, query: zenoh.Query) -> bytes:
         operation = str(query.key_expr).rsplit("/", 1)[-1]
         payload = self._payload(query)
+        gateway = str(payload.get("gateway", ""))
+        if not gateway:
+            message = "a request names the gateway that sends it (remote protocol 2)"
+            return error_reply(400, {"ex": "::genom::serialization", "detail": {"what": message}, "message": message})
         component = self.component
-        self._clean_answered(payload.get("cleaned"))
+        self._clean_answered(gateway, payload.get("cleaned"))
         if operation == "send":
             request = await component.send(payload.get("service", ""), payload.get("input"),
                                            session=payload.get("session"), oneway=bool(payload.get("oneway")))
+            self._owners[request] = gateway
+            if request.running and request.service.motion:
+                self.node.expect_gateway(gateway)
             if not (request.running or request.oneway):
                 self._answered.add(request)
             return ok_reply(_status_with_serial(request))
         request_id = str(payload.get("id", ""))
         if operation == "status":
-            return ok_reply(_status_with_serial(await component.request(request_id)))
+            return ok_reply(_status_with_serial(self._owned(request_id, gateway)))
         if operation == "abort":
-            return ok_reply(_status_with_serial(await component.abort(request_id)))
+            return ok_reply(_status_with_serial(await component.abort(self._owned(request_id, gateway).id)))
         if operation == "clean":
-            await component.clean(request_id)
+            await component.clean(self._owned(request_id, gateway).id)
             return ok_reply(None)
         return error_reply(404, {"ex": "::genomix::http", "message": f"no request operation {operation!r}"})
+
+    def _owned(self, request_id: str, gateway: str) -> Request:
+        """The request *request_id* when gateway *gateway* sent it, or adopted it (its sender vanished).
+
+        Raises:
+            NoSuchRequest: when there is none, or another gateway sent it (sessions, requests and events of
+                one gateway never reach another's clients).
+        """
+        request = self.component.requests.get(request_id)
+        owner = self._owners.setdefault(request, gateway)  # an orphan's: adopted, its events go there now
+        if owner != gateway:
+            raise NoSuchRequest(f"no request {request.id} of this gateway (another gateway sent it)")
+        return request
 
     async def _snapshot(self, query: zenoh.Query) -> list[bytes]:
         name = str(query.key_expr).rsplit("/", 1)[-1]
@@ -249,29 +282,49 @@ class ComponentExporter:
         return [encoder.base()]
 
     def _on_clean(self, sample: zenoh.Sample) -> None:
+        gateway = str(sample.key_expr).rsplit("/", 1)[-1]
         body = sample.payload.to_bytes()
-        self.loop.call_soon_threadsafe(self._clean_published, body)
+        self.loop.call_soon_threadsafe(self._clean_published, gateway, body)
 
-    def _clean_published(self, body: bytes) -> None:
+    def _clean_published(self, gateway: str, body: bytes) -> None:
         try:
             ids = orjson.loads(body).get("ids")
         except (ValueError, AttributeError):
             ids = None
-        self._clean_answered(ids)
+        self._clean_answered(gateway, ids)
 
-    def _clean_answered(self, ids: Any) -> None:
+    def _clean_answered(self, gateway: str, ids: Any) -> None:
         """Cleans a gateway answered itself (it saw the requests end): nothing to report back."""
         if not isinstance(ids, list):
             return
         for request_id in ids:
             try:
-                self.component.requests.clean(str(request_id))
+                self.component.requests.clean(self._owned(str(request_id), gateway).id)
             except (ComponentError, ValueError) as exc:
                 log.debug("%s: clean answered by the gateway not applied: %s", self.instance, exc)
 
+    # -- the dead-man -------------------------------------------------------------------------
+
+    async def orphan(self, gateway: str) -> list[Request]:
+        """Gateway *gateway* vanished: interrupt the motions it started; return them once stopped.
+
+        Only activities declared ``motion=True`` stop: a capture or a recording goes on, its data
+        kept for whoever reads it next.  Its other requests then belong to no gateway: the first
+        gateway that asks for one (its status, an abort, a clean) adopts it, and hears its events.
+        """
+        theirs = [request for request in self.component.requests.running() if self._owners.get(request) == gateway]
+        motions = [request for request in theirs if request.service.motion]
+        for request in motions:
+            log.warning("%s: stopping %s (%s): the gateway that started it is gone (dead-man)",
+                        self.instance, request.id, request.service.name)
+        await asyncio.gather(*(self.component.interrupt(request, by="gateway_gone") for request in motions))
+        for request in theirs:
+            self._owners.pop(request, None)
+        return motions
+
     # -- publications -----------------------------------------------------------------------
 
-    def _on_request(self, request: Request) -> None:
+    def _on_request(self, request: RequestStatus) -> None:
         if request.instance != self.instance or request.oneway:
             return
         event = orjson.dumps({"status": _status_with_serial(request), "session": request.session})
@@ -280,6 +333,14 @@ class ComponentExporter:
             # once goes first (the caller waits on it), its events after, if still news.
             self.loop.call_soon(self._publish_events)
         self._pending_events.append((request, event))
+
+    def _publisher_to(self, gateway: str) -> Any:
+        publisher = self._events.get(gateway)
+        if publisher is None:
+            publisher = self._events[gateway] = self.session.declare_publisher(
+                events_key(self.node.zid, self.instance, gateway), congestion_control=zenoh.CongestionControl.BLOCK,
+                reliability=zenoh.Reliability.RELIABLE, express=True)
+        return publisher
 
     def _publish_events(self) -> None:
         # A request's end comes after what it published: a read once it is done sees its last data.
@@ -290,8 +351,16 @@ class ComponentExporter:
             # The gateway that sent a request which ended at once took its end from the reply, and
             # announced it to the request's session: the only listener there is (sessions belong to
             # a gateway).  Two messages fewer per such call.
-            if request not in answered:
-                self._events.put(event)
+            gateway = self._owners.get(request)
+            if request not in answered and gateway is not None:
+                self._publisher_to(gateway).put(event)
+
+    def forget_gateway(self, gateway: str) -> None:
+        """Undeclare the publisher of a gateway that vanished."""
+        publisher = self._events.pop(gateway, None)
+        if publisher is not None:
+            with contextlib.suppress(zenoh.ZError):
+                publisher.undeclare()
 
     def _flush_ports(self) -> None:
         """Publish now the ports that changed since their last message (not the computed ones: see _pump)."""
@@ -321,12 +390,13 @@ class ComponentExporter:
         for task in tasks:
             task.cancel()
         await asyncio.gather(*tasks, return_exceptions=True)
-        for declared in self._declared:
+        for declared in [*self._declared, *self._events.values()]:
             with contextlib.suppress(zenoh.ZError):
                 declared.undeclare()
+        self._events.clear()
 
 
-def _status_with_serial(request: Request) -> dict[str, Any]:
+def _status_with_serial(request: RequestStatus) -> dict[str, Any]:
     """The status object plus the request's serial, which tells the gateway's copies of one number apart.
 
     Numbers are reused after a clean, and events travel after replies: without the serial, a late

@@ -1,11 +1,14 @@
-"""The proxy of a component that runs in another process: a ``Component`` the routes serve unchanged.
+"""The proxy of an instance that runs in another process: what the gateway's routes serve as a loaded instance.
 
-Its description, requests and ports are the remote instance's: ``send``, ``abort``, ``clean`` and
-unknown request ids are queries to the host process (bounded in time); request events and port data
-arrive as publications and keep a local copy current, from which ``status``, ``wait``, the listen
-stream, ``read`` and ``watch`` are answered as for a local instance.  When the host process goes
-away, :meth:`RemoteComponent.lost` ends the pending requests once with ``::genom::remote_io`` and
-unloads the proxy (the listen stream says ``unload``).
+It satisfies :class:`~aiogenomix.components.core.runtime.LoadedInstance` as a component of the gateway
+does.  Its description, requests and ports are the remote instance's: ``send``, ``abort``, ``clean``
+and unknown request ids are queries to the host process (bounded in time); request events and port
+data arrive as publications and keep a local copy current, from which ``status``, ``wait``, the
+listen stream, ``read`` and ``watch`` are answered as for a local instance.  A port whose host was
+not heard from within the stale bound is not served as current: its read answers
+``::genom::remote_io``.  When the host process goes away, :meth:`RemoteInstance.lost` ends the
+pending queries and requests at once with ``::genom::remote_io`` and unloads the proxy (the listen
+stream says ``unload``).
 """
 
 from __future__ import annotations
@@ -14,27 +17,30 @@ import asyncio
 import contextlib
 import dataclasses
 import logging
+import time
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import orjson
 import zenoh
 
-from ...components.core import Component, ComponentHost
-from ...components.core.runtime import NoSuchPort, NoSuchRequest, RequestRunning, RequestStatus
-from .._errors import RemoteUnreachable
+from ..components.core.runtime import (
+    REMOTE_IO, NoSuchPort, NoSuchRequest, Placement, RemoteUnreachable, RequestRunning, RequestStatus,
+    parse_request_id,
+)
 from ._mirror import MirroredOutPort
-from ._session import ask, ask_all, on_zenoh_thread
-from ._wire import decode_message, events_key, info_key, port_key, request_key, snapshot_key
+from ._session import GONE, Answer, ask, ask_all, on_zenoh_thread
+from ._wire import (
+    PROTOCOL, OfferKey, cleaned_key, decode_message, events_key, info_key, port_key, request_key, snapshot_key,
+)
 
 if TYPE_CHECKING:
-    from ...components.core import InPortRuntime, OutPortRuntime
+    from ..components.core import ComponentHost, InPortRuntime, OutPortRuntime
 
-__all__ = ["RemoteComponent", "RemoteRequest", "RemoteTimeouts", "REMOTE_IO"]
+__all__ = ["RemoteInstance", "RemoteRequest", "RemoteTimeouts", "RemoteLink", "REMOTE_IO", "describe_remote"]
 
 log = logging.getLogger(__name__)
 
-#: The exception that ends the requests of a component whose process is gone.
-REMOTE_IO = "::genom::remote_io"
 #: Seconds a clean answered by the gateway waits for a query to carry it before it is published.
 CLEAN_DELAY = 0.05
 
@@ -44,12 +50,33 @@ class RemoteTimeouts:
     """How long the gateway waits for a component host before answering ``::genom::remote_io``.
 
     Attributes:
-        control: Seconds for a description, status, abort or clean.
+        control: Seconds for a description, status, abort or clean; and for a name a host offered
+            to be offered again (a host that restarts) before its load is refused.
         send: Seconds for a send (a function may take up to the host's function grace to end).
+        stale: Seconds without news of a host (it beats every 0.25 s) after which its ports are not
+            served as current and its sends are refused: the network is cut, or the host froze.
     """
 
     control: float = 5.0
     send: float = 10.0
+    stale: float = 2.0
+
+
+@dataclasses.dataclass(frozen=True)
+class RemoteLink:
+    """What the proxies of one process share: the session, this process's id, the bounds, the heartbeats.
+
+    Attributes:
+        session: The Zenoh session.
+        gateway: This process's Zenoh session id: its requests' events come to it alone.
+        timeouts: The bounds.
+        silence: Seconds since the host of a Zenoh session id was last heard from.
+    """
+
+    session: zenoh.Session
+    gateway: str
+    timeouts: RemoteTimeouts
+    silence: Callable[[str], float]
 
 
 @dataclasses.dataclass(eq=False)
@@ -77,26 +104,33 @@ class RemoteRequest(RequestStatus):
         return True
 
 
-class RemoteComponent(Component, name="remote"):
-    """A component instance of another process, as this host serves it.
+class RemoteInstance:
+    """An instance of another process, as this process serves it.
 
     Args:
-        host: This process's host.
-        instance: The remote instance name.
-        session: The Zenoh session.
+        host: This process's host (it announces the requests' changes and unloads the proxy).
+        link: The session and bounds shared by the proxies.
+        offer: The offer this proxy was made from: which host run, which instance.
+        name: The instance name here (the remote name, unless loaded with ``-i``).
         description: The remote ``/info``.
-        timeouts: The query bounds.
+        facts: What the host says of itself (endpoints, versions), when asked.
     """
 
-    def __init__(self, host: ComponentHost, instance: str, session: zenoh.Session, description: dict[str, Any],
-                 timeouts: RemoteTimeouts | None = None) -> None:
-        super().__init__(host, instance, [])
-        self.session = session
-        self.timeouts = timeouts or RemoteTimeouts()
-        self._description = description
+    def __init__(self, host: ComponentHost, link: RemoteLink, offer: OfferKey, name: str,
+                 description: dict[str, Any], facts: Callable[[], dict[str, Any]]) -> None:
+        self.host = host
+        self.link = link
+        self.session = link.session
+        self.timeouts = link.timeouts
+        self.offer = offer
+        self.instance = name
+        self.remote_instance = offer.instance
+        self._facts = facts
+        # The remote description, under the name it has here.
+        self._description = {**description, "name": name}
         # Exceptions ids and state ports carry the remote component's name, as on its own host.
-        self.genom_name = description.get("component", instance)  # type: ignore[misc]
-        self.version = description.get("version", "")  # type: ignore[misc]
+        self.genom_name: str = description.get("component", offer.instance)
+        self.version: str = description.get("version", "")
         self._loop = asyncio.get_running_loop()
         self._remote: dict[int, RemoteRequest] = {}
         # The serial of the copy last cleaned under each number: late news of it is not news.
@@ -109,13 +143,25 @@ class RemoteComponent(Component, name="remote"):
         self._in_ports = {port["name"] for port in description.get("ports", []) if port.get("dir") == "in"}
         self._subscribers: list[Any] = []
         self._background: set[asyncio.Task[Any]] = set()
+        # The queries waiting for an answer: ended at once when the host is known to be gone.
+        self._pending: set[asyncio.Future[Answer]] = set()
+        self._started = False
         self._gone = False
+        #: When a port message or an answer last came (set on Zenoh's thread too): news of the host.
+        self._last_message = time.monotonic()
 
     # -- what the routes use ------------------------------------------------------------------
 
     def description(self) -> dict[str, Any]:
-        """The remote instance's ``/info``."""
+        """The remote instance's ``/info``, under its name here."""
         return self._description
+
+    def placement(self) -> Placement:
+        """Where the instance runs: its host, the host's endpoints and protocol, the component."""
+        facts = self._facts()
+        return {"runs": "remote", "component": self.genom_name, "version": self.version, "host": self.offer.host,
+                "instance": self.remote_instance, "endpoints": list(facts.get("endpoints") or []),
+                "zid": self.offer.zid, "protocol": PROTOCOL}
 
     def port(self, name: str) -> OutPortRuntime[Any] | InPortRuntime[Any]:
         """The mirrored out port *name*.
@@ -132,13 +178,28 @@ class RemoteComponent(Component, name="remote"):
                              f"read the out port it is connected to")
         raise NoSuchPort(f"{self.instance} has no port {name!r} (ports: {', '.join(self._mirrors)})")
 
-    async def send(self, name: str, raw_input: Any = None, *, session: str | None = None,
-                   oneway: bool = False) -> Any:
+    def check_heard(self) -> None:
+        """Refuse to serve the host's data as current when it was not heard from within the stale bound.
+
+        Raises:
+            RemoteUnreachable: naming the host and how long it has been silent.
+        """
+        if self._gone:
+            raise RemoteUnreachable(f"{self.instance} is gone: its host {self.offer.host} no longer answers")
+        silence = min(self.link.silence(self.offer.zid), time.monotonic() - self._last_message)
+        if silence > self.timeouts.stale:
+            raise RemoteUnreachable(
+                f"{self.instance} runs on {self.offer.host}, not heard from for {silence:.1f} s (more than the "
+                f"{self.timeouts.stale:g} s bound): the network is cut or the host froze; its last data is not "
+                f"served as current")
+
+    async def send(self, name: str, raw_input: object = None, *, session: str | None = None,
+                   oneway: bool = False) -> RemoteRequest:
         """Send the request to the remote instance; return its copy (its status as the host replied)."""
-        self._refuse_if_gone()
+        self.check_heard()
         status = await self._ask("send", {"service": name, "input": raw_input, "session": session,
-                                          "oneway": oneway}, self.timeouts.send)
-        number = self.requests.parse_id(status["id"])
+                                          "oneway": oneway}, self.timeouts.send, f"send {name}")
+        number = parse_request_id(self.remote_instance, status["id"])
         if oneway:
             # Nobody tracks a oneway request: the host forgets it when it ends.
             request = RemoteRequest(number, self.instance, session, True, status["serial"])
@@ -147,29 +208,29 @@ class RemoteComponent(Component, name="remote"):
         request, new = self._track(number, status["serial"], session)
         # Each change is announced once, by whichever of the reply and the host's event comes first.
         if request.take(status) or (new and request.running):
-            self.host.announce_request(request)  # type: ignore[arg-type]
+            self.host.announce_request(request)
         return request
 
-    async def request(self, request_id: str) -> Any:
+    async def request(self, request_id: str) -> RemoteRequest:
         """The copy of request *request_id*; asked from the host when this gateway has none."""
-        number = self.requests.parse_id(request_id)
+        number = parse_request_id(self.instance, request_id)
         known = self._remote.get(number)
         if known is not None:
             return known
         self._refuse_if_gone()
-        status = await self._ask("status", {"id": str(number)}, self.timeouts.control)
+        status = await self._ask("status", {"id": str(number)}, self.timeouts.control, "status")
         request, _ = self._track(number, status["serial"], None)
         request.take(status)
         return request
 
-    async def abort(self, request_id: str) -> Any:
+    async def abort(self, request_id: str) -> RemoteRequest:
         """Abort the request on the host; return its copy, ended."""
-        number = self.requests.parse_id(request_id)
+        number = parse_request_id(self.instance, request_id)
         self._refuse_if_gone()
-        status = await self._ask("abort", {"id": str(number)}, self.timeouts.control)
+        status = await self._ask("abort", {"id": str(number)}, self.timeouts.control, "abort")
         request, _ = self._track(number, status["serial"], None)
         if request.take(status):
-            self.host.announce_request(request)  # type: ignore[arg-type]
+            self.host.announce_request(request)
         return request
 
     async def clean(self, request_id: str) -> None:
@@ -183,7 +244,7 @@ class RemoteComponent(Component, name="remote"):
         Raises:
             RequestRunning: for a request that has not ended.
         """
-        number = self.requests.parse_id(request_id)
+        number = parse_request_id(self.instance, request_id)
         self._refuse_if_gone()
         known = self._remote.get(number)
         if known is not None and known.running:
@@ -194,15 +255,19 @@ class RemoteComponent(Component, name="remote"):
             if self._clean_timer is None:
                 self._clean_timer = self._loop.call_later(CLEAN_DELAY, self._publish_cleans)
         else:
-            await self._ask("clean", {"id": str(number)}, self.timeouts.control)
+            await self._ask("clean", {"id": str(number)}, self.timeouts.control, "clean")
         self._remote.pop(number, None)
 
-    async def _ask(self, operation: str, payload: dict[str, Any], timeout: float) -> Any:
+    async def _ask(self, operation: str, payload: dict[str, Any], timeout: float, what: str) -> Any:
         """Ask the request *operation* of the host, telling it the cleans it has not been told yet."""
+        payload["gateway"] = self.link.gateway
         if self._cleans_due:
             payload["cleaned"], self._cleans_due = self._cleans_due, []
             self._cancel_clean_timer()
-        return await ask(self.session, request_key(self.instance, operation), payload, timeout=timeout)
+        result = await ask(self.session, request_key(self.offer.zid, self.remote_instance, operation), payload,
+                           timeout, what=f"{what} of {self.instance} on {self.offer.host}", pending=self._pending)
+        self._last_message = time.monotonic()  # an answer is news from the host
+        return result
 
     def _publish_cleans(self) -> None:
         """Publish the cleans no query carried (the publication travels before any later query)."""
@@ -220,8 +285,8 @@ class RemoteComponent(Component, name="remote"):
     def _track(self, number: int, serial: int, session: str | None) -> tuple[RemoteRequest, bool]:
         """The copy of request *number* whose serial is *serial*, and whether it was made now.
 
-        A copy of an older serial is replaced (its request was cleaned elsewhere and the number
-        reused); for an older serial than the copy's, the answer is a copy nobody keeps.
+        A copy of an older serial is replaced (its request was cleaned and the number reused);
+        for an older serial than the copy's, the answer is a copy nobody keeps.
         """
         request = self._remote.get(number)
         if request is not None and request.serial == serial:
@@ -240,7 +305,7 @@ class RemoteComponent(Component, name="remote"):
 
     def _refuse_if_gone(self) -> None:
         if self._gone:
-            raise RemoteUnreachable(f"{self.instance} is gone: its process no longer answers")
+            raise RemoteUnreachable(f"{self.instance} is gone: its host {self.offer.host} no longer answers")
 
     # -- lifetime -------------------------------------------------------------------------------
 
@@ -249,7 +314,8 @@ class RemoteComponent(Component, name="remote"):
         if self._started:
             return
         self._started = True
-        self._cleans = self.session.declare_publisher(request_key(self.instance, "clean"), express=True,
+        zid, instance, gateway = self.offer.zid, self.remote_instance, self.link.gateway
+        self._cleans = self.session.declare_publisher(cleaned_key(zid, instance, gateway), express=True,
                                                       congestion_control=zenoh.CongestionControl.BLOCK,
                                                       reliability=zenoh.Reliability.RELIABLE)
         self._subscribers.append(self._cleans)
@@ -258,19 +324,20 @@ class RemoteComponent(Component, name="remote"):
         # a request's end never overtakes its last publication (a read after it would see older data).
         # The callbacks only hand the payload to the loop: they never hold that thread up.
         self._subscribers.append(self.session.declare_subscriber(
-            events_key(self.instance), on_zenoh_thread(self._on_event)))
+            events_key(zid, instance, gateway), on_zenoh_thread(self._on_event)))
         self._subscribers.append(self.session.declare_subscriber(
-            port_key(self.instance, "*"), on_zenoh_thread(self._on_port)))
+            port_key(zid, instance, "*"), on_zenoh_thread(self._on_port)))
         await asyncio.gather(*(self._fetch(name) for name in self._mirrors))
 
     async def _fetch(self, name: str) -> None:
         """Take the whole data of port *name* from the host (at start, and after a message went missing)."""
-        for body in await ask_all(self.session, snapshot_key(self.instance, name), timeout=self.timeouts.control):
+        key = snapshot_key(self.offer.zid, self.remote_instance, name)
+        for body in await ask_all(self.session, key, timeout=self.timeouts.control):
             with contextlib.suppress(ValueError):
                 header, whole, delta = decode_message(body)
                 mirror = self._mirrors[name]
                 # Publications that came while this was asked are newer: a base never goes back in time.
-                if header.get("kind") != "base" or mirror.version == 0 or header["index"] >= mirror.read().index:
+                if header.get("kind") != "base" or mirror.version == 0 or header["index"] >= mirror.read_kept().index:
                     mirror.apply(header, whole, delta)
 
     def _on_event(self, sample: zenoh.Sample) -> None:
@@ -281,7 +348,7 @@ class RemoteComponent(Component, name="remote"):
         event = orjson.loads(body)
         status = event["status"]
         try:
-            number = self.requests.parse_id(status["id"])
+            number = parse_request_id(self.remote_instance, status["id"])
         except NoSuchRequest:
             return
         # Events travel after the replies: the news may be of a request this gateway already cleaned.
@@ -291,11 +358,12 @@ class RemoteComponent(Component, name="remote"):
         if new and status["status"] == "sent":
             # A request this gateway has not seen yet (its send reply may come after this event),
             # or a new request under a number cleaned elsewhere.
-            self.host.announce_request(request)  # type: ignore[arg-type]
+            self.host.announce_request(request)
         if request.take(status):
-            self.host.announce_request(request)  # type: ignore[arg-type]
+            self.host.announce_request(request)
 
     def _on_port(self, sample: zenoh.Sample) -> None:
+        self._last_message = time.monotonic()
         name = str(sample.key_expr).rsplit("/", 1)[-1]
         body = sample.payload.to_bytes()
         self._loop.call_soon_threadsafe(self._take_port, name, body)
@@ -310,14 +378,21 @@ class RemoteComponent(Component, name="remote"):
             self._background.add(task)
             task.add_done_callback(self._background.discard)
 
-    def lost(self, why: str) -> None:
-        """The host process is gone: end every pending request once with ``::genom::remote_io``, then unload."""
-        if self._gone:
-            return
+    def _end_all(self, why: str) -> None:
+        """End every pending query and every request not ended yet, once, with ``::genom::remote_io``."""
         self._gone = True
+        for answer in list(self._pending):
+            if not answer.done():
+                answer.set_result(GONE)
         for request in list(self._remote.values()):
             if request.take({"status": "error", "exception": {"ex": REMOTE_IO, "detail": {"what": why}}}):
-                self.host.announce_request(request)  # type: ignore[arg-type]
+                self.host.announce_request(request)
+
+    def lost(self, why: str) -> None:
+        """The host process is gone: end the pending queries and requests with ``::genom::remote_io``, then unload."""
+        if self._gone:
+            return
+        self._end_all(why)
         self.host.unload_soon(self.instance)
 
     async def stop(self) -> None:
@@ -328,11 +403,7 @@ class RemoteComponent(Component, name="remote"):
         self._publish_cleans()  # the host keeps running: leave it nothing this gateway cleaned
         self._started = False
         if not self._gone:
-            self._gone = True
-            for request in list(self._remote.values()):
-                if request.take({"status": "error", "exception": {
-                        "ex": REMOTE_IO, "detail": {"what": f"{self.instance} was unloaded from this gateway"}}}):
-                    self.host.announce_request(request)  # type: ignore[arg-type]
+            self._end_all(f"{self.instance} was unloaded from this gateway")
         for subscriber in self._subscribers:
             with contextlib.suppress(zenoh.ZError):
                 subscriber.undeclare()
@@ -341,7 +412,8 @@ class RemoteComponent(Component, name="remote"):
         await asyncio.gather(*self._background, return_exceptions=True)
 
 
-async def describe_remote(session: zenoh.Session, instance: str, timeout: float) -> dict[str, Any]:
-    """The ``/info`` of the remote instance *instance*."""
-    result: dict[str, Any] = await ask(session, info_key(instance), None, timeout=timeout)
+async def describe_remote(session: zenoh.Session, offer: OfferKey, timeout: float) -> dict[str, Any]:
+    """The ``/info`` of the instance *offer* offers."""
+    result: dict[str, Any] = await ask(session, info_key(offer.zid, offer.instance), None, timeout=timeout,
+                                       what=f"the description of {offer.name}")
     return result

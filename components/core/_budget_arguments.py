@@ -2,7 +2,8 @@
 
 Each bound of :class:`~aiogenomix.components.core.Budgets` names its flag, its unit and what it
 bounds; the options are made from that, so that a bound added there is an option here, with its
-default in the help.
+default in the help.  The gateway and a component host take the same options: the components hold
+the same resources wherever they run.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ import argparse
 import re
 from collections.abc import Callable
 
-from ..components.core import Budgets
+from ._budgets import Budgets
 
 __all__ = ["add_budget_arguments", "budgets_from", "parse_amount"]
 

@@ -1,5 +1,7 @@
 """The binary form of port data: a JSON header plus the raw little-endian bytes of its arrays.
 
+The gateway answers binary reads in it and component hosts send port data to gateways in it.
+
 Layout (all little-endian)::
 
     b"AGXB"                 magic
@@ -22,13 +24,13 @@ from typing import Any
 import numpy as np
 import orjson
 
-from ..components.core import ChunkedArray
+from ._chunked import ChunkedArray
 
-__all__ = ["MAGIC", "CONTENT_TYPE", "encode_binary"]
+__all__ = ["BINARY_MAGIC", "BINARY_CONTENT_TYPE", "encode_binary"]
 
-MAGIC = b"AGXB"
+BINARY_MAGIC = b"AGXB"
 #: The media type of the binary form (``Accept`` it, or ask with ``format=binary``).
-CONTENT_TYPE = "application/x-aiogenomix-binary"
+BINARY_CONTENT_TYPE = "application/x-aiogenomix-binary"
 _ALIGN = 8
 
 
@@ -79,4 +81,4 @@ def encode_binary(port: str, data: Any, **extra: Any) -> list[bytes | memoryview
         offset += little.nbytes
     header = orjson.dumps({"port": port, "data": skeleton, "arrays": described, **extra})
     # The small parts go out as one write; the arrays follow without being copied.
-    return [MAGIC + struct.pack("<I", len(header)) + header, *payload]
+    return [BINARY_MAGIC + struct.pack("<I", len(header)) + header, *payload]

@@ -1,0 +1,298 @@
+"""Finding components of other processes on Zenoh, following their hosts, and noticing when they go and return.
+
+A :class:`ZenohDirectory` is a host's :class:`~aiogenomix.components.core.runtime.RemoteFinder`: ``load``
+asks it first, and it decides where a name runs.  It follows every offer (liveliness tokens) and
+every host's heartbeat.  A token that disappears (the process died, or the network was cut longer
+than Zenoh's lease) makes the proxy of that instance end its requests and unload; when the same
+host offers the instance again, the gateway loads it again under the same name and tells every
+session (an ``offered`` event).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import math
+import time
+from collections.abc import Callable, Collection
+from typing import Any
+
+import zenoh
+
+from ..components.core import ComponentHost, LoadError
+from ..components.core.runtime import LoadedInstance, NoSuchModule, RemoteUnreachable
+from ._offers import OfferBook, OfferedBefore, split_name
+from ._proxy import RemoteInstance, RemoteLink, RemoteTimeouts, describe_remote
+from ._session import ZenohSettings, alive, ask, on_zenoh_thread, open_session
+from ._wire import BEATS, LEGACY_OFFERS, OFFERS, OfferKey, facts_key, gateway_token, parse_offer
+
+__all__ = ["ZenohDirectory"]
+
+log = logging.getLogger(__name__)
+
+#: What a gateway tells its sessions when an instance is offered: ``{"name", "host", "loaded"}``.
+OfferedListener = Callable[[dict[str, Any]], None]
+
+
+class ZenohDirectory:
+    """Finds remote components for a host, follows the offers and heartbeats, re-attaches what returns.
+
+    Use :meth:`open` to create one; :meth:`aclose` closes its session.
+
+    Args:
+        session: An open Zenoh session (owned by the directory from now on).
+        config: Its configuration.
+        timeouts: The bounds of queries, of waiting for a name to be offered again, and of silence.
+        local: The component names a load may run in this process (``--local``); every other name
+            runs where a component host offers it, or nowhere.
+        gateway: Whether this process sends requests: it then declares its liveliness token (the
+            hosts stop its motions when it vanishes) and announces offers to *on_offered*.
+        on_offered: Told of every instance offered from now on (``loaded``: the name under which
+            this gateway loaded it again, when it had lost it with its host).
+    """
+
+    def __init__(self, session: zenoh.Session, config: zenoh.Config, timeouts: RemoteTimeouts | None = None,
+                 local: Collection[str] = (), gateway: bool = True, on_offered: OfferedListener | None = None) -> None:
+        self.session = session
+        self.config = config
+        self.zid = str(session.zid())
+        self.timeouts = timeouts or RemoteTimeouts()
+        self.on_offered = on_offered
+        self._local = frozenset(local)
+        self._gateway = gateway
+        self._loop = asyncio.get_running_loop()
+        self._book = OfferBook()
+        self._change: asyncio.Future[None] = self._loop.create_future()
+        #: When each host run (by session id) was last heard from; set on Zenoh's thread.
+        self._heard: dict[str, float] = {}
+        self._proxies: dict[str, RemoteInstance] = {}
+        #: The instances lost with their host, by (host id, instance): re-attached when offered again.
+        self._lost: dict[tuple[str, str], str] = {}
+        self._host: ComponentHost | None = None
+        self._tasks: set[asyncio.Task[Any]] = set()
+        self.link = RemoteLink(session, self.zid, self.timeouts, self.silence)
+        self._declared: list[Any] = [session.declare_subscriber(BEATS, on_zenoh_thread(self._on_beat))]
+        # With history: the tokens already declared come first, then every change.
+        for key in (OFFERS, LEGACY_OFFERS):
+            self._declared.append(session.liveliness().declare_subscriber(
+                key, on_zenoh_thread(self._on_offer), history=True))
+        if gateway:
+            # Declared before any request is sent: a host that runs our motions sees us vanish.
+            self._declared.append(session.liveliness().declare_token(gateway_token(self.zid)))
+
+    @classmethod
+    async def open(cls, settings: ZenohSettings, timeouts: RemoteTimeouts | None = None, *,
+                   local: Collection[str] = (), gateway: bool = True,
+                   on_offered: OfferedListener | None = None) -> ZenohDirectory:
+        """Open a Zenoh session with *settings* and a directory on it.
+
+        Raises:
+            ZenohSessionError: when the session cannot be opened.
+        """
+        session, config = await asyncio.to_thread(open_session, settings)
+        return cls(session, config, timeouts, local, gateway, on_offered)
+
+    # -- the finder ----------------------------------------------------------------------------
+
+    def may_run_here(self, name: str) -> bool:
+        """Whether a load of *name* may run it in this process (it was named with ``--local``)."""
+        return name in self._local
+
+    def offered(self) -> list[str]:
+        """The instances component hosts offer now, each once."""
+        return self._book.names()
+
+    async def find(self, host: ComponentHost, name: str, argv: list[str]) -> LoadedInstance | None:
+        """The proxy of what *name* designates (``demo``, ``demo@robot1``); None for a name that runs here.
+
+        A name a host offered and no longer offers is waited for up to the control timeout: a
+        host that restarts is never replaced by anything else.
+
+        Raises:
+            NoSuchModule: when no host offers *name* (and it may not run here).
+            AmbiguousModule: when several hosts offer it: the message names each, to load as NAME@HOST.
+            LoadError: for load options other than ``-i`` (a remote instance is configured where it
+                runs), or an instance name taken here.
+            RemoteUnreachable: when the host that offered it does not offer it again in time, or
+                does not answer.
+        """
+        instance, host_id = split_name(name)
+        if host_id is None and name in self._local:
+            return None
+        self._follow(host)
+        local_name = _local_name(instance, argv)
+        existing = host.instances.get(local_name)
+        if (isinstance(existing, RemoteInstance) and existing.remote_instance == instance
+                and host_id in (None, existing.offer.host)):
+            return existing
+        # What the load's reply (or its refusal) says of each host that offers it: its endpoints.
+        await asyncio.gather(*(self._ask_facts(o.zid) for o in self._book.offers_of(instance, host_id)
+                               if not self._book.facts(o.zid)))
+        offer = await self._resolve(name, instance, host_id)
+        if offer is None:
+            if host.knows(instance):
+                raise NoSuchModule(f"no component host offers {instance}; to run {instance} in this gateway, "
+                                   f"start the gateway with --local {instance}")
+            raise NoSuchModule(f"no component {instance!r} (available: {', '.join(host.available()) or 'none'})")
+        if existing is not None:
+            where = existing.placement()
+            place = "this gateway" if where.get("runs") == "here" else f"{where.get('instance')}@{where.get('host')}"
+            raise LoadError(f"instance name {local_name!r} is taken by {place}: load {name} with -i ANOTHER_NAME")
+        host.check_room()
+        if not self._book.facts(offer.zid):
+            await self._ask_facts(offer.zid)  # heard of while the load waited: where it runs, said at once
+        description = await describe_remote(self.session, offer, self.timeouts.control)
+        proxy = RemoteInstance(host, self.link, offer, local_name, description,
+                               lambda: self._book.facts(offer.zid))
+        await proxy.start()
+        self._proxies[local_name] = proxy
+        self._lost.pop((offer.host, offer.instance), None)
+        return proxy
+
+    async def _resolve(self, name: str, instance: str, host_id: str | None) -> OfferKey | None:
+        deadline = self._loop.time() + self.timeouts.control
+        asked = False
+        while True:
+            try:
+                offer = self._book.resolve(name)
+            except OfferedBefore as before:
+                left = deadline - self._loop.time()
+                if left <= 0:
+                    raise RemoteUnreachable(
+                        f"{name} was offered by {', '.join(before.hosts)}, which has not offered it again within "
+                        f"{self.timeouts.control:g} s: the host is down, restarting or cut off (nothing else "
+                        f"runs it in its place)") from None
+                await self._next_change(left)
+                continue
+            except NoSuchModule:
+                if asked:
+                    raise
+                offer = None
+            if offer is not None or asked:
+                return offer
+            # Not heard of yet: ask the network now (a gateway that has just started, a host that has just
+            # come), then decide with what it says.
+            asked = True
+            pattern = f"aiogenomix/offer/*/{host_id or '*'}/*/{instance}"
+            for key in await alive(self.session, pattern, timeout=min(2.0, self.timeouts.control)):
+                self._take_offer(key, present=True)
+
+    async def _next_change(self, within: float) -> None:
+        await asyncio.wait({self._change}, timeout=within)
+
+    def _follow(self, host: ComponentHost) -> None:
+        if self._host is None:
+            self._host = host
+            host.add_unload_listener(self._forget)
+
+    def _forget(self, instance: str) -> None:
+        proxy = self._proxies.get(instance)
+        if proxy is not None and self._host is not None and self._host.instances.get(instance) is not proxy:
+            del self._proxies[instance]
+
+    # -- what is heard -------------------------------------------------------------------------
+
+    def silence(self, zid: str) -> float:
+        """Seconds since the host of session *zid* was heard from (infinite: never)."""
+        heard = self._heard.get(zid)
+        return math.inf if heard is None else time.monotonic() - heard
+
+    def _on_beat(self, sample: zenoh.Sample) -> None:
+        # On Zenoh's thread, whatever the event loop is doing: a busy gateway does not make a host stale.
+        self._heard[str(sample.key_expr).split("/")[2]] = time.monotonic()
+
+    def _on_offer(self, sample: zenoh.Sample) -> None:
+        key, present = str(sample.key_expr), sample.kind != zenoh.SampleKind.DELETE
+        self._loop.call_soon_threadsafe(self._take_offer, key, present)
+
+    def _take_offer(self, key: str, present: bool) -> None:
+        offer = parse_offer(key)
+        if offer is None:
+            return
+        if present:
+            if key in {o.key for o in self._book.offers_of(offer.instance)}:
+                return  # heard twice (history and a direct question)
+            if not self._book.add(offer):
+                log.warning("refused the offer %s: it is of remote protocol %d", key, offer.protocol)
+            else:
+                if not self._book.facts(offer.zid):
+                    self._spawn(self._ask_facts(offer.zid), f"facts of {offer.host}")
+                self._spawn(self._offered(offer), f"offered {offer.name}")
+        else:
+            gone = self._book.remove(key)
+            for name, proxy in list(self._proxies.items()):
+                if gone is not None and proxy.offer == gone:
+                    log.warning("%s is gone: its component host %s stopped or cannot be reached", name, gone.host)
+                    self._lost[(gone.host, gone.instance)] = name
+                    proxy.lost(f"{name} ran on component host {gone.host}, which stopped or cannot be reached")
+        self._change.set_result(None)
+        self._change = self._loop.create_future()
+
+    async def _ask_facts(self, zid: str) -> None:
+        try:
+            facts = await ask(self.session, facts_key(zid), None, self.timeouts.control,
+                              what=f"the facts of host session {zid}")
+        except RemoteUnreachable as exc:
+            log.info("no facts from host session %s: %s", zid, exc)
+            return
+        if isinstance(facts, dict):
+            self._book.set_facts(zid, facts)
+
+    async def _offered(self, offer: OfferKey) -> None:
+        """Load again what was lost with its host, then tell every session of the offer."""
+        if not self._gateway:
+            return
+        loaded = None
+        name = self._lost.pop((offer.host, offer.instance), None)
+        if name is not None and self._host is not None and name not in self._host.instances:
+            try:
+                loaded = (await self._host.load(offer.name, ["-i", name])).instance
+                log.info("%s is offered again by %s: loaded again as %s", offer.instance, offer.host, loaded)
+            except Exception as exc:  # noqa: BLE001  # said in the log; the offered event says it was not loaded
+                log.warning("%s is offered again by %s, but could not be loaded again: %s", offer.instance,
+                            offer.host, exc)
+        if self.on_offered is not None:
+            self.on_offered({"name": offer.instance, "host": offer.host, "loaded": loaded})
+
+    def _spawn(self, work: Any, name: str) -> None:
+        task = self._loop.create_task(work, name=name)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    # -- what / shows ----------------------------------------------------------------------------
+
+    def view(self) -> dict[str, Any]:
+        """This session, its links, the hosts heard (with how long ago), and the offers refused."""
+        hosts = self._book.hosts()
+        for run in hosts:
+            silence = self.silence(run["zid"])
+            run["heard"] = None if math.isinf(silence) else round(silence, 3)
+        return {"zid": self.zid, "links": sorted(str(link.dst) for link in self.session.info.links()),
+                "hosts": hosts, "refused": self._book.refused()}
+
+    async def aclose(self) -> None:
+        """Close the session (the proxies were unloaded by the host first)."""
+        for task in list(self._tasks):
+            task.cancel()
+        await asyncio.gather(*self._tasks, return_exceptions=True)
+        for declared in self._declared:
+            with contextlib.suppress(zenoh.ZError):
+                declared.undeclare()
+        await asyncio.to_thread(self.session.close)
+
+
+def _local_name(instance: str, argv: list[str]) -> str:
+    """The instance name here: *instance*, or the ``-i NAME`` of *argv*.
+
+    Raises:
+        LoadError: for any other option (a remote instance is configured where it runs).
+    """
+    if not argv:
+        return instance
+    if len(argv) == 2 and argv[0] == "-i":
+        if not argv[1].isidentifier():
+            raise LoadError("-i needs an instance name made of letters, digits and _")
+        return argv[1]
+    raise LoadError(f"{instance} runs in another process: its options are given to aiogenomix-component there "
+                    f"(here only -i NAME, the name it has in this gateway)")

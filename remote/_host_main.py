@@ -1,0 +1,171 @@
+"""``aiogenomix-component``: run components in this process and offer them on Zenoh to gateways elsewhere.
+
+::
+
+    aiogenomix-component kemar capture --host-id robot1 --zenoh-listen tcp/192.168.1.10:7447
+    aiogenomix-gateway --zenoh-connect tcp/192.168.1.10:7447        # then /load/kemar finds it
+
+The simulated hardware stays with its component: a ``kemar`` host owns its virtual CAN bus and
+simulated drive, as the gateway does when it hosts ``kemar`` itself.  This process imports no module
+of the HTTP gateway (an import-linter contract says so): a robot runs its components, not a web server.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import logging
+import signal
+import socket
+import sys
+
+from ..components.core import Budgets, Component, ComponentHost, ScaledClock
+from ..components.core.runtime import (
+    ComponentError, add_budget_arguments, add_rig_arguments, budgets_from, rig_settings,
+)
+from ._session import ZenohSessionError, ZenohSettings
+from ._wire import host_id_error
+
+__all__ = ["main", "parse_args"]
+
+log = logging.getLogger(__name__)
+
+_EPILOG = """\
+A component's load options follow its name after a colon, quoted when they hold a space:
+'demo:-i demo2' runs a second demo as the instance demo2.
+
+Gateways load an instance by its name (demo), or as NAME@HOST-ID (demo@robot1) when several hosts
+offer the name.  Zenoh's own configuration file (--zenoh-config) gives TLS, user/password
+authentication and access control; see the README's section on remote components.
+"""
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line of ``aiogenomix-component``."""
+    parser = argparse.ArgumentParser(
+        prog="aiogenomix-component", epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Run components in this process and offer them on Zenoh to aiogenomix gateways "
+                    "(started with --zenoh-connect or --zenoh-listen).",
+    )
+    parser.add_argument("names", nargs="+", metavar="NAME[:ARGS]",
+                        help="a component to run, with its load options after a colon (e.g. demo, 'demo:-i demo2')")
+    parser.add_argument("--host-id", default=None, metavar="NAME",
+                        help="the name gateways know this host by, as in demo@NAME (default: this machine's name)")
+    zenoh = parser.add_argument_group("Zenoh", "whom this host talks to: nobody but the endpoints given")
+    zenoh.add_argument("--zenoh-connect", action="append", default=[], metavar="ENDPOINT",
+                       help="a Zenoh endpoint to connect to, e.g. tcp/192.168.1.2:7447 (repeatable)")
+    zenoh.add_argument("--zenoh-listen", action="append", default=[], metavar="ENDPOINT",
+                       help="a Zenoh endpoint to listen on, e.g. tcp/192.168.1.10:7447 (repeatable; an address of "
+                            "this machine: tcp/0.0.0.0:7447 listens on every interface)")
+    zenoh.add_argument("--zenoh-config", default=None, metavar="FILE",
+                       help="Zenoh's own configuration file (JSON5): TLS, user/password, access control, a router; "
+                            "--zenoh-connect and --zenoh-listen replace its endpoints")
+    zenoh.add_argument("--zenoh-scout", action="store_true",
+                       help="find peers by multicast scouting and gossip and listen on every interface (Zenoh's "
+                            "defaults): only on a network where every machine is trusted")
+    add_rig_arguments(parser)
+    parser.add_argument("--audio-socket-host", default="127.0.0.1", metavar="ADDRESS",
+                        help="address the dedicated audio sockets listen on (default %(default)s: only this machine "
+                             "can connect; give an address of this machine to reach them from the gateway's)")
+    parser.add_argument("--token", default=None,
+                        help="token of the dedicated audio socket (the gateway checks its own HTTP token)")
+    add_budget_arguments(parser.add_argument_group("budgets of what clients can make the components hold"),
+                         Budgets())
+    args = parser.parse_args(argv)
+    args.budgets = budgets_from(parser, args)
+    if args.host_id is None:
+        args.host_id = socket.gethostname().split(".", 1)[0]
+    problem = host_id_error(args.host_id)
+    if problem:
+        parser.error(f"{problem} (--host-id)")
+    return args
+
+
+def _say(line: str) -> None:
+    print(f"aiogenomix-component: {line}", file=sys.stderr, flush=True)
+
+
+async def serve(args: argparse.Namespace, stop: asyncio.Event) -> None:
+    """Load the components, offer them until *stop* is set (or every one was killed), then withdraw them."""
+    from ._directory import ZenohDirectory
+    from ._host_node import HostNode
+    from ._session import connect_endpoints, listen_endpoints
+
+    zenoh_settings = ZenohSettings(connect=args.zenoh_connect, listen=args.zenoh_listen,
+                                   config_file=args.zenoh_config, scout=args.zenoh_scout)
+    zenoh_settings.config()  # refused now, before any hardware is opened, when it cannot work
+    settings = rig_settings(can=args.can, can_timeout=args.can_timeout, audio_device=args.audio_device,
+                            audio_socket_port=args.audio_socket_port, audio_socket_host=args.audio_socket_host,
+                            audio_socket_token=args.token, audio_files=args.audio_files, budgets=args.budgets)
+    host = ComponentHost(clock=ScaledClock(args.time_scale), settings=settings)
+    node: HostNode | None = None
+    closing: set[asyncio.Task[None]] = set()
+    try:
+        # Loaded before the directory is the host's finder: these run here, whoever else offers a name.
+        for item in args.names:
+            name, _, options = item.partition(":")
+            await host.load(name, options.split())
+        components = [c for c in host.instances.values() if isinstance(c, Component)]
+        # This process is no gateway: it sends no request.  Its finder serves connect_port to an out port
+        # of another process; what runs here was loaded above.
+        directory = await ZenohDirectory.open(zenoh_settings, gateway=False)
+        host.shared("zenoh", lambda: directory)
+        # connect_port of a component here may name an out port of another process.
+        host.finder = directory
+        # Where gateways reach this host: where it listens, else whom it connects to (a router, a gateway).
+        endpoints = listen_endpoints(directory.config) or connect_endpoints(directory.config)
+        node = HostNode(directory.session, host, args.host_id, endpoints)
+
+        def withdraw(instance: str) -> None:
+            if node is None or instance not in node.exporters:
+                return
+            task = asyncio.get_running_loop().create_task(node.withdraw(instance))
+            closing.add(task)
+            task.add_done_callback(closing.discard)
+            if not node.exporters:
+                stop.set()  # every component was killed: nothing left to offer
+
+        host.add_unload_listener(withdraw)
+        for component in components:
+            node.offer(component)
+        _say(f"host {args.host_id}, Zenoh session {node.zid}: {zenoh_settings.summary(directory.config)}")
+        with_sockets = [c.instance for c in components if "DedicatedSocket" in type(c).services()]
+        if with_sockets:
+            where = f"{settings.audio_socket_host}:{settings.audio_socket_port or 'a free port'}"
+            reach = ("only this machine can connect: give --audio-socket-host ADDRESS (an address of this machine) "
+                     "for clients elsewhere" if settings.audio_socket_host in ("127.0.0.1", "localhost", "::1")
+                     else "clients connect there")
+            _say(f"dedicated audio sockets of {', '.join(with_sockets)} listen on {where} once opened "
+                 f"(DedicatedSocket): {reach}")
+        _say(f"offering {', '.join(node.exporters)} on Zenoh")
+        await stop.wait()
+    finally:
+        if node is not None:
+            await node.close()
+        await asyncio.gather(*closing, return_exceptions=True)
+        await host.close()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run until SIGINT/SIGTERM; return the exit status (1 for a component that cannot be loaded)."""
+    args = parse_args(argv)
+    logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+
+    async def run() -> None:
+        stop = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(signum, stop.set)
+        await serve(args, stop)
+
+    try:
+        asyncio.run(run())
+    except (ComponentError, ZenohSessionError) as exc:
+        _say(str(exc))
+        return 1
+    print("aiogenomix-component stopped", file=sys.stderr, flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

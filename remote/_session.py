@@ -1,0 +1,289 @@
+"""Opening a Zenoh session that talks only to whom it is told, and asking a query from asyncio in bounded time.
+
+Zenoh calls back on its own threads; everything here hands results to the event loop with
+``call_soon_threadsafe``, so the rest of the process stays single-threaded.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import dataclasses
+import json
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+import orjson
+import zenoh
+
+from ..components.core.runtime import RemoteRefusal, RemoteUnreachable
+
+__all__ = [
+    "ZenohSettings", "ZenohSessionError", "open_session", "on_zenoh_thread", "ask", "ask_all", "alive",
+    "listen_endpoints", "connect_endpoints", "GONE", "Answer",
+]
+
+T = TypeVar("T")
+
+
+class ZenohSessionError(Exception):
+    """The Zenoh session cannot be opened: a malformed endpoint or configuration file, an address in use..."""
+
+
+#: The keys whose value we choose when neither the command line nor the configuration file sets them.
+_ISOLATION = ("mode", "scouting/multicast/enabled", "scouting/gossip/enabled", "listen/endpoints")
+
+
+@dataclasses.dataclass
+class ZenohSettings:
+    """Whom a Zenoh session talks to: endpoints, Zenoh's own configuration file, discovery.
+
+    Isolated by default: a session connects to the ``connect`` endpoints and listens on the
+    ``listen`` ones, and on nothing else.  No multicast scouting, no gossip (a session would
+    otherwise connect to every locator it hears of, the machine's other addresses included), and
+    no listener unless asked (Zenoh's own default listens on every interface).
+
+    Attributes:
+        connect: Endpoints to connect to, such as ``tcp/192.168.1.10:7447``.
+        listen: Endpoints to listen on, such as ``tcp/192.168.1.10:7447``.
+        config_file: A Zenoh configuration file (JSON5, Zenoh's own format: TLS, user/password
+            authentication, access control, a router to connect to...).  Its settings are kept;
+            ``connect`` and ``listen`` replace its endpoints when given.  A setting it leaves at
+            Zenoh's default (scouting, gossip, listeners, the mode) is isolated as above.
+        scout: Find peers by multicast scouting and gossip, and listen on every interface
+            (Zenoh's defaults): for a lab network where every machine is trusted.
+    """
+
+    connect: list[str] = dataclasses.field(default_factory=list)
+    listen: list[str] = dataclasses.field(default_factory=list)
+    config_file: str | None = None
+    scout: bool = False
+
+    def config(self) -> zenoh.Config:
+        """The Zenoh configuration of a session with these settings.
+
+        Raises:
+            ZenohSessionError: for a configuration file that cannot be read, or settings whose
+                session would talk to nobody.
+        """
+        _check_endpoints([*self.connect, *self.listen])
+        if self.config_file is not None:
+            try:
+                config = zenoh.Config.from_file(self.config_file)
+            except (zenoh.ZError, OSError, ValueError) as exc:
+                raise ZenohSessionError(f"cannot read the Zenoh configuration {self.config_file}: "
+                                        f"{_reason(exc)}") from None
+        else:
+            config = zenoh.Config()
+        default = zenoh.Config()
+        unset = {key for key in _ISOLATION if config.get_json(key) == default.get_json(key)}
+        if "mode" in unset:
+            config.insert_json5("mode", '"peer"')
+        for key in ("scouting/multicast/enabled", "scouting/gossip/enabled"):
+            if self.scout:
+                config.insert_json5(key, "true")
+            elif key in unset:
+                config.insert_json5(key, "false")
+        if self.listen:
+            config.insert_json5("listen/endpoints", json.dumps(self.listen))
+        elif "listen/endpoints" in unset and not self.scout:
+            config.insert_json5("listen/endpoints", "[]")
+        if self.connect:
+            config.insert_json5("connect/endpoints", json.dumps(self.connect))
+        if config.get_json("connect/endpoints") not in ("[]", "null"):
+            # Start without waiting for a peer that is not up yet (the gateway may start before the robot),
+            # and keep trying it in the background.
+            if config.get_json("connect/timeout_ms") == default.get_json("connect/timeout_ms"):
+                config.insert_json5("connect/timeout_ms", "1000")
+            if config.get_json("connect/exit_on_failure") == default.get_json("connect/exit_on_failure"):
+                config.insert_json5("connect/exit_on_failure", "false")
+        elif not (self.scout or listen_endpoints(config)):
+            raise ZenohSessionError("this Zenoh session would talk to nobody: give --zenoh-connect ENDPOINT, "
+                                    "--zenoh-listen ENDPOINT, a --zenoh-config file with endpoints, or "
+                                    "--zenoh-scout to find peers on the local network")
+        return config
+
+    def summary(self, config: zenoh.Config) -> str:
+        """What a session of *config* does, in one line for its start-up message."""
+        listen = listen_endpoints(config)
+        connect = connect_endpoints(config)
+        scouting = [what for what, key in (("multicast", "scouting/multicast/enabled"),
+                                           ("gossip", "scouting/gossip/enabled"))
+                    if config.get_json(key) != "false"]
+        return (f"listening on {', '.join(listen) or 'nothing'}; connecting to {', '.join(connect) or 'nobody'}; "
+                f"scouting {'by ' + ' and '.join(scouting) if scouting else 'off'}"
+                + (f"; configuration {self.config_file}" if self.config_file else ""))
+
+
+def listen_endpoints(config: zenoh.Config) -> list[str]:
+    """The endpoints a session of *config* listens on."""
+    return _endpoints(config.get_json("listen/endpoints"), json.loads(config.get_json("mode")) or "peer")
+
+
+def connect_endpoints(config: zenoh.Config) -> list[str]:
+    """The endpoints a session of *config* connects to."""
+    return _endpoints(config.get_json("connect/endpoints"), json.loads(config.get_json("mode")) or "peer")
+
+
+def _endpoints(raw: str, mode: str = "peer") -> list[str]:
+    value = json.loads(raw)
+    if isinstance(value, dict):  # per mode, as in Zenoh's defaults
+        value = value.get(mode, [])
+    return [str(endpoint) for endpoint in value or []]
+
+
+def _check_endpoints(endpoints: list[str]) -> None:
+    for endpoint in endpoints:
+        # Zenoh would retry a connect endpoint it cannot parse forever, silently.
+        address = endpoint.split("?", 1)[0].split("#", 1)[0]
+        protocol, _, place = address.partition("/")
+        port = place.rpartition(":")[2]
+        if not (protocol.isalnum() and place and port.isdigit() and 0 < int(port) < 65536):
+            raise ZenohSessionError(f"{endpoint!r} is not a Zenoh endpoint: write PROTOCOL/ADDRESS:PORT, "
+                                    f"e.g. tcp/192.168.1.10:7447")
+
+
+def _reason(exc: BaseException) -> str:
+    # Zenoh's message ends with the place in its Rust sources: not for the user.
+    return str(exc).split(" at /", 1)[0].rstrip(".")
+
+
+def open_session(settings: ZenohSettings) -> tuple[zenoh.Session, zenoh.Config]:
+    """Open a Zenoh session (blocking: call it in a thread); return it with its configuration.
+
+    Raises:
+        ZenohSessionError: for a malformed endpoint or configuration, or an endpoint that cannot be
+            listened on.
+    """
+    config = settings.config()
+    try:
+        return zenoh.open(config), config
+    except zenoh.ZError as exc:
+        raise ZenohSessionError(f"cannot open the Zenoh session ({settings.summary(config)}): {_reason(exc)}; "
+                                f"check --zenoh-connect, --zenoh-listen (e.g. tcp/192.168.1.10:7447) and "
+                                f"--zenoh-config") from None
+
+
+def on_zenoh_thread(callback: Callable[[Any], None],
+                    on_end: Callable[[], None] | None = None) -> zenoh.handlers.Callback[Any]:
+    """A Zenoh handler that calls *callback* (and *on_end*) on the Zenoh thread that received the message.
+
+    Zenoh's default handler runs a Python callback on a thread of its own, and a query's handler
+    on a thread started for that query (0.5 ms more per round trip).  Every callback here only
+    hands the message to the event loop with ``call_soon_threadsafe``: it never holds Zenoh up.
+    """
+    if on_end is None:
+        return zenoh.handlers.Callback(callback, indirect=False)
+    return zenoh.handlers.Callback(callback, on_end, indirect=False)
+
+
+class Gone:
+    """What a pending query's future is given when its host is known to be gone (it is no reply body)."""
+
+
+#: The one :class:`Gone`.
+GONE = Gone()
+
+#: A pending query's result: a reply's body, None (no reply before Zenoh ended the query), or GONE.
+Answer = bytes | None | Gone
+
+
+async def ask(session: zenoh.Session, key: str, payload: Any, timeout: float, *, what: str,
+              pending: set[asyncio.Future[Answer]] | None = None) -> Any:
+    """Ask the query *key* with the JSON *payload*; return the ``ok`` result of the first reply.
+
+    Args:
+        session: The Zenoh session.
+        key: The query's key.
+        payload: Its JSON payload.
+        timeout: Seconds Zenoh waits for a reply.
+        what: What is asked, for the messages (``send of demo on robot1``).
+        pending: Where the query's future is kept while it waits: whoever learns that the host is
+            gone sets each to :data:`GONE`, which ends the wait at once rather than at the timeout.
+
+    Raises:
+        RemoteRefusal: when the component refused (its genomix error, to be answered as such).
+        RemoteUnreachable: when no reply came within *timeout* seconds, or the host went away meanwhile.
+    """
+    loop = asyncio.get_running_loop()
+    answer: asyncio.Future[Answer] = loop.create_future()
+
+    def settle(value: Answer) -> None:
+        if not answer.done():
+            answer.set_result(value)
+
+    def on_reply(reply: zenoh.Reply) -> None:
+        body = reply.ok.payload.to_bytes() if reply.ok is not None else None
+        if body is not None:
+            loop.call_soon_threadsafe(settle, body)
+
+    def on_end() -> None:
+        loop.call_soon_threadsafe(settle, None)
+
+    if pending is not None:
+        pending.add(answer)
+    # With a callback, get() returns at once: the replies come on Zenoh's threads.  Express: sent at once,
+    # not held to be batched with other messages (a request waits on it).
+    # One queryable answers each key: no consolidation to wait for.
+    try:
+        session.get(key, on_zenoh_thread(on_reply, on_end), payload=orjson.dumps(payload), timeout=timeout,
+                    express=True, consolidation=zenoh.ConsolidationMode.NONE)
+        # Zenoh ends the query at its timeout (on_end); the margin covers a callback thread that is late.
+        handle = loop.call_later(timeout + 1.0, settle, None)
+        try:
+            body = await answer
+        finally:
+            handle.cancel()
+    finally:
+        if pending is not None:
+            pending.discard(answer)
+    if body is None:
+        raise RemoteUnreachable(f"{what}: no answer within {timeout:g} s (its host is frozen, or the network "
+                                f"between is cut)")
+    if isinstance(body, Gone):
+        raise RemoteUnreachable(f"{what}: its host went away before it answered")
+    reply = orjson.loads(body)
+    if "error" in reply:
+        raise RemoteRefusal(reply["error"]["status"], reply["error"]["body"])
+    return reply.get("ok")
+
+
+async def ask_all(session: zenoh.Session, key: str, timeout: float = 5.0) -> list[bytes]:
+    """Every reply to the query *key* (an empty list when nobody answered within *timeout*)."""
+    return await _every_reply(lambda handler: session.get(key, handler, timeout=timeout),
+                              lambda sample: sample.payload.to_bytes(), timeout)
+
+
+async def alive(session: zenoh.Session, key: str, timeout: float = 2.0) -> list[str]:
+    """The keys of the liveliness tokens matching *key* now."""
+    return await _every_reply(lambda handler: session.liveliness().get(key, handler, timeout=timeout),
+                              lambda sample: str(sample.key_expr), timeout)
+
+
+async def _every_reply(get: Callable[[zenoh.handlers.Callback[Any]], Any], take: Callable[[zenoh.Sample], T],
+                       timeout: float) -> list[T]:
+    """What *take* makes of each good reply to the query that *get* starts with the handler it is given.
+
+    The query ends when every replier answered or at *timeout* (Zenoh's, plus a margin for a late
+    end callback): nothing is left pending.
+    """
+    loop = asyncio.get_running_loop()
+    taken: list[T] = []
+    finished: asyncio.Future[None] = loop.create_future()
+
+    def on_reply(reply: zenoh.Reply) -> None:
+        if reply.ok is not None:
+            loop.call_soon_threadsafe(taken.append, take(reply.ok))
+
+    def finish() -> None:
+        if not finished.done():
+            finished.set_result(None)
+
+    def on_end() -> None:
+        loop.call_soon_threadsafe(finish)
+
+    get(on_zenoh_thread(on_reply, on_end))
+    with contextlib.suppress(TimeoutError):
+        async with asyncio.timeout(timeout + 1.0):
+            await finished
+    return taken
