@@ -28,6 +28,8 @@ class GatewayConfig:
         audio_files: Directories from which clients may name WAV files (``file:PATH``) and scene
             files (``sim:PATH``); none by default, so a client cannot make the gateway read its disk.
             The file of ``audio_device`` itself is always allowed: the operator chose it.
+        record_dirs: Directories a ``recorder`` may write recordings into, and captures may replay
+            them from (``mcap:PATH``); none by default, so a client cannot make the gateway write its disk.
         token: When set, every request must carry ``Authorization: Bearer <token>``.
         allowed_hosts: Host names browsers may use for the gateway besides IP addresses,
             ``localhost`` and this machine's names (DNS-rebinding protection; ``*``: any).
@@ -58,6 +60,7 @@ class GatewayConfig:
     audio_device: str = _RIG.audio_device
     audio_socket_port: int = _RIG.audio_socket_port
     audio_files: list[str] = dataclasses.field(default_factory=list)
+    record_dirs: list[str] = dataclasses.field(default_factory=list)
     token: str | None = None
     allowed_hosts: list[str] = dataclasses.field(default_factory=list)
     allowed_origins: list[str] = dataclasses.field(default_factory=list)
@@ -82,7 +85,8 @@ class GatewayConfig:
         operator_file = [path] if kind in ("file", "sim") and path else []
         return HostSettings(can=self.can, can_timeout=self.can_timeout, audio_device=self.audio_device,
                             audio_socket_port=self.audio_socket_port, audio_socket_host=self.host,
-                            audio_socket_token=self.token, audio_files=(*self.audio_files, *operator_file))
+                            audio_socket_token=self.token, audio_files=(*self.audio_files, *operator_file),
+                            record_dirs=tuple(self.record_dirs))
 
     def simulated_parts(self) -> list[str]:
         """Plain words for the parts of the rig that are simulated."""

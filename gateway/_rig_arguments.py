@@ -20,7 +20,7 @@ def add_rig_arguments(parser: argparse.ArgumentParser, defaults: GatewayConfig) 
     """Add the options of the components' hardware and clock to *parser*, wherever they run.
 
     They are ``--log-level``, ``--can``, ``--can-timeout``, ``--audio-device``, ``--audio-socket-port``,
-    ``--audio-files`` and ``--time-scale``, with *defaults* from the gateway's configuration.
+    ``--audio-files``, ``--record-dir`` and ``--time-scale``, with *defaults* from the gateway's configuration.
     """
     parser.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error"])
     parser.add_argument("--can", default=defaults.can,
@@ -34,5 +34,8 @@ def add_rig_arguments(parser: argparse.ArgumentParser, defaults: GatewayConfig) 
     parser.add_argument("--audio-files", action="append", default=[], metavar="DIR",
                         help="a directory clients may name WAV (file:PATH) and scene (sim:PATH) files from "
                              "(repeatable; default: none, files are refused)")
+    parser.add_argument("--record-dir", action="append", default=[], metavar="DIR",
+                        help="a directory the recorder component may write recordings into, and captures may "
+                             "replay them from (mcap:PATH) (repeatable; default: none, recordings are refused)")
     parser.add_argument("--time-scale", type=float, default=defaults.time_scale,
                         help="runtime seconds per real second, for faster simulations (default %(default)s)")

@@ -99,6 +99,9 @@ class ServiceSpec:
     output_style: str = "none"
     #: Whether the method is a coroutine function (plain ones run inline).
     is_async: bool = False
+    #: Whether a request goes on when the client or gateway that sent it vanishes (a recording):
+    #: a host may stop the others of a sender that is gone (a motion), never these.
+    detached: bool = False
 
     @functools.cached_property
     def _inputs_by_name(self) -> dict[str, ParamSpec]:
@@ -246,11 +249,12 @@ def _build_spec(func: Callable[..., Any], declaration: _Declaration) -> ServiceS
         task=getattr(task, "name", task),
         output_style=style,
         is_async=inspect.iscoroutinefunction(func),
+        detached=bool(options.get("detached", False)),
     )
 
 
 #: The options every service decorator takes.
-_OPTIONS = ("name", "doc", "interrupts", "throws", "validate", "task")
+_OPTIONS = ("name", "doc", "interrupts", "throws", "validate", "task", "detached")
 
 
 def _check_options(owner: str, kind: ServiceKind, options: Mapping[str, Any]) -> None:
@@ -278,6 +282,8 @@ def _check_options(owner: str, kind: ServiceKind, options: Mapping[str, Any]) ->
     validate = options.get("validate")
     if validate is not None and not callable(validate):
         raise TypeError(f"{owner}: @{kind} option 'validate' must be callable, not {validate!r}")
+    if not isinstance(options.get("detached", False), bool):
+        raise TypeError(f"{owner}: @{kind} option 'detached' is True or False, not {options['detached']!r}")
 
 
 class ServiceDecorator(Protocol):
@@ -296,6 +302,7 @@ class ServiceDecorator(Protocol):
         throws: Sequence[type[GenomException]] = (),
         validate: Callable[..., Any] | None = None,
         task: Task | str | None = None,
+        detached: bool = False,
     ) -> Callable[[_F], _F]: ...
 
 
@@ -309,6 +316,9 @@ _OPTIONS_DOC = """
             to refuse a request before it starts (the request then ends in ``error``).
             Its parameters must be the service's inputs: checked when the class is created.
         task: The Task an activity runs in (descriptive; use ``await self.<task>.tick()``).
+        detached: The request goes on when the client or gateway that sent it vanishes (a
+            recording, which must outlive whoever started it); a host may stop the other requests
+            of a sender that is gone (a motion).
 
     Raises:
         TypeError: for an unknown option (``interupts``) or an option of the wrong shape.
@@ -324,6 +334,7 @@ _DECORATOR_SIGNATURE = inspect.Signature([
     inspect.Parameter("throws", _KEYWORD, default=(), annotation="Sequence[type[GenomException]]"),
     inspect.Parameter("validate", _KEYWORD, default=None, annotation="Callable[..., Any] | None"),
     inspect.Parameter("task", _KEYWORD, default=None, annotation="Task | str | None"),
+    inspect.Parameter("detached", _KEYWORD, default=False, annotation="bool"),
 ], return_annotation="Any")
 
 
@@ -364,6 +375,7 @@ def redeclare(
     throws: Sequence[type[GenomException]] | None = None,
     validate: Callable[..., Any] | None = None,
     task: Task | str | None = None,
+    detached: bool | None = None,
 ) -> Callable[[Callable[..., Any]], _F]:
     """Declare a new implementation of a service declared by a base class (a merged component's).
 
@@ -388,6 +400,7 @@ def redeclare(
         throws: The GenomException classes it may raise (default: the original's).
         validate: Its validate hook (default: the original's).
         task: The Task it runs in (default: the original's).
+        detached: Whether it outlives its sender (default: the original's).
 
     Raises:
         TypeError: when *service* declares no service, for an option of the wrong
@@ -399,7 +412,7 @@ def redeclare(
         raise TypeError(f"redeclare: {getattr(service, '__qualname__', service)!r} declares no service "
                         "(decorate it with @function, @activity or @attribute)")
     given = {"name": name, "doc": doc, "interrupts": interrupts, "throws": throws, "validate": validate,
-             "task": task}
+             "task": task, "detached": detached}
     changes = {key: value for key, value in given.items() if value is not None}
 
     def attach(f: Callable[..., Any]) -> _F:

@@ -59,7 +59,8 @@ async def serve(args: argparse.Namespace, stop: asyncio.Event) -> None:
 
     config = GatewayConfig(can=args.can, can_timeout=args.can_timeout, audio_device=args.audio_device,
                            audio_socket_port=args.audio_socket_port,
-                           host=args.audio_socket_host, audio_files=args.audio_files, token=args.token)
+                           host=args.audio_socket_host, audio_files=args.audio_files, record_dirs=args.record_dir,
+                           token=args.token)
     host = ComponentHost(clock=ScaledClock(args.time_scale), settings=config.host_settings())
     loop = asyncio.get_running_loop()
     exporters: dict[str, ComponentExporter] = {}
