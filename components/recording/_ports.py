@@ -40,7 +40,7 @@ from ._writer import RecordingWriter
 
 __all__ = [
     "PortRecorder", "AudioRecorder", "ImageRecorder", "JsonRecorder", "recorder_for", "AUDIO_TYPES", "stamp_of",
-    "RecordedPort",
+    "RecordedPort", "SCHEMA_KEY",
 ]
 
 Json = Mapping[str, Any]
@@ -50,6 +50,9 @@ AUDIO_TYPES = {"::capture::port_t": "chunks", "::kemarcapture::port_t": "chunks"
 IMAGE_TYPES = ("::subscriber::sensor_msgs__Image",)
 #: The channel metadata keys a recording sets (what a replay needs to publish a port again).
 PORT_KEY, TYPE_KEY, DOC_KEY, ROLE_KEY = "aiogenomix.port", "aiogenomix.type", "aiogenomix.doc", "aiogenomix.role"
+#: Where a JSON channel keeps its JSON Schema: rosbags (0.11) refuses a whole file that holds a schema
+#: record in the ``jsonschema`` encoding, so JSON channels have none (MCAP allows it) and carry theirs here.
+SCHEMA_KEY = "aiogenomix.jsonschema"
 _NUMPY = orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS
 
 
@@ -151,8 +154,8 @@ class JsonRecorder(PortRecorder):
 
     def open(self) -> None:
         schema = json_schema(self.type, title=self.name, doc=str(self.description.get("doc") or ""))
-        schema_id = self.writer.schema(str(self.type["name"]), "jsonschema", orjson.dumps(schema))
-        self._channel = self.writer.channel(self.topic, "json", schema_id, self._metadata("port"))
+        metadata = {**self._metadata("port"), SCHEMA_KEY: orjson.dumps(schema).decode()}
+        self._channel = self.writer.channel(self.topic, "json", 0, metadata)
         companion = self.COMPANIONS.get(str(self.type["name"]))
         self._companion: tuple[int, MessageType, Callable[[Json, float, str], Json]] | None = None
         if companion is not None:

@@ -16,7 +16,9 @@ import orjson
 
 from ..core import json_schema
 from ._mcap_file import DEFAULT_CHUNK_SIZE
-from ._ports import AudioRecorder, ImageRecorder, JsonRecorder, PortRecorder, RecordedPort, recorder_for
+from ._ports import (
+    ROLE_KEY, SCHEMA_KEY, AudioRecorder, ImageRecorder, JsonRecorder, PortRecorder, RecordedPort, recorder_for,
+)
 from ._writer import DEFAULT_QUEUE_BYTES, RecordingWriter
 
 __all__ = ["Recording", "RecordingCounts", "EventRecorder", "EVENTS_TYPE"]
@@ -59,9 +61,9 @@ class EventRecorder(RecordedPort):
         writer = recording.writer
         schema = json_schema(EVENTS_TYPE, title=f"session {session} events",
                              doc="The events of a genomix session, as its listen stream gave them")
-        schema_id = writer.schema(EVENTS_TYPE["name"], "jsonschema", orjson.dumps(schema))
         self.topic = f"/session/{session}/events"
-        self._channel = writer.channel(self.topic, "json", schema_id, {"aiogenomix.session": session})
+        self._channel = writer.channel(self.topic, "json", 0, {"aiogenomix.session": session, ROLE_KEY: "events",
+                                                              SCHEMA_KEY: orjson.dumps(schema).decode()})
 
     def write(self, event: str, data: Any) -> None:
         """Write one event as the listen stream gave it."""
