@@ -10,6 +10,7 @@ COPY pyproject.toml README.md ./
 COPY gateway ./gateway
 COPY clients ./clients
 COPY components ./components
+COPY record ./record
 RUN pip install --no-cache-dir ".[audio]"
 
 # 8080: the genomix HTTP protocol; 8081: the dedicated audio socket.

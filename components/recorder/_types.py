@@ -22,6 +22,7 @@ class PortCounts:
     messages: Annotated[ULongLong, "Messages written for it (audio: two per chunk)"] = 0
     lost_frames: Annotated[ULongLong, "Audio frames missed: the window turned over before they were read"] = 0
     coalesced: Annotated[ULongLong, "Publications replaced before they were read (other ports)"] = 0
+    index: Annotated[ULongLong, "Audio: the newest chunk (capture) or frame (bass) recorded"] = 0
 
 
 @idl_struct("recorder::status")
@@ -32,8 +33,9 @@ class RecorderStatus:
     path: Annotated[String, "The file (full path on the recorder's host)"] = ""
     elapsed: Annotated[Double, "Runtime seconds since it started"] = 0.0
     bytes: Annotated[ULongLong, "Bytes written to the file (whole records: what a reader gets)"] = 0
-    messages: Annotated[ULongLong, "Messages written to the file"] = 0
-    queued: Annotated[ULongLong, "Messages waiting for the writer thread"] = 0
+    messages: Annotated[ULongLong, "Messages recorded (audio: two per chunk)"] = 0
+    queued: Annotated[ULongLong, "Messages of those not in the file yet (the writer thread writes a chunk at a "
+                                 "time)"] = 0
     lost_frames: Annotated[ULongLong, "Audio frames missed, over every audio port"] = 0
     coalesced: Annotated[ULongLong, "Publications of other ports replaced before they were read"] = 0
     ports: Annotated[list[PortCounts], "What was recorded of each port"] = dataclasses.field(default_factory=list)

@@ -23,7 +23,7 @@ from ._messages import (
 )
 from ._paths import SUFFIX, create_recording, open_recording
 from ._ports import AUDIO_TYPES, AudioRecorder, ImageRecorder, JsonRecorder, PortRecorder, RecordedPort, stamp_of
-from ._reader import AudioChunk, PortMessage, RecordingReader
+from ._reader import AudioChunk, PortMessage, RecordingReader, SessionEventRecord
 from ._recording import EVENTS_TYPE, EventRecorder, Recording, RecordingCounts
 from ._writer import DEFAULT_QUEUE_BYTES, RecordingWriter
 
@@ -36,7 +36,7 @@ __all__ = [
     # Paths
     "create_recording", "open_recording", "SUFFIX",
     # Reading and exporting
-    "RecordingReader", "AudioChunk", "PortMessage", "export_recording", "ExportedFile",
+    "RecordingReader", "AudioChunk", "PortMessage", "SessionEventRecord", "export_recording", "ExportedFile",
     # Message types
     "MessageType", "Field", "CdrError", "HEADER", "AUDIO_DATA_STAMPED", "AUDIO_FRAMES", "AUDIO_INFO", "JOINT_STATE",
     "IMAGE", "LASER_SCAN", "ODOMETRY", "POSE_STAMPED",

@@ -106,6 +106,11 @@ class RecordedPort:
         self.coalesced = 0
         self.lost_frames = 0
 
+    @property
+    def index(self) -> int:
+        """The newest item recorded, for numbered data (audio chunks or frames); 0 for other data."""
+        return 0
+
 
 class PortRecorder(RecordedPort, abc.ABC):
     """Writes the publications of one port on its channels.
@@ -275,6 +280,11 @@ class AudioRecorder(PortRecorder):
         self._format: tuple[int, int] | None = None
         self._lost_before = 0
         self._bass_anchor: tuple[int, float] | None = None
+
+    @property
+    def index(self) -> int:
+        """The newest item recorded (chunk or frame index): the port has been recorded up to it."""
+        return self.since
 
     def open(self) -> None:
         self._audio = self._ros_channel(self.topic, AUDIO_DATA_STAMPED, "audio")

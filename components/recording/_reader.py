@@ -25,7 +25,7 @@ from ._errors import NotARecording
 from ._messages import AUDIO_DATA_STAMPED, AUDIO_FRAMES, IMAGE
 from ._ports import PORT_KEY, ROLE_KEY, TYPE_KEY
 
-__all__ = ["RecordingReader", "AudioChunk", "PortMessage"]
+__all__ = ["RecordingReader", "AudioChunk", "PortMessage", "SessionEventRecord"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,6 +67,21 @@ class PortMessage:
     port: str
     data: Any
     capture_time: float
+    receive_time: float
+
+
+@dataclasses.dataclass(frozen=True)
+class SessionEventRecord:
+    """One recorded event of a session.
+
+    Attributes:
+        event: ``request``, ``unload`` or ``quit``.
+        data: A request's status object, the instance or the session name.
+        receive_time: When the recorder received it.
+    """
+
+    event: str
+    data: Any
     receive_time: float
 
 
@@ -185,7 +200,20 @@ class RecordingReader:
             return chunk.sample_rate
         return 0
 
-    # -- other ports ---------------------------------------------------------------------------
+    # -- other ports and sessions -------------------------------------------------------------------
+
+    def sessions(self) -> list[str]:
+        """The sessions whose events were recorded."""
+        return [c.metadata["aiogenomix.session"] for c in self.channels("events")]
+
+    def session_events(self, session: str) -> Iterator[SessionEventRecord]:
+        """The recorded events of *session*, in the order they came."""
+        try:
+            for _, _, message in self._reader.iter_messages(topics=[f"/session/{session}/events"]):
+                body = orjson.loads(message.data)
+                yield SessionEventRecord(body["event"], body["data"], message.log_time * 1e-9)
+        except (McapError, orjson.JSONDecodeError, KeyError) as exc:
+            raise NotARecording(f"{self.name}: {exc}") from exc
 
     def ports(self) -> list[str]:
         """The recorded ports other than audio (JSON and picture channels), as ``instance/port``."""

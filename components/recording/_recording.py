@@ -36,12 +36,13 @@ class RecordingCounts:
     """How far a recording is.
 
     Attributes:
-        bytes: Bytes of the file that readers get.
-        messages: Messages written to the file.
-        queued: Messages handed to the writer that it has not written yet.
+        bytes: Bytes of the file that readers get (it grows a compressed chunk at a time).
+        messages: Messages recorded (handed to the writer thread).
+        queued: Messages of those not in the file yet (waiting for the thread, or in the chunk being gathered).
         lost_frames: Audio frames missed (the window turned over before the recorder read them).
         coalesced: Publications of other ports that a watch replaced before the recorder read them.
-        ports: The counts of each port, by ``instance/port``.
+        ports: The counts of each port, by ``instance/port``: ``publications``, ``messages``, ``lost_frames``,
+            ``coalesced`` and ``index`` (audio: the newest item recorded).
     """
 
     bytes: int
@@ -123,8 +124,8 @@ class Recording:
     def counts(self) -> RecordingCounts:
         """How far the recording is."""
         ports = {name: {"messages": p.messages, "publications": p.publications, "lost_frames": p.lost_frames,
-                        "coalesced": p.coalesced} for name, p in self.ports.items()}
-        return RecordingCounts(bytes=self.writer.bytes_written, messages=self.writer.messages_written,
+                        "coalesced": p.coalesced, "index": p.index} for name, p in self.ports.items()}
+        return RecordingCounts(bytes=self.writer.bytes_written, messages=self.writer.messages_queued,
                                queued=self.writer.messages_queued - self.writer.messages_written,
                                lost_frames=sum(p.lost_frames for p in self.ports.values()),
                                coalesced=sum(p.coalesced for p in self.ports.values()), ports=ports)
