@@ -16,7 +16,7 @@ Decision 0031 records the formats and why.
 
 from ._cdr import CdrError, Field, MessageType
 from ._errors import NotARecording, PathRefused, RecordingError
-from ._export import ExportedFile, export_recording
+from ._export import AUDIO_COLUMNS, HEAD_COLUMNS, ExportedFile, export_recording
 from ._mcap_file import DEFAULT_CHUNK_SIZE, McapFile, WriteFailed
 from ._messages import (
     AUDIO_DATA_STAMPED, AUDIO_FRAMES, AUDIO_INFO, HEADER, IMAGE, JOINT_STATE, LASER_SCAN, ODOMETRY, POSE_STAMPED,
@@ -37,6 +37,7 @@ __all__ = [
     "create_recording", "open_recording", "SUFFIX",
     # Reading and exporting
     "RecordingReader", "AudioChunk", "PortMessage", "SessionEventRecord", "export_recording", "ExportedFile",
+    "AUDIO_COLUMNS", "HEAD_COLUMNS",
     # Message types
     "MessageType", "Field", "CdrError", "HEADER", "AUDIO_DATA_STAMPED", "AUDIO_FRAMES", "AUDIO_INFO", "JOINT_STATE",
     "IMAGE", "LASER_SCAN", "ODOMETRY", "POSE_STAMPED",
