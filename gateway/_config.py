@@ -48,6 +48,11 @@ class GatewayConfig:
         zenoh_connect: Zenoh endpoints to connect to (``tcp/HOST:PORT``); with any endpoint given,
             multicast scouting is off: the gateway talks to these and to whoever connects to it.
         zenoh_listen: Zenoh endpoints to listen on.
+        foxglove_port: Serve the live view in Foxglove and Lichtblick on this TCP port (None: no view; 0: a free
+            port).  Its server checks neither the token nor Host nor Origin (decision 0032).
+        foxglove_host: The address the live view binds (the loopback address unless the operator says so).
+        foxglove_without_token: Allow the live view on a non-loopback address although the gateway has a
+            token (it does not pass through the token).
         zenoh_timeout: Seconds a component host has to answer a query (a send gets twice that plus
             ``function_grace``) before the gateway answers ``::genom::remote_io``.
     """
@@ -78,6 +83,23 @@ class GatewayConfig:
     zenoh_connect: list[str] = dataclasses.field(default_factory=list)
     zenoh_listen: list[str] = dataclasses.field(default_factory=list)
     zenoh_timeout: float = 5.0
+    foxglove_port: int | None = None
+    foxglove_host: str = "127.0.0.1"
+    foxglove_without_token: bool = False
+
+    def check(self) -> None:
+        """Refuse settings that contradict each other.
+
+        Raises:
+            ValueError: saying which flag to add or change.
+        """
+        if self.foxglove_port is not None and not 0 <= self.foxglove_port <= 65535:
+            raise ValueError(f"--foxglove takes a TCP port (0 to 65535), not {self.foxglove_port}")
+        if (self.foxglove_port is not None and self.token and not self.foxglove_without_token
+                and self.foxglove_host not in ("127.0.0.1", "::1", "localhost")):
+            raise ValueError(f"the Foxglove view on {self.foxglove_host} would serve the robot's data to anyone who "
+                             "reaches it, without the gateway's token: bind it to 127.0.0.1 (the default), or say "
+                             "--foxglove-without-token")
 
     def host_settings(self) -> HostSettings:
         """The settings handed to the components: the rig, and the dedicated socket beside the HTTP port."""

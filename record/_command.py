@@ -140,7 +140,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if arguments[:1] == ["export"]:
             args = _export_parser().parse_args(arguments[1:])
             for exported in export_recording(args.recording, args.output, overwrite=args.overwrite):
-                print(f"{exported.path}: {exported.what} ({exported.rows} {'frames' if exported.path.suffix == '.wav' else 'rows'})")
+                unit = "frames" if exported.path.suffix == ".wav" else "rows"
+                print(f"{exported.path}: {exported.what} ({exported.rows} {unit})")
             return 0
         return asyncio.run(_record(_record_parser().parse_args(arguments)))
     except (RecordingError, GenomixError, OSError) as exc:

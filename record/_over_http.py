@@ -50,7 +50,7 @@ async def _describe(client: AsyncClient, name: str) -> tuple[str, str, dict[str,
         raise PortNotFound(f"{name}: {instance} has no out port {port!r} (out ports: {outs})")
     if described.get("kind") == "multiple":
         raise PortNotFound(f"{name} is a multiple port: recording it is not supported")
-    return instance, port, described
+    return instance, port, dict(described)
 
 
 async def _newest_index(client: AsyncClient, instance: str, port: str) -> int:

@@ -90,6 +90,7 @@ class ComponentHost:
         self._capabilities: dict[type, list[tuple[str, object]]] = {}
         self._request_listeners: list[Callable[[Request], None]] = []
         self._unload_listeners: list[Callable[[str], None]] = []
+        self._load_listeners: list[Callable[[Component], None]] = []
         self._background: set[asyncio.Task[Any]] = set()
         self._lock = asyncio.Lock()
         #: Where components of other processes are found (None: this process only).
@@ -173,6 +174,7 @@ class ComponentHost:
                 if proxy is not None:
                     self._instances[name] = proxy
                     log.info("loaded %s from another process", name)
+                    self._loaded(proxy)
                     return proxy
         # The first load imports the component's package (scipy, sound and CAN libraries):
         # up to seconds of work that must not stall the gateway's event loop.
@@ -205,6 +207,7 @@ class ComponentHost:
                 _LOADING.reset(token)
             self._instances[instance] = component
             log.info("loaded %s as %s", name, instance)
+            self._loaded(component)
             return component
 
     def _check_room(self) -> None:
@@ -321,6 +324,14 @@ class ComponentHost:
     def add_request_listener(self, listener: Callable[[Request], None]) -> None:
         """Call *listener* with every request whose status changed."""
         self._request_listeners.append(listener)
+
+    def add_load_listener(self, listener: Callable[[Component], None]) -> None:
+        """Call *listener* with every instance loaded from now on (started, and listed in :attr:`instances`)."""
+        self._load_listeners.append(listener)
+
+    def _loaded(self, component: Component) -> None:
+        for listener in list(self._load_listeners):
+            listener(component)
 
     def add_unload_listener(self, listener: Callable[[str], None]) -> None:
         """Call *listener* with the name of every unloaded instance."""

@@ -50,18 +50,25 @@ class JsonSchemas:
 
     Args:
         ref_prefix: Where the named schemas live in the document that holds them
-            (``#/$defs/`` for a schema of its own, ``#/components/schemas/`` in OpenAPI).
+            (``#/$defs/`` for a schema of its own, ``#/components/schemas/`` in OpenAPI); None writes
+            every struct in place.
 
     Attributes:
         named: The named schemas met so far, by name (put them where *ref_prefix* says).
     """
 
-    def __init__(self, ref_prefix: str = "#/$defs/") -> None:
+    def __init__(self, ref_prefix: str | None = "#/$defs/") -> None:
         self.ref_prefix = ref_prefix
         self.named: dict[str, Json] = {}
 
     def ref(self, name: str, schema: Json) -> Json:
-        """Keep *schema* under *name* (the first one given wins) and return a reference to it."""
+        """Keep *schema* under *name* (the first one given wins) and return a reference to it.
+
+        Without a *ref_prefix*, the schema itself is returned (written in place: IDL structs never
+        contain themselves, so inlining ends), for readers that do not follow ``$ref``.
+        """
+        if self.ref_prefix is None:
+            return schema
         self.named.setdefault(name, schema)
         return {"$ref": self.ref_prefix + name}
 
@@ -131,7 +138,8 @@ def json_schema(description: Mapping[str, Any], *, direction: str = "output", ti
                 doc: str = "") -> Json:
     """A self-contained JSON Schema (draft 2020-12) of data of the ``/info`` type *description*.
 
-    Structs are named under ``$defs``; the root refers to its own.
+    Every struct is written in place (no ``$ref``): the viewers of the robotics toolbox
+    (Foxglove's JSON channels) want the root's ``type: object`` and its properties right there.
 
     Args:
         description: An ``/info`` type description (``port["type"]``, ``parameter["type"]``).
@@ -144,11 +152,9 @@ def json_schema(description: Mapping[str, Any], *, direction: str = "output", ti
     """
     if direction not in ("input", "output"):
         raise ValueError(f"direction is input or output, not {direction!r}")
-    schemas = JsonSchemas("#/$defs/")
+    schemas = JsonSchemas(None)
     root = schemas.output(description) if direction == "output" else schemas.input(description)
-    document: Json = {"$schema": DIALECT, "title": title or str(description.get("name", "")), **root}
+    document: Json = {"$schema": DIALECT, **root, "title": title or str(description.get("name", ""))}
     if doc:
         document["description"] = doc
-    if schemas.named:
-        document["$defs"] = schemas.named
     return document

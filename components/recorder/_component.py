@@ -43,7 +43,7 @@ class Recorder(Component, name="recorder", version="1.0"):
         super().__init__(host, instance, argv)
         self._recording: Recording | None = None
         self._path = ""
-        self._started = 0.0
+        self._began = 0.0
         self._ended = ""
         self._stop = asyncio.Event()
 
@@ -113,7 +113,7 @@ class Recorder(Component, name="recorder", version="1.0"):
         recording = Recording.open(stream, real, {
             "recorder": f"{self.instance} (aiogenomix recorder component)", "ports": ",".join(n for n, *_ in followed),
             "clock": f"{type(self.clock).__name__} x{self.clock.scale:g}"})
-        self._recording, self._path, self._started, self._ended = recording, real, self.clock.now(), ""
+        self._recording, self._path, self._began, self._ended = recording, real, self.clock.now(), ""
         self._stop.clear()
         log.info("%s: recording %s into %s", self.instance, ", ".join(n for n, *_ in followed), real)
         tasks = [asyncio.create_task(self._follow(port, recording.add_port(name, described)),
@@ -134,7 +134,7 @@ class Recorder(Component, name="recorder", version="1.0"):
         if recording.writer.failure is not None:
             failure = recording.writer.failure
             raise WRITE_FAILED(path=real, what=failure.strerror or str(failure), bytes=counts.bytes,
-                               seconds=self.clock.now() - self._started)
+                               seconds=self.clock.now() - self._began)
         return self.status()
 
     async def _until_the_end(self, recording: Recording, tasks: list[asyncio.Task[None]], duration: float) -> str:
@@ -194,7 +194,7 @@ class Recorder(Component, name="recorder", version="1.0"):
                                   coalesced=previous.coalesced, ports=previous.ports, ended=self._ended)
         counts = recording.counts()
         return RecorderStatus(
-            recording=True, path=self._path, elapsed=self.clock.now() - self._started, bytes=counts.bytes,
+            recording=True, path=self._path, elapsed=self.clock.now() - self._began, bytes=counts.bytes,
             messages=counts.messages, queued=counts.queued, lost_frames=counts.lost_frames,
             coalesced=counts.coalesced, ended="",
             ports=[PortCounts(port=name, **values) for name, values in counts.ports.items()])

@@ -1,4 +1,4 @@
-"""ROS 2 message types and their CDR encoding, sans I/O: one declaration gives the ``.msg`` text, the encoder and the decoder.
+"""ROS 2 message types and their CDR encoding, sans I/O: one declaration gives the definition, encoder and decoder.
 
 A recording is read by tools that know ROS 2 (rosbag2, Foxglove, Lichtblick, ``rosbags``,
 ``mcap-ros2-support``): each channel's schema is the message definition in the ``ros2msg``

@@ -26,7 +26,7 @@ import numpy as np
 import soundfile
 
 from ._errors import NotARecording, RecordingError
-from ._reader import RecordingReader
+from ._reader import AudioChunk, RecordingReader
 
 __all__ = ["export_recording", "ExportedFile", "AUDIO_COLUMNS", "HEAD_COLUMNS"]
 
@@ -137,7 +137,7 @@ def _export_audio(reader: RecordingReader, port: str, out: Path, overwrite: bool
             open(csv_path, "w", newline="") as table:
         writer = csv.writer(table)
         writer.writerow(AUDIO_COLUMNS)
-        chunk = first
+        chunk: AudioChunk | None = first
         while chunk is not None:
             if chunk.sample_rate != rate:
                 raise NotARecording(f"{port} changes its rate from {rate} to {chunk.sample_rate} Hz at frame "

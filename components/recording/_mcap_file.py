@@ -175,7 +175,7 @@ class McapFile:
         """
         if self._open_times is None:
             return
-        raw = self._open.end()
+        raw = _end(self._open)
         start, end = self._open_times
         indexes, counts = self._open_indexes, self._open_counts
         self._open_indexes, self._open_counts, self._open_times = {}, defaultdict(int), None
@@ -188,7 +188,7 @@ class McapFile:
         for channel_id, index in sorted(indexes.items()):
             offsets[channel_id] = offset + len(chunk) + builder.count
             index.write(builder)
-        index_bytes = builder.end()
+        index_bytes = _end(builder)
         # One write: the chunk and its indexes are in the file together, or neither is.
         self._write(chunk + index_bytes)
         self._chunk_indexes.append(ChunkIndex(
@@ -264,7 +264,7 @@ class McapFile:
         summary_offset_start = summary_start + builder.count
         for offset in offsets:
             offset.write(builder)
-        summary = builder.end()
+        summary = _end(builder)
         footer = Footer(summary_start=summary_start, summary_offset_start=summary_offset_start, summary_crc=0)
         return head + summary + _built(footer) + MAGIC
 
@@ -272,4 +272,10 @@ class McapFile:
 def _built(record: Header | Schema | Channel | Chunk | Metadata | Footer | DataEnd) -> bytes:
     builder = RecordBuilder()
     record.write(builder)
-    return builder.end()
+    return _end(builder)
+
+
+def _end(builder: RecordBuilder) -> bytes:
+    """The bytes a record builder gathered (and it starts again empty)."""
+    data: bytes = builder.end()  # type: ignore[no-untyped-call]  # mcap leaves it unannotated
+    return data

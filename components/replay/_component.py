@@ -9,7 +9,8 @@ from collections.abc import Iterator
 from typing import Annotated, Any
 
 from ..core import (
-    Boolean, Component, ComponentHost, Double, GenomException, LoadError, Out, OutPort, OutPortRuntime, String, ULongLong,
+    Boolean, Component, ComponentHost, Double, GenomException, LoadError, Out, OutPort, OutPortRuntime, String,
+    ULongLong,
     activity, function, idl_struct,
 )
 from ..recording import PortMessage, RecordingError, RecordingReader, open_recording
@@ -28,7 +29,7 @@ class ReplayStatus:
         dataclasses.field(default_factory=list)
     playing: Annotated[Boolean, "Whether Play runs"] = False
     published: Annotated[ULongLong, "Publications replayed by the last Play"] = 0
-    position: Annotated[Double, "Seconds of the recording replayed (its capture time since its first publication)"] = 0.0
+    position: Annotated[Double, "Seconds of the recording replayed (capture time since its first publication)"] = 0.0
     duration: Annotated[Double, "Seconds of the recording, first to last publication"] = 0.0
 
 
