@@ -17,7 +17,8 @@ import time
 from typing import Any
 
 from . import (
-    fanout, instructions, load, memory, port_read, profile, remote, service, sessions, soak, sse_clients, world,
+    fanout, instructions, load, memory, port_read, profile, record, remote, service, sessions, soak, sse_clients,
+    world,
 )
 from ._common import ROOT
 from ._report import render
@@ -34,6 +35,8 @@ BENCHMARKS = {
                {"calls": 300, "reads": 40, "blocks": 4, "seconds": 4.0}),
     "sse_clients": (sse_clients.run, {"events": 50}, {"events": 5}),
     "sessions": (sessions.run, {"sessions": 15_000, "sample": 500}, {"sessions": 1_000, "sample": 100}),
+    "record": (record.run, {"seconds": 600.0, "block": 20.0, "blocks": 6, "http_seconds": 120.0},
+               {"seconds": 20.0, "block": 4.0, "blocks": 2, "http_seconds": 8.0}),
     # Not in a quick run: starting the gateway under valgrind alone takes half a minute.
     "instructions": (instructions.run, {"few": 300, "many": 2300}, {"few": 0, "many": 0}),
     "profile": (profile.run, {"reads": 100}, {"reads": 10}),

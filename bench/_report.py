@@ -119,6 +119,7 @@ def _ms(value: float) -> str:
 def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     """The whole Markdown page."""
     from .instructions import render as instructions_section
+    from .record import render as record_section
     from .remote import render as remote_section
     from .sessions import render as sessions_section
     from .sse_clients import render as sse_section
@@ -128,7 +129,8 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     out = [HEAD.format(quick=" (quick runs)" if machine.get("quick") else "", **facts)]
     sections = [("port_read", _port_read), ("service", _service), ("fanout", _fanout), ("load", _load),
                 ("soak", _soak), ("memory", _memory), ("world", world_section), ("remote", remote_section),
-                ("sse_clients", sse_section), ("sessions", sessions_section), ("instructions", instructions_section)]
+                ("sse_clients", sse_section), ("sessions", sessions_section), ("record", record_section),
+                ("instructions", instructions_section)]
     for name, section in sections:
         if name in results:
             out.append(_dated(section(results[name]), results[name].get("measured")))
