@@ -128,8 +128,9 @@ async def _record(args: argparse.Namespace) -> int:
     if progress is not None:
         progress.end()
     lost = f", {counts.lost_frames} audio frames lost" if counts.lost_frames else ", no audio frame lost"
+    # What was made goes to stdout (the progress went to stderr): a script can take the path from it.
     print(f"aiogenomix-record: {path}: {_size(counts.bytes)}, {counts.messages} messages{lost}, "
-          f"{counts.coalesced} publications coalesced ({ended})", file=sys.stderr)
+          f"{counts.coalesced} publications coalesced ({ended})", flush=True)
     return 0
 
 

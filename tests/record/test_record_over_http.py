@@ -110,16 +110,18 @@ async def test_ctrl_c_ends_the_command_cleanly_with_a_readable_file(tmp_path: Pa
         running = await capture.send("StartCapture", {"device": "sim", "Port_chunks": 400})
         command = await asyncio.create_subprocess_exec(
             sys.executable, "-m", "aiogenomix.record", url, "kemarcapture/Port", "-o", str(output),
-            stderr=asyncio.subprocess.PIPE, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+            stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, env={**os.environ, "PYTHONUNBUFFERED": "1"})
         assert command.stderr is not None
         first = await asyncio.wait_for(command.stderr.readline(), 60)
         assert b" s " in first and b"frames lost" in first  # the progress line: the recording runs
         command.send_signal(signal.SIGINT)
-        rest = await asyncio.wait_for(command.stderr.read(), 60)
+        assert command.stdout is not None
+        rest, errors = await asyncio.wait_for(asyncio.gather(command.stdout.read(), command.stderr.read()), 60)
         assert await command.wait() == 0
         await capture.interrupt(running, by="test")
     said = rest.decode()
-    assert f"aiogenomix-record: {output}:" in said and "(stopped)" in said and "Traceback" not in said
+    assert said.startswith(f"aiogenomix-record: {output}:") and said.rstrip().endswith("(stopped)")
+    assert "Traceback" not in errors.decode()
     with open(output, "rb") as stream, RecordingReader(stream) as reader:
         assert reader.metadata()["aiogenomix.end"]["ended"] == "stopped"
         numbers = [c.chunk for c in reader.audio()]
