@@ -75,7 +75,9 @@ class RecordingBackend(CaptureBackend):
             SceneError: for a file that is missing, not a recording, or without that audio port.
             FormatRefused: for a recording of another rate.
         """
-        self._reader, first = await asyncio.to_thread(self._open_file)
+        # A simulated clock waits for the disk, as a sound card's open would be waited for.
+        with self.clock.holding():
+            self._reader, first = await asyncio.to_thread(self._open_file)
         if first is not None:
             self._pending.append(first)
             self._first_frame = first.first_frame
@@ -140,7 +142,8 @@ class RecordingBackend(CaptureBackend):
         end = start + count
         while True:
             if not self._pending and not self._ended:
-                chunk = await asyncio.to_thread(self._more)
+                with self.clock.holding():  # the chunk is released at its time, however long the disk takes
+                    chunk = await asyncio.to_thread(self._more)
                 if chunk is None:
                     self._ended = True
                 else:

@@ -45,6 +45,7 @@ class Recorder(Component, name="recorder", version="1.0"):
         self._path = ""
         self._began = 0.0
         self._ended = ""
+        self._final = RecorderStatus()
         self._stop = asyncio.Event()
 
     async def on_start(self) -> None:
@@ -105,7 +106,9 @@ class Recorder(Component, name="recorder", version="1.0"):
         """
         followed = [(name, *await self._port(name)) for name in dict.fromkeys(ports)]
         try:
-            stream, real = await asyncio.to_thread(create_recording, path, self.host.settings.record_dirs)
+            # The disk is part of the rig: a simulated clock waits for it (as for a device opening).
+            with self.clock.holding():
+                stream, real = await asyncio.to_thread(create_recording, path, self.host.settings.record_dirs)
         except PathRefused as exc:
             raise PATH_REFUSED(path=path, what=str(exc)) from exc
         except RecordingError as exc:
@@ -159,13 +162,15 @@ class Recorder(Component, name="recorder", version="1.0"):
 
     async def _close(self, recording: Recording, ended: str) -> RecordingCounts:
         try:
-            counts = await recording.close(ended)
+            with self.clock.holding():
+                counts = await recording.close(ended)
         except WriteFailed as exc:
             counts = recording.counts()
             ended = f"write failed: {exc.strerror or exc}"
         self._ended = ended
-        self.Status.publish(self.status())
+        self._final = self._status_of(recording, active=False)
         self._recording = None
+        self.Status.publish(self._final)
         log.info("%s: %s ended (%s): %d bytes, %d messages, %d frames lost", self.instance, recording.path, ended,
                  counts.bytes, counts.messages, counts.lost_frames)
         return counts
@@ -185,18 +190,16 @@ class Recorder(Component, name="recorder", version="1.0"):
         return self.status()
 
     def status(self) -> RecorderStatus:
-        """The recording's status now (what the Status port publishes)."""
+        """The recording's status now (what the Status port publishes), or how the last one ended."""
         recording = self._recording
-        if recording is None:
-            previous = self.Status.read()
-            return RecorderStatus(recording=False, path=self._path, elapsed=previous.elapsed, bytes=previous.bytes,
-                                  messages=previous.messages, queued=0, lost_frames=previous.lost_frames,
-                                  coalesced=previous.coalesced, ports=previous.ports, ended=self._ended)
+        return self._final if recording is None else self._status_of(recording, active=True)
+
+    def _status_of(self, recording: Recording, *, active: bool) -> RecorderStatus:
         counts = recording.counts()
         return RecorderStatus(
-            recording=True, path=self._path, elapsed=self.clock.now() - self._began, bytes=counts.bytes,
+            recording=active, path=self._path, elapsed=self.clock.now() - self._began, bytes=counts.bytes,
             messages=counts.messages, queued=counts.queued, lost_frames=counts.lost_frames,
-            coalesced=counts.coalesced, ended="",
+            coalesced=counts.coalesced, ended="" if active else self._ended,
             ports=[PortCounts(port=name, **values) for name, values in counts.ports.items()])
 
     async def _publish_status(self) -> None:

@@ -26,7 +26,7 @@ from __future__ import annotations
 import abc
 import math
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import orjson
@@ -263,6 +263,17 @@ class ImageRecorder(PortRecorder):
         self._send(self._channel, log_time, rig_time, IMAGE.encode(message))
 
 
+class _Piece(NamedTuple):
+    """One captured chunk (or the part of one that a read holds) of an audio read."""
+
+    chunk: int
+    first_frame: int
+    offset: int  # its first frame within the read
+    frames: int
+    stamp: float
+    azimuth: float
+
+
 class AudioRecorder(PortRecorder):
     """An audio port: every captured frame once, chunk by chunk, as standard audio with its frame indexes.
 
@@ -279,7 +290,6 @@ class AudioRecorder(PortRecorder):
         self.since = 0
         self._format: tuple[int, int] | None = None
         self._lost_before = 0
-        self._bass_anchor: tuple[int, float] | None = None
 
     @property
     def index(self) -> int:
@@ -303,7 +313,6 @@ class AudioRecorder(PortRecorder):
         """Whether a port whose newest item is *newest* holds a new capture (its index went back): record it all."""
         if newest < self.since:
             self.since = 0
-            self._bass_anchor = None
             return True
         return False
 
@@ -332,9 +341,10 @@ class AudioRecorder(PortRecorder):
             start = _seconds(data.get("ts")) or rig_time
             positions = data.get("positions")
             azimuths = np.full(count, math.nan) if positions is None else _floats(positions, np.float64)
-            chunks = [(first_chunk + k, (first_chunk + k - 1) * per_chunk + 1, k * per_chunk, per_chunk,
-                       start + (first_chunk + k - 1) * per_chunk / rate if rate else rig_time,
-                       float(azimuths[k]) if k < azimuths.size else math.nan) for k in range(count)]
+            chunks = [_Piece(chunk=first_chunk + k, first_frame=(first_chunk + k - 1) * per_chunk + 1,
+                             offset=k * per_chunk, frames=per_chunk,
+                             stamp=(start + (first_chunk + k - 1) * per_chunk / rate) if rate else rig_time,
+                             azimuth=float(azimuths[k]) if k < azimuths.size else math.nan) for k in range(count)]
         else:
             rate = int(data.get("sampleRate", 0))
             per_chunk = int(data.get("nFramesPerChunk", 0)) or max(1, left.size)
@@ -349,7 +359,7 @@ class AudioRecorder(PortRecorder):
                 frame = first + done
                 size = min(per_chunk - (frame - 1) % per_chunk, left.size - done)
                 stamp = rig_time - (newest - frame + 1) / rate if rate else rig_time
-                chunks.append(((frame - 1) // per_chunk + 1, frame, done, size, stamp, math.nan))
+                chunks.append(_Piece((frame - 1) // per_chunk + 1, frame, done, size, stamp, math.nan))
                 done += size
         self._lost_before += lost_frames
         self.lost_frames += lost_frames
@@ -359,14 +369,15 @@ class AudioRecorder(PortRecorder):
         stereo = np.empty((left.size, 2), dtype="<i4")
         stereo[:, 0], stereo[:, 1] = left, right
         raw = stereo.reshape(-1).view(np.uint8)
-        for chunk, first_frame, offset, size, stamp, azimuth in chunks:
+        for piece in chunks:
             self._sequence += 1
-            header = _header(stamp, "")
-            self._send(self._audio, log_time, stamp, AUDIO_DATA_STAMPED.encode(
-                {"header": header, "audio": {"data": raw[offset * 8:(offset + size) * 8]}}))
-            self._send(self._frames, log_time, stamp, AUDIO_FRAMES.encode(
-                {"header": header, "first_frame": first_frame, "frames": size, "chunk": chunk,
-                 "lost_frames": self._lost_before, "head_azimuth": azimuth, "sample_rate": rate}))
+            header = _header(piece.stamp, "")
+            samples = raw[piece.offset * 8:(piece.offset + piece.frames) * 8]  # 8 bytes a frame: two int32
+            self._send(self._audio, log_time, piece.stamp, AUDIO_DATA_STAMPED.encode(
+                {"header": header, "audio": {"data": samples}}))
+            self._send(self._frames, log_time, piece.stamp, AUDIO_FRAMES.encode(
+                {"header": header, "first_frame": piece.first_frame, "frames": piece.frames, "chunk": piece.chunk,
+                 "lost_frames": self._lost_before, "head_azimuth": piece.azimuth, "sample_rate": rate}))
             self._lost_before = 0
 
     def _announce_format(self, rate: int, stamp: float) -> None:

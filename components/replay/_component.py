@@ -158,12 +158,13 @@ class Replay(Component, name="replay", version="1.0"):
         """Publish the recorded ports again at their recorded timing, from the start to the end of the recording."""
         if not speed > 0:
             raise NOT_PLAYING(what=f"speed must be a positive number, not {speed}")
-        stream, _ = await asyncio.to_thread(open_recording, self.file, self._roots())
+        with self.clock.holding():  # a simulated clock waits for the disk: publications keep their timing
+            stream, _ = await asyncio.to_thread(open_recording, self.file, self._roots())
         reader = RecordingReader(stream, repr(self.file))
         messages = reader.publications()
         published, first_time, origin = 0, None, self.clock.now()
         try:
-            while (message := await asyncio.to_thread(_next, messages)) is not None:
+            while (message := await self._next(messages)) is not None:
                 if first_time is None:
                     first_time = message.capture_time
                 offset = message.capture_time - first_time
@@ -178,6 +179,10 @@ class Replay(Component, name="replay", version="1.0"):
             await asyncio.to_thread(reader.close)
             self.Status.publish(self._status(published, self.Status.read().position, playing=False))
         return published
+
+    async def _next(self, messages: Iterator[PortMessage]) -> PortMessage | None:
+        with self.clock.holding():
+            return await asyncio.to_thread(_next, messages)
 
     @function(interrupts=("Play",))
     def Stop(self) -> None:

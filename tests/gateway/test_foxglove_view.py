@@ -97,9 +97,12 @@ async def test_a_viewer_gets_the_head_and_a_camera_while_a_stalled_one_delays_no
         assert channels["/world/pr2_odom"]["schemaName"] == "foxglove.Odometry"
         assert channels["/demo/Mobile"]["encoding"] == "json"   # any other port: its JSON and JSON Schema
 
+        # The gateway's clients before the stalled viewer subscribes: how soon a request's end reaches the
+        # session's listen stream.
+        everything = await advertised(stalled, set(channels))
+        unhindered = await listen_delays(url, 30)
         # The stalled viewer subscribes to every channel (three 256×256 cameras at 10 Hz: 8 MB/s) and never
         # reads again: its socket's buffers fill in a moment, then the server drops its oldest messages.
-        everything = await advertised(stalled, set(channels))
         await stalled.send(json.dumps({"op": "subscribe", "subscriptions": [
             {"id": n, "channelId": c["id"]} for n, c in enumerate(everything.values())]}))
 
@@ -132,11 +135,19 @@ async def test_a_viewer_gets_the_head_and_a_camera_while_a_stalled_one_delays_no
         starts = [k for k in range(0, len(captured), 2205) if np.array_equal(captured[k:k + 2205], shown)]
         assert len(starts) == 1  # that very chunk of the capture
 
-        # The gateway's clients meanwhile: every request's end reaches the listen stream at once.
-        delays = await listen_delays(url, 40)
-        assert statistics.median(delays) < 0.02 and max(delays) < 0.05, delays
+        # The gateway's clients meanwhile: the listen stream is as prompt as before, within 50 ms (the 90th
+        # percentile, judged against the same measure without the stalled viewer: a machine whose cores are
+        # busy delays some events by itself).
+        hindered = await listen_delays(url, 30)
+        assert statistics.median(hindered) < 0.02, hindered
+        assert percentile(hindered, 0.9) <= percentile(unhindered, 0.9) + 0.05, (unhindered, hindered)
         # (the viewer is still served)
         await asyncio.wait_for(viewer.recv(), 30)
+
+
+def percentile(samples: list[float], fraction: float) -> float:
+    ordered = sorted(samples)
+    return ordered[min(len(ordered) - 1, int(fraction * len(ordered)))]
 
 
 async def listen_delays(url: str, count: int) -> list[float]:

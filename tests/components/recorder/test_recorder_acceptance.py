@@ -78,6 +78,9 @@ async def test_ten_seconds_of_audio_and_head_are_recorded_frame_for_frame(
         assert recorded["status"] == "done", recorded
         async with http.get("/module/kemarcapture/send/StopCapture") as stopped:
             assert (await stopped.json())["status"] == "done"
+        async with http.get("/module/recorder/read/Status") as read:
+            published = (await read.json())["Status"]   # the port says how it ended, as the output does
+    assert published == recorded["output"]["status"]
     status = recorded["output"]["status"]
     assert status["ended"] == "duration" and status["lost_frames"] == 0
     path = directory / "session.mcap"

@@ -13,7 +13,10 @@ def child_processes() -> set[int]:
     """The ids of this process's running children (zombies included: a child never waited for)."""
     children = set()
     for task in Path(f"/proc/{os.getpid()}/task").iterdir():
-        text = (task / "children").read_text() if (task / "children").exists() else ""
+        try:
+            text = (task / "children").read_text()
+        except OSError:
+            continue  # a thread that ended meanwhile (an executor's worker, a recording's writer) has none
         children.update(int(pid) for pid in text.split())
     return children
 
