@@ -173,16 +173,17 @@ async def _until_the_end(recording: Recording, tasks: list[asyncio.Task[None]], 
         while True:
             elapsed = time.monotonic() - started
             timeout = period if duration is None else max(0.0, min(period, duration - elapsed))
-            done, _ = await asyncio.wait([stopping, failing, *tasks], timeout=timeout,
+            # A port whose instance was unloaded has ended: the others go on (and are the ones waited for).
+            running = [task for task in tasks if not task.done()]
+            done, _ = await asyncio.wait([stopping, failing, *running], timeout=timeout,
                                          return_when=asyncio.FIRST_COMPLETED)
             if stopping in done:
                 return "stopped"
             if failing in done:
                 return "write failed"
-            for task in tasks:
-                if task in done and task.exception() is not None:
-                    exc = task.exception()
-                    return f"failed: {task.get_name()}: {exc}"
+            for task in running:
+                if task in done and not task.cancelled() and task.exception() is not None:
+                    return f"failed: {task.get_name()}: {task.exception()}"
             if duration is not None and time.monotonic() - started >= duration:
                 return "duration"
             if progress is not None:

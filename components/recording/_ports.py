@@ -11,8 +11,9 @@ arrays) into messages on its channels:
   azimuth), and ``audio_common_msgs/msg/AudioInfo`` on ``/<instance>/<port>/info`` whenever
   the format changes;
 * **camera pictures** (``sensor_msgs__Image`` ports): ``sensor_msgs/msg/Image``, every member kept;
-* **any other port**: its data as JSON on ``/<instance>/<port>`` with the port's JSON Schema,
-  losslessly, plus a companion channel in the standard type robotics tools show when one
+* **any other port**: its data as JSON on ``/<instance>/<port>``, losslessly, its JSON Schema in
+  the channel's metadata (:data:`SCHEMA_KEY`: ``rosbags`` refuses a file with ``jsonschema`` schema
+  records), plus a companion channel in the standard type robotics tools show when one
   fits: the head's state as ``sensor_msgs/msg/JointState`` in radians (the port says degrees),
   odometry as ``nav_msgs/msg/Odometry``, laser scans, joint states, stamped poses.
 
