@@ -11,6 +11,7 @@ COPY gateway ./gateway
 COPY clients ./clients
 COPY components ./components
 COPY remote ./remote
+COPY record ./record
 RUN pip install --no-cache-dir ".[audio]"
 
 # 8080: the genomix HTTP protocol; 8081: the dedicated audio socket.

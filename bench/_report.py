@@ -121,6 +121,7 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     from .budgets import render as budgets_section
     from .instructions import render as instructions_section
     from .localisation import render as localisation_section
+    from .record import render as record_section
     from .remote import render as remote_section
     from .sessions import render as sessions_section
     from .sse_clients import render as sse_section
@@ -131,7 +132,8 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     sections = [("port_read", _port_read), ("service", _service), ("fanout", _fanout), ("load", _load),
                 ("soak", _soak), ("memory", _memory), ("world", world_section), ("remote", remote_section),
                 ("sse_clients", sse_section), ("sessions", sessions_section), ("budgets", budgets_section),
-                ("instructions", instructions_section), ("localisation", localisation_section)]
+                ("record", record_section), ("instructions", instructions_section),
+                ("localisation", localisation_section)]
     for name, section in sections:
         if name in results:
             out.append(_dated(section(results[name]), results[name].get("measured")))

@@ -54,7 +54,7 @@ class Probe(Component, name="probe"):
 async def _gateway(args: argparse.Namespace) -> None:
     # Served as the gateway's command serves it (its HTTP layer included), with a probe component.
     config = GatewayConfig(host="127.0.0.1", port=0, audio_socket_port=0, time_scale=1.0,
-                           max_sessions=args.max_sessions)
+                           max_sessions=args.max_sessions, record_dirs=args.record_dir)
     host = ComponentHost(clock=ScaledClock(1.0), settings=config.host_settings())
     host.register("probe", Probe)
     async with serve(config, host) as url:
@@ -183,6 +183,7 @@ def main() -> None:
     parser.add_argument("--max-sessions", type=int, default=GatewayConfig.max_sessions,
                         help="the gateway's cap on sessions")
     parser.add_argument("--connect", help="the relay's Zenoh endpoint to connect to (the Zenoh floor's)")
+    parser.add_argument("--record-dir", action="append", default=[], help="a directory recordings may be made in")
     args = parser.parse_args()
     runner = {"gateway": _gateway, "aiohttp": _bare_aiohttp, "socket": _socket_floor, "zenoh": _zenoh_floor,
               "relay": _zenoh_relay}[args.kind]

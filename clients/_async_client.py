@@ -6,7 +6,7 @@ import asyncio
 import inspect
 import json
 import posixpath
-from collections.abc import Callable, Generator
+from collections.abc import AsyncIterator, Callable, Generator
 from typing import Any, Self
 
 import aiohttp
@@ -20,6 +20,7 @@ from ._listen import ListenStream
 from ._module import ModuleDescription, ModuleProxy, build_members, dress
 from ._request import AsyncRequest
 from ._service import USE_CLIENT_DEFAULT, CallOptions, PortSpec, ServiceSpec
+from ._streams import PortEvent, SessionEvent, session_events, watch_port
 from ._tracker import RequestTracker
 from ._wire import base_url, check_info, parse_status
 
@@ -249,6 +250,39 @@ class AsyncClient:
         if not isinstance(index, dict) or not isinstance(index.get("loaded", {}), dict):
             raise ProtocolError(f"/ did not describe the gateway: {index!r:.200}")
         return dict(index.get("loaded", {}))
+
+    # -- event streams ---------------------------------------------------------------------------
+
+    def watch(self, instance: str, port: str, *, since: int | None = None, name: str | None = None
+              ) -> AsyncIterator[PortEvent]:
+        """The publications of a port as they come: ``async for event in client.watch("kemar", "currentState")``.
+
+        Each :class:`PortEvent` holds the port's data as genomix JSON and what was lost.  For
+        numbered data (the audio window) each event holds only the items not had yet, ``since``
+        an item index at first (default: with the newest publication's); a stream that drops is
+        opened again where it was.  Other data comes as its latest value, ``lost`` counting the
+        publications skipped while the reader was busy.
+
+        Args:
+            instance: The module instance.
+            port: The out port.
+            since: Numbered data only: start after this item.
+            name: The element of a multiple port.
+
+        Raises:
+            ModuleUnloaded: when the instance is unloaded (the stream ends).
+            NotFound, InvalidInput: for an unknown instance or port, or a ``since`` that does not apply.
+            TransportError: when the stream drops and cannot be opened again.
+        """
+        return watch_port(self._check_open(), instance, port, since=since, element=name)
+
+    def session_events(self, session: str) -> AsyncIterator[SessionEvent]:
+        """The events of any session (``request``, ``unload``, ``quit``) until it stops, for a logger or a recorder.
+
+        Raises:
+            NotFound: when there is no such session.
+        """
+        return session_events(self._check_open(), session)
 
     # -- calls -------------------------------------------------------------------------------------
 

@@ -70,6 +70,16 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
                         metavar="SECONDS", help="time without news of a component host after which reads of its "
                                                 "ports answer ::genom::remote_io rather than old data "
                                                 "(default %(default)s)")
+    view = parser.add_argument_group(
+        "live view", "the robot's head, cameras, odometry, laser and audio in Foxglove or Lichtblick (the Foxglove "
+                     "WebSocket protocol; pip install aiogenomix[foxglove])")
+    view.add_argument("--foxglove", type=int, metavar="PORT", dest="foxglove_port",
+                      help="serve the live view on this port (0 for a free one; default: no view); it checks neither "
+                           "the token nor Host nor Origin")
+    view.add_argument("--foxglove-host", default=defaults.foxglove_host, metavar="ADDRESS",
+                      help="address of the live view (default %(default)s: this machine only)")
+    view.add_argument("--foxglove-without-token", action="store_true",
+                      help="allow the live view on another address although --token is set (it does not check it)")
     limits = parser.add_argument_group("limits", "what one client can hold or send")
     limits.add_argument("--header-timeout", type=_at_least(float, 0.001), default=defaults.header_timeout,
                         metavar="SECONDS", help="time a client has to send a request's line and headers, "
@@ -87,9 +97,10 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
     args = parser.parse_args(argv)
     budgets = budgets_from(parser, args)
     logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    return GatewayConfig(
+    config = GatewayConfig(
         host=args.host, port=args.port, time_scale=args.time_scale, can=args.can, can_timeout=args.can_timeout,
         audio_device=args.audio_device, audio_socket_port=args.audio_socket_port, audio_files=args.audio_files,
+        record_dirs=args.record_dir,
         token=args.token or None, allowed_hosts=args.allowed_host, allowed_origins=args.allow_origin,
         components=args.components.split(",") if args.components else None, preload=args.load,
         header_timeout=args.header_timeout, max_url_bytes=args.max_url_bytes, session_idle=args.session_idle,
@@ -97,8 +108,14 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
         zenoh=bool(args.zenoh or args.zenoh_connect or args.zenoh_listen or args.zenoh_config or args.zenoh_scout),
         zenoh_connect=args.zenoh_connect, zenoh_listen=args.zenoh_listen, zenoh_config=args.zenoh_config,
         zenoh_scout=args.zenoh_scout, zenoh_local=args.local, zenoh_timeout=args.zenoh_timeout,
-        zenoh_stale=args.zenoh_stale,
+        zenoh_stale=args.zenoh_stale, foxglove_port=args.foxglove_port, foxglove_host=args.foxglove_host,
+        foxglove_without_token=args.foxglove_without_token,
     )
+    try:
+        config.check()
+    except ValueError as exc:
+        parser.error(str(exc))
+    return config
 
 
 def _at_least(kind: type[float] | type[int], low: float) -> Callable[[str], float]:

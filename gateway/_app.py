@@ -17,8 +17,9 @@ from ._auth import TokenCheck
 from ._config import GatewayConfig
 from ._door import Door
 from ._guard import guard_middleware
+from ._foxglove import FoxgloveView
 from ._keys import (
-    CONFIG, DOOR, GUARD, HOST, READ_BODIES, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, Shutdown,
+    CONFIG, DOOR, FOXGLOVE, GUARD, HOST, READ_BODIES, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, Shutdown,
     WatchFrames,
 )
 from ._read_bodies import ReadBodies
@@ -43,6 +44,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
         An aiohttp application; run it with ``web.run_app`` or an ``AppRunner``.
     """
     config = config or GatewayConfig()
+    config.check()
     door = Door(AccessPolicy(config.allowed_hosts, config.allowed_origins),
                 TokenCheck(config.token) if config.token else None)
     # One middleware: the door, then errors as JSON; the gateway's own connections call it
@@ -70,6 +72,9 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app.add_routes(_routes_openapi.routes)
     app.add_routes(_routes_docs.routes)
     app.cleanup_ctx.append(_host_lifetime(owns_host))
+    if config.foxglove_port is not None:
+        app[FOXGLOVE] = FoxgloveView(config.foxglove_host, config.foxglove_port)
+        app.cleanup_ctx.append(_foxglove_lifetime)
     app.on_shutdown.append(shut_down(owns_host))
     return app
 
@@ -96,6 +101,26 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
         yield  # the shutdown step (_shutdown) stops the components, within a bounded time
 
     return lifetime
+
+
+async def _foxglove_lifetime(app: web.Application) -> AsyncIterator[None]:
+    """The live view, from the start (the preloaded instances shown) to the end (after the components stop)."""
+    view, host = app[FOXGLOVE], app[HOST]
+    view.start(host.instances)
+    hiding: set[asyncio.Task[None]] = set()
+
+    def hide(instance: str) -> None:
+        task = asyncio.create_task(view.hide(instance), name=f"foxglove hides {instance}")
+        hiding.add(task)
+        task.add_done_callback(hiding.discard)
+
+    host.add_load_listener(view.show)
+    host.add_unload_listener(hide)
+    try:
+        yield
+    finally:
+        await asyncio.gather(*hiding, return_exceptions=True)
+        await view.stop()
 
 
 async def _find_remote_components(app: web.Application) -> None:

@@ -12,18 +12,21 @@ from aiohttp.typedefs import Middleware
 from ..components.core import ComponentHost, OutPortRuntime
 from ._config import GatewayConfig
 from ._door import Door
+from ._foxglove import FoxgloveView
 from ._read_bodies import ReadBodies
 from ._sessions import SessionStore
 from ._unloads import Unloads
 from ._watch_wakes import WatchWakes
 
-__all__ = ["CONFIG", "DOOR", "GUARD", "HOST", "READ_BODIES", "SESSIONS", "SHUTDOWN", "UNLOADS",
+__all__ = ["CONFIG", "DOOR", "FOXGLOVE", "GUARD", "HOST", "READ_BODIES", "SESSIONS", "SHUTDOWN", "UNLOADS",
            "WATCH_FRAMES", "WATCH_WAKES", "Shutdown", "WatchFrames"]
 
 CONFIG = web.AppKey("config", GatewayConfig)
 HOST = web.AppKey("host", ComponentHost)
 SESSIONS = web.AppKey("sessions", SessionStore)
 UNLOADS = web.AppKey("unloads", Unloads)
+#: The live view in Foxglove (set only with ``--foxglove``).
+FOXGLOVE = web.AppKey("foxglove", FoxgloveView)
 #: Whether the gateway answers a request: the one decision of the guard and of the fast reads.
 DOOR = web.AppKey("door", Door)
 #: The guard middleware (the door, then errors as JSON), which the gateway's connections call in front

@@ -21,6 +21,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
+from ..components.core import JsonSchemas, schema_name
 from ._routes_modules import MAX_WAIT
 from ._sessions import MAX_NAME_LENGTH, NAME_FORBIDDEN
 
@@ -28,12 +29,6 @@ __all__ = ["openapi_document"]
 
 Json = dict[str, Any]
 
-#: The range of each IDL integer kind (genom3 refuses values outside it).
-_INTEGER_RANGES = {
-    "octet": (0, 2**8 - 1), "short": (-(2**15), 2**15 - 1), "unsigned short": (0, 2**16 - 1),
-    "long": (-(2**31), 2**31 - 1), "unsigned long": (0, 2**32 - 1),
-    "long long": (-(2**63), 2**63 - 1), "unsigned long long": (0, 2**64 - 1),
-}
 _SCHEMAS = "#/components/schemas/"
 _ERROR = {"$ref": _SCHEMAS + "Error"}
 _TEXT = {"text/plain": {"schema": {"type": "string"}}}
@@ -41,83 +36,8 @@ _TEXT = {"text/plain": {"schema": {"type": "string"}}}
 _SESSION_NAME = {"type": "string", "maxLength": MAX_NAME_LENGTH, "pattern": f"^[^{NAME_FORBIDDEN}]*$"}
 #: Paths served without the token (the console asks for it itself).
 _OPEN = ("/console", "/console/auth", "/console/login", "/openapi.json", "/docs")
-
-
-def _name(*parts: str) -> str:
-    """An identifier for generated code from *parts* (``::demo::state`` → ``demo_state``)."""
-    return "_".join(p for p in (re.sub(r"\W+", "_", part).strip("_") for part in parts) if p)
-
-
-class _Schemas:
-    """The named schemas of a document, filled as types are met (each IDL struct once per direction)."""
-
-    def __init__(self) -> None:
-        self.named: dict[str, Json] = {}
-
-    def ref(self, name: str, schema: Json) -> Json:
-        self.named.setdefault(name, schema)
-        return {"$ref": _SCHEMAS + name}
-
-    def input(self, t: Json) -> Json:
-        """The schema of data of type *t* as a service accepts it (short enum names, members optional)."""
-        kind = t["kind"]
-        if kind in _INTEGER_RANGES:
-            low, high = _INTEGER_RANGES[kind]
-            return {"type": "integer", "minimum": low, "maximum": high}
-        if kind in ("float", "double"):
-            # null is NaN, as genom3 writes it: taken, and refused by the components that check their
-            # numbers (their request ends in error).
-            return {"type": ["number", "null"]}
-        if kind == "boolean":
-            return {"type": "boolean"}  # genom3 reads 0 and 1 too
-        if kind == "char":
-            return {"type": "string", "minLength": 1, "maxLength": 1}
-        if kind == "string":
-            return {"type": "string", **({"maxLength": t["bound"]} if t.get("bound") else {})}
-        if kind == "enum":
-            # Full names come out; short names are accepted on input too.
-            return {"type": "string", "enum": [*t["values"], *(v.rsplit("::", 1)[-1] for v in t["values"])]}
-        if kind == "struct":
-            return self.ref(_name(t["name"], "Input"), {
-                "type": "object", "title": _name(t["name"], "Input"), "description": f"A {t['name']} as input",
-                "additionalProperties": False,
-                "properties": {m["name"]: self._member(m, self.input) for m in t["members"]}})
-        if kind == "sequence":
-            return {"type": "array", "items": self.input(t["element"]),
-                    **({"maxItems": t["bound"]} if t.get("bound") else {})}
-        if kind == "array":
-            return {"type": "array", "items": self.input(t["element"]), "maxItems": t["length"]}
-        if kind == "optional":
-            return {"anyOf": [{"type": "null"}, self.input(t["element"])]}
-        return {}
-
-    def output(self, t: Json) -> Json:
-        """The schema of data of type *t* as the gateway writes it (full enum names, NaN as null, every member)."""
-        kind = t["kind"]
-        if kind in ("float", "double"):
-            return {"type": ["number", "null"]}
-        if kind == "boolean":
-            return {"type": "integer", "enum": [0, 1]}
-        if kind == "enum":
-            return {"type": "string", "enum": list(t["values"])}
-        if kind == "struct":
-            # Titled with the schema's own name: generators name their classes after it.
-            return self.ref(_name(t["name"]), {
-                "type": "object", "title": _name(t["name"]), "description": t["name"],
-                "required": [m["name"] for m in t["members"]],
-                "properties": {m["name"]: self._member(m, self.output) for m in t["members"]}})
-        if kind in ("sequence", "array"):
-            return {"type": "array", "items": self.output(t["element"])}
-        if kind == "optional":
-            return {"anyOf": [{"type": "null"}, self.output(t["element"])]}
-        return self.input(t)
-
-    @staticmethod
-    def _member(member: Json, schema_of: Any) -> Json:
-        schema: Json = schema_of(member["type"])
-        if member.get("doc") and "$ref" not in schema:
-            schema = {**schema, "description": member["doc"]}
-        return schema
+#: An identifier for generated code from parts (``::demo::state`` → ``demo_state``).
+_name = schema_name
 
 
 def _errors(*codes: int) -> Json:
@@ -132,7 +52,7 @@ def _errors(*codes: int) -> Json:
     return {str(c): {"description": meaning[c], "content": {"application/json": {"schema": _ERROR}}} for c in codes}
 
 
-def _service_operations(instance: str, info: Json, service: Json, schemas: _Schemas) -> Json:
+def _service_operations(instance: str, info: Json, service: Json, schemas: JsonSchemas) -> Json:
     ident = _name(instance, service["name"])
     ins = [p for p in service["parameters"] if p["dir"] != "out"]
     outs = [p for p in service["parameters"] if p["dir"] != "in"]
@@ -194,7 +114,7 @@ def _service_operations(instance: str, info: Json, service: Json, schemas: _Sche
     }
 
 
-def _port_operation(instance: str, port: Json, schemas: _Schemas) -> Json:
+def _port_operation(instance: str, port: Json, schemas: JsonSchemas) -> Json:
     ident = _name(instance, "read", port["name"])
     reply = schemas.ref(f"{ident}_Reply", {"type": "object", "description": f"A read of {instance}/{port['name']}",
                                            "required": [port["name"]],
@@ -317,7 +237,7 @@ def openapi_document(infos: dict[str, Json], server: str, version: str, token: b
         version: The gateway's version.
         token: Whether the gateway needs its token (every operation but the console's says so).
     """
-    schemas = _Schemas()
+    schemas = JsonSchemas(_SCHEMAS)
     paths = _endpoints()
     for instance, info in infos.items():
         for service in info["services"]:

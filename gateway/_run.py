@@ -155,6 +155,11 @@ async def _serve_until_signalled(config: GatewayConfig) -> None:
             # What a new user opens next, and where the audio components serve their sockets.
             print(f"  console {url}/console · OpenAPI {url}/openapi.json · "
                   f"dedicated audio sockets on port {config.audio_socket_port} (DedicatedSocket)", flush=True)
+            if config.foxglove_port is not None:
+                host = f"[{config.foxglove_host}]" if ":" in config.foxglove_host else config.foxglove_host
+                shown_port = config.foxglove_port or "<free port, in the log>"
+                print(f"  Foxglove view ws://{host}:{shown_port} (in Foxglove or Lichtblick: open a connection, "
+                      "Foxglove WebSocket)", flush=True)
             taken = _port_taken(config.host, config.audio_socket_port)
             if taken:
                 print(f"aiogenomix gateway: warning: the audio socket port {config.audio_socket_port} is taken "

@@ -5,6 +5,7 @@ Device strings::
     sim                  the default simulated binaural scene
     sim:<scene.json>     a simulated scene from a JSON file (see _scene)
     file:<path.wav>      a WAV file played at the capture rate, ending with the file
+    mcap:<path.mcap>     a recording's audio played again at its rate (``#instance/port`` picks one)
     pa | pa:<name|index> a PortAudio input device (``portaudio:`` works too)
     alsa:<name> | <name> an ALSA PCM: hw:1,0, plughw:1,0, default, null, ...
 
@@ -220,12 +221,14 @@ class PacedBackend(CaptureBackend):
 BACKENDS: dict[str, str] = {
     "sim": "._sim_backend:SimulatedSceneBackend",
     "file": "._wav_backend:WavFileBackend",
+    "mcap": "._mcap_backend:RecordingBackend",
     "portaudio": "._portaudio:PortAudioBackend",
     "alsa": "._alsa:AlsaBackend",
 }
 
 #: Device string prefixes and the kind of backend they name (a string with none is an ALSA name).
-_PREFIXES = {"sim": "sim", "file": "file", "alsa": "alsa", "pa": "portaudio", "portaudio": "portaudio"}
+_PREFIXES = {"sim": "sim", "file": "file", "mcap": "mcap", "alsa": "alsa", "pa": "portaudio",
+             "portaudio": "portaudio"}
 
 
 def split_device(device: str) -> tuple[str, str]:

@@ -52,7 +52,8 @@ def open_for_host(host: ComponentHost, device: str, rate: int, frames_per_chunk:
                   azimuth: Azimuth | None = None) -> CaptureBackend:
     """The backend (not yet open) of *device* for a component of *host*.
 
-    Files come from the directories of the host's settings (``audio_files``).  A simulated
+    Files come from the directories of the host's settings (``audio_files``; recordings, ``mcap:PATH``,
+    from ``record_dirs`` too).  A simulated
     scene turns with the :class:`HeadAzimuth` some component of the host provides, looked up at
     every chunk (so a head loaded after the capture started is followed too; 0° while there is
     none), unless *azimuth* is given (a script steering the scene); plain ``sim`` renders the
@@ -75,9 +76,19 @@ def open_for_host(host: ComponentHost, device: str, rate: int, frames_per_chunk:
             scene, source_azimuths = provided.scene, provided.azimuths
     else:
         azimuth = None  # real microphones hear the real room
-    options = SourceOptions(azimuth=azimuth, roots=host.settings.audio_files, scene=scene,
+    options = SourceOptions(azimuth=azimuth, roots=_file_roots(host, kind), scene=scene,
                             source_azimuths=source_azimuths)
     return backend_class(kind).for_device(device, argument, rate, frames_per_chunk, clock, options)
+
+
+def _file_roots(host: ComponentHost, kind: str) -> tuple[str, ...] | None:
+    """The directories a backend of *kind* may open files from (None: anywhere, a host built in code)."""
+    settings = host.settings
+    if kind != "mcap":
+        return settings.audio_files
+    if settings.audio_files is None or settings.record_dirs is None:
+        return None
+    return (*settings.audio_files, *settings.record_dirs)
 
 
 def _follow(host: ComponentHost) -> Azimuth:

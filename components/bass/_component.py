@@ -38,7 +38,7 @@ class Bass(Component, name="bass", version="1.0"):
     serves the same frames over TCP: ``Read Port - N <n> - nfr <i>`` gets at most
     *n* frames from frame *i* on (the 2015 MATLAB client's protocol).  Devices:
     ``sim`` (simulated binaural scene, following the simulated KEMAR head when
-    one is loaded), ``sim:<scene.json>``, ``file:<path.wav>``, ``pa:<name>``
+    one is loaded), ``sim:<scene.json>``, ``file:<path.wav>``, ``mcap:<recording.mcap>``, ``pa:<name>``
     (PortAudio) or any ALSA name (``hw:1,0``).
     """
 

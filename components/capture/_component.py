@@ -38,7 +38,7 @@ def _every_source(backend_devices: list[str]) -> list[str]:
     Lists the sound libraries' devices, which may block: call it off the event loop.
     """
     listed = [*backend_devices, *(d for d in list_capture_devices() if d not in backend_devices)]
-    return [*listed, "file:<path.wav>", "sim:<scene.json>"]
+    return [*listed, "file:<path.wav>", "sim:<scene.json>", "mcap:<recording.mcap>"]
 
 
 def _port_what(chunks: int, frames: int) -> str:
@@ -72,7 +72,8 @@ class Capture(Component, name="capture", version="1.1"):
     chunk and the capture start time.  ``DedicatedSocket`` also serves them in
     binary over TCP: ``Read Port - Index <k>`` gets the chunks after *k*.
     Devices: ``sim`` (simulated binaural scene), ``sim:<scene.json>``,
-    ``file:<path.wav>``, ``pa:<name>`` (PortAudio) or any ALSA name (``hw:1,0``).
+    ``file:<path.wav>``, ``mcap:<recording.mcap>`` (a recording played again), ``pa:<name>`` (PortAudio)
+    or any ALSA name (``hw:1,0``).
     """
 
     retrieve_data = Task(doc="Reads chunks from the sound device and publishes them on Port")

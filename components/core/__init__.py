@@ -16,6 +16,7 @@ from ._exceptions import (
 )
 from ._host import ComponentHost, LoadError
 from ._log_limits import ThrottledLog
+from ._json_schema import JsonSchemas, json_schema, schema_name
 from ._settings import HostSettings
 from ._ports import ComputedOutPort, Incremental, InPort, InPortRuntime, OutPort, OutPortRuntime
 from ._public import show_as_public as _show_as_public
@@ -41,6 +42,8 @@ __all__ = [
     # Data types
     "idl_struct", "idl_enum", "Bound", "Length", "Boolean", "Octet", "Char", "Short", "UShort", "Long", "ULong",
     "LongLong", "ULongLong", "Float", "Double", "String", "sequence", "array", "optional", "string", "Timestamp",
+    # JSON Schemas of /info types (for recordings, live views, API documents)
+    "json_schema", "JsonSchemas", "schema_name",
     # Clocks
     "Clock", "RealClock", "ScaledClock", "ManualClock", "VirtualClock",
     # Exceptions: the base of declared ones, and the standard ::genom:: ones

@@ -115,6 +115,7 @@ class ComponentHost:
         self._capabilities: dict[type, list[tuple[str, object]]] = {}
         self._request_listeners: list[Callable[[RequestStatus], None]] = []
         self._unload_listeners: list[Callable[[str], None]] = []
+        self._load_listeners: list[Callable[[LoadedInstance], None]] = []
         self._background: set[asyncio.Task[Any]] = set()
         self._lock = asyncio.Lock()
         #: Where components of other processes are found (None: this process only).
@@ -200,6 +201,7 @@ class ComponentHost:
                     if self._instances.get(proxy.instance) is not proxy:
                         self._instances[proxy.instance] = proxy
                         _client_log.info("loaded %s from another process as %s", name, proxy.instance)
+                        self._loaded(proxy)
                     return proxy
         # The first load imports the component's package (scipy, sound and CAN libraries):
         # up to seconds of work that must not stall the gateway's event loop.
@@ -232,6 +234,7 @@ class ComponentHost:
                 _LOADING.reset(token)
             self._instances[instance] = component
             _client_log.info("loaded %s as %s", name, instance)
+            self._loaded(component)
             return component
 
     def check_room(self) -> None:
@@ -348,6 +351,17 @@ class ComponentHost:
     def add_request_listener(self, listener: Callable[[RequestStatus], None]) -> None:
         """Call *listener* with every request whose status changed."""
         self._request_listeners.append(listener)
+
+    def add_load_listener(self, listener: Callable[[LoadedInstance], None]) -> None:
+        """Call *listener* with every instance loaded from now on (started, and listed in :attr:`instances`).
+
+        Instances of other processes (their proxies) included.
+        """
+        self._load_listeners.append(listener)
+
+    def _loaded(self, instance: LoadedInstance) -> None:
+        for listener in list(self._load_listeners):
+            listener(instance)
 
     def add_unload_listener(self, listener: Callable[[str], None]) -> None:
         """Call *listener* with the name of every unloaded instance."""

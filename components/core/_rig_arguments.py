@@ -24,7 +24,7 @@ def add_rig_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the options of the components' hardware and clock to *parser*, wherever they run.
 
     They are ``--log-level``, ``--can``, ``--can-timeout``, ``--audio-device``, ``--audio-socket-port``,
-    ``--audio-files`` and ``--time-scale``, with the defaults of :class:`HostSettings`.
+    ``--audio-files``, ``--record-dir`` and ``--time-scale``, with the defaults of :class:`HostSettings`.
     """
     parser.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error"])
     parser.add_argument("--can", default=_DEFAULTS.can,
@@ -38,13 +38,16 @@ def add_rig_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--audio-files", action="append", default=[], metavar="DIR",
                         help="a directory clients may name WAV (file:PATH) and scene (sim:PATH) files from "
                              "(repeatable; default: none, files are refused)")
+    parser.add_argument("--record-dir", action="append", default=[], metavar="DIR",
+                        help="a directory the recorder component may write recordings into, and captures may "
+                             "replay them from (mcap:PATH) (repeatable; default: none, recordings are refused)")
     parser.add_argument("--time-scale", type=float, default=1.0,
                         help="runtime seconds per real second, for faster simulations (default %(default)s)")
 
 
 def rig_settings(*, can: str, can_timeout: float, audio_device: str, audio_socket_port: int,
                  audio_socket_host: str, audio_socket_token: str | None, audio_files: list[str],
-                 budgets: Budgets | None = None) -> HostSettings:
+                 record_dirs: list[str] | None = None, budgets: Budgets | None = None) -> HostSettings:
     """The settings of a rig given on a command line (the file of ``--audio-device`` is always allowed).
 
     The operator chose that file, so it is readable even when ``--audio-files`` names no directory.
@@ -54,4 +57,4 @@ def rig_settings(*, can: str, can_timeout: float, audio_device: str, audio_socke
     return HostSettings(can=can, can_timeout=can_timeout, audio_device=audio_device,
                         audio_socket_port=audio_socket_port, audio_socket_host=audio_socket_host,
                         audio_socket_token=audio_socket_token, audio_files=(*audio_files, *operator_file),
-                        budgets=budgets or Budgets())
+                        record_dirs=tuple(record_dirs or ()), budgets=budgets or Budgets())

@@ -18,7 +18,7 @@ class HostSettings:
 
     Each setting has one default, here; the gateway and a component host fill them from their
     command line (``--can``, ``--can-timeout``, ``--audio-device``, ``--audio-files``,
-    ``--audio-socket-port``...).  A component reads them as ``self.host.settings.can``.
+    ``--record-dir``, ``--audio-socket-port``...).  A component reads them as ``self.host.settings.can``.
 
     Attributes:
         can: The KEMAR head's CAN bus: ``virtual`` (a simulated drive in-process) or
@@ -30,6 +30,9 @@ class HostSettings:
         audio_files: The directories clients may name WAV (``file:PATH``) and scene (``sim:PATH``)
             files from; None allows any path (a host built in code, whose author chose its files).
             The gateway passes its ``--audio-files`` and the file of its ``--audio-device``.
+        record_dirs: The directories a recorder may write recordings into, and from which captures
+            may replay them (``mcap:PATH``); None allows any path (a host built in code, whose author
+            chose its files).  The gateway passes its ``--record-dir``: none unless the operator names one.
         audio_socket_host: The address the dedicated audio socket binds.
         audio_socket_port: The TCP port of the dedicated audio socket (0 picks a free one).
         audio_socket_token: When set, a client of the dedicated socket must first send ``Token <token>``.
@@ -43,6 +46,7 @@ class HostSettings:
     can_timeout: float = 0.5
     audio_device: str = "sim"
     audio_files: tuple[str, ...] | None = None
+    record_dirs: tuple[str, ...] | None = None
     audio_socket_host: str = "127.0.0.1"
     audio_socket_port: int = 8081
     audio_socket_token: str | None = None
@@ -63,6 +67,7 @@ class HostSettings:
             raise ValueError(f"audio_socket_port must be a TCP port (0 to 65535), not {self.audio_socket_port!r}")
         if not isinstance(self.budgets, Budgets):
             raise TypeError(f"budgets are a Budgets, not {type(self.budgets).__name__}")
-        if self.audio_files is not None:
-            # A list given by a caller is kept as a tuple: the settings stay frozen all the way down.
-            object.__setattr__(self, "audio_files", tuple(self.audio_files))
+        # A list given by a caller is kept as a tuple: the settings stay frozen all the way down.
+        for name in ("audio_files", "record_dirs"):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, tuple(getattr(self, name)))

@@ -11,7 +11,7 @@ command shows what it prints:
 A command whose output the README does not show must still not answer a genomix error. A block preceded by
 ``<!-- not replayed: REASON -->`` is left out (the gateway's own start, a second machine). The gateway is
 ``python -m aiogenomix.gateway`` on free ports (substituted for 8080 and 8081) and a faster clock: answers
-are the same, sooner.
+are the same, sooner; its ``--record-dir`` is the directory the README's lines run in, as the README says.
 """
 
 from __future__ import annotations
@@ -176,7 +176,8 @@ async def gateway(tmp_path: Path) -> AsyncIterator[tuple[int, int]]:
     with open(tmp_path / "gateway.log", "wb") as log:
         process = await asyncio.create_subprocess_exec(
             sys.executable, "-m", "aiogenomix.gateway", "--port", "0", "--audio-socket-port", str(socket_port),
-            "--time-scale", str(TIME_SCALE), stdout=asyncio.subprocess.PIPE, stderr=log)
+            "--time-scale", str(TIME_SCALE), "--record-dir", str(tmp_path), stdout=asyncio.subprocess.PIPE,
+            stderr=log)
     try:
         assert process.stdout is not None
         line = (await asyncio.wait_for(process.stdout.readline(), 120)).decode()

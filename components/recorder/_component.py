@@ -1,0 +1,251 @@
+"""The ``recorder`` component: ports of the instances of its host kept in an MCAP file, next to the hardware."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+from typing import Annotated, Any
+
+from ..core import (
+    Component, ComponentHost, Double, Incremental, Out, OutPort, OutPortRuntime, String, Task, activity, function,
+)
+from ..recording import (
+    AudioRecorder, ImageRecorder, JsonRecorder, PathRefused, Recording, RecordingCounts, RecordingError,
+    WriteFailed, create_recording,
+)
+from ._types import (
+    ALREADY_RECORDING, BAD_RECORDING, NO_SUCH_PORT, PATH_REFUSED, WRITE_FAILED, PortCounts, PortList, RecorderStatus,
+)
+
+__all__ = ["Recorder"]
+
+log = logging.getLogger(__name__)
+
+#: Runtime seconds between two publications of the Status port while recording.
+STATUS_PERIOD = 0.5
+
+
+class Recorder(Component, name="recorder", version="1.0"):
+    """Records ports of the loaded instances into an MCAP file: audio with its frame indexes, head, cameras, any port.
+
+    ``Start`` records the ports it is given (``instance/port``) into a new file under a directory
+    the operator allowed (``--record-dir``), until ``Stop``, its ``duration`` or a full disk; the
+    ``Status`` port says how far it is.  Every audio frame is recorded once, read by index; other
+    ports as their publications come, counting those replaced before they were read.  A recording
+    goes on when the client or gateway that started it goes away (it runs next to the hardware).
+    """
+
+    record = Task(doc="Follows the recorded ports and hands their data to the writer thread")
+    Status = OutPort(RecorderStatus, doc="The recording: file, bytes and messages written, frames lost, per port")
+
+    def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
+        super().__init__(host, instance, argv)
+        self._recording: Recording | None = None
+        self._path = ""
+        self._began = 0.0
+        self._ended = ""
+        self._final = RecorderStatus()
+        self._stop = asyncio.Event()
+
+    async def on_start(self) -> None:
+        await super().on_start()
+        self.Status.publish(RecorderStatus())
+
+    # -- the ports to record ---------------------------------------------------------------------
+
+    async def _port(self, name: str) -> tuple[OutPortRuntime[Any], dict[str, Any]]:
+        """The out port *name* (``instance/port``) and its ``/info`` description.
+
+        Raises:
+            NO_SUCH_PORT: when there is no such instance or out port, or it is a multiple port.
+        """
+        instance, _, port = name.strip("/").partition("/")
+        if not instance or not port or "/" in port:
+            raise NO_SUCH_PORT(port=name, what="name a port as instance/port, e.g. kemarcapture/Port")
+        try:
+            peer = await self.host.peer(instance)
+        except LookupError as exc:
+            raise NO_SUCH_PORT(port=name, what=f"no instance {instance!r} is loaded") from exc
+        described = next((p for p in peer.description()["ports"] if p["name"] == port), None)
+        if described is None or described["dir"] != "out":
+            outs = ", ".join(p["name"] for p in peer.description()["ports"] if p["dir"] == "out")
+            raise NO_SUCH_PORT(port=name, what=f"{instance} has no out port {port!r} (out ports: {outs})")
+        if described.get("kind") == "multiple":
+            raise NO_SUCH_PORT(port=name, what=f"{name} is a multiple port: recording it is not supported")
+        runtime = peer.port(port)
+        assert isinstance(runtime, OutPortRuntime)
+        return runtime, described
+
+    async def _validate_start(self, path: str, ports: list[str], duration: float) -> None:
+        running = [r for r in self.requests.running() if r.service.name == "Start"]
+        if running:
+            raise ALREADY_RECORDING(path=self._path or running[0].inputs["path"])
+        if not ports:
+            raise NO_SUCH_PORT(port="", what="name at least one port to record (instance/port)")
+        if not (math.isfinite(duration) and duration >= 0):
+            raise BAD_RECORDING(path=path, what=f"duration is a number of seconds, 0 or more (0: until Stop), "
+                                                f"not {duration}")
+        for name in ports:
+            await self._port(name)
+
+    # -- services ---------------------------------------------------------------------------------
+
+    # Not a motion (decision 28): a recording goes on when the gateway that started it vanishes.
+    @activity(task=record, validate=_validate_start,
+              throws=(PATH_REFUSED, NO_SUCH_PORT, ALREADY_RECORDING, BAD_RECORDING, WRITE_FAILED))
+    async def Start(
+        self,
+        path: Annotated[String, "The new file, ending in .mcap: relative to the allowed directory, or in it"],
+        ports: Annotated[PortList, "The ports to record, as instance/port (kemarcapture/Port, kemar/currentState)"],
+        duration: Annotated[Double, "Runtime seconds to record (0: until Stop)"] = 0.0,
+    ) -> Annotated[RecorderStatus, Out("status", "What was recorded, and how it ended")]:
+        """Record ports into a new MCAP file until Stop, the duration, or a full disk.
+
+        Ends done with what was recorded; a disk that fills up ends it in WRITE_FAILED, and the
+        file keeps what was written before, readable.
+        """
+        followed = [(name, *await self._port(name)) for name in dict.fromkeys(ports)]
+        try:
+            # The disk is part of the rig: a simulated clock waits for it (as for a device opening).
+            with self.clock.holding():
+                stream, real = await asyncio.to_thread(create_recording, path, self.host.settings.record_dirs)
+        except PathRefused as exc:
+            raise PATH_REFUSED(path=path, what=str(exc)) from exc
+        except RecordingError as exc:
+            raise BAD_RECORDING(path=path, what=str(exc)) from exc
+        recording = Recording.open(stream, real, {
+            "recorder": f"{self.instance} (aiogenomix recorder component)", "ports": ",".join(n for n, *_ in followed),
+            "clock": f"{type(self.clock).__name__} x{self.clock.scale:g}"})
+        self._recording, self._path, self._began, self._ended = recording, real, self.clock.now(), ""
+        self._stop.clear()
+        log.info("%s: recording %s into %s", self.instance, ", ".join(n for n, *_ in followed), real)
+        tasks = [asyncio.create_task(self._follow(port, recording.add_port(name, described)),
+                                     name=f"{self.instance} records {name}")
+                 for name, port, described in followed]
+        tasks.append(asyncio.create_task(self._publish_status(), name=f"{self.instance} status"))
+        ended = "stopped"
+        try:
+            ended = await self._until_the_end(recording, tasks, duration)
+        except asyncio.CancelledError:
+            ended = "interrupted"
+            raise
+        finally:
+            for task in tasks:
+                task.cancel()
+            await asyncio.gather(*tasks, return_exceptions=True)
+            counts = await asyncio.shield(self._close(recording, ended))
+        if recording.writer.failure is not None:
+            failure = recording.writer.failure
+            raise WRITE_FAILED(path=real, what=failure.strerror or str(failure), bytes=counts.bytes,
+                               seconds=self.clock.now() - self._began)
+        return self.status()
+
+    async def _until_the_end(self, recording: Recording, tasks: list[asyncio.Task[None]], duration: float) -> str:
+        """Wait for Stop, the duration, a write failure or a follower's failure; say which."""
+        ends: dict[asyncio.Future[Any], str] = {
+            asyncio.ensure_future(self._stop.wait()): "stopped",
+            asyncio.ensure_future(recording.writer.failed.wait()): "write failed",
+        }
+        if duration > 0:
+            ends[asyncio.ensure_future(self.clock.sleep(duration))] = "duration"
+        try:
+            done, _ = await asyncio.wait([*ends, *tasks], return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            for waiter in ends:
+                waiter.cancel()
+        for task in tasks:
+            if task in done and not task.cancelled() and task.exception() is not None:
+                exc = task.exception()
+                log.error("%s: %s failed", self.instance, task.get_name(), exc_info=exc)
+                return f"failed: {type(exc).__name__}: {exc}"
+        return next((why for waiter, why in ends.items() if waiter in done), "stopped")
+
+    async def _close(self, recording: Recording, ended: str) -> RecordingCounts:
+        try:
+            with self.clock.holding():
+                counts = await recording.close(ended)
+        except WriteFailed as exc:
+            counts = recording.counts()
+            ended = f"write failed: {exc.strerror or exc}"
+        self._ended = ended
+        self._final = self._status_of(recording, active=False)
+        self._recording = None
+        self.Status.publish(self._final)
+        log.info("%s: %s ended (%s): %d bytes, %d messages, %d frames lost", self.instance, recording.path, ended,
+                 counts.bytes, counts.messages, counts.lost_frames)
+        return counts
+
+    @function
+    async def Stop(self) -> None:
+        """Stop the recording and end its file (done when the file is complete; nothing to do when none runs)."""
+        running = [r for r in self.requests.running() if r.service.name == "Start"]
+        self._stop.set()
+        for request in running:
+            if request.task is not None:
+                await asyncio.shield(asyncio.wait({request.task}))
+
+    @function
+    def GetStatus(self) -> Annotated[RecorderStatus, Out("status", "The recording now, or how the last one ended")]:
+        """Where the recording is: file, bytes and messages written, frames lost, per port."""
+        return self.status()
+
+    def status(self) -> RecorderStatus:
+        """The recording's status now (what the Status port publishes), or how the last one ended."""
+        recording = self._recording
+        return self._final if recording is None else self._status_of(recording, active=True)
+
+    def _status_of(self, recording: Recording, *, active: bool) -> RecorderStatus:
+        counts = recording.counts()
+        return RecorderStatus(
+            recording=active, path=self._path, elapsed=self.clock.now() - self._began, bytes=counts.bytes,
+            messages=counts.messages, queued=counts.queued, lost_frames=counts.lost_frames,
+            coalesced=counts.coalesced, ended="" if active else self._ended,
+            ports=[PortCounts(port=name, **values) for name, values in counts.ports.items()])
+
+    async def _publish_status(self) -> None:
+        while True:
+            self.Status.publish(self.status())
+            await self.clock.sleep(STATUS_PERIOD)
+
+    # -- following the ports --------------------------------------------------------------------
+
+    async def _room(self, recording: Recording) -> None:
+        """Wait until the writer takes more (the clock of a simulated rig waits with it: the disk is part of it)."""
+        writer = recording.writer
+        if not writer.has_room():
+            with self.clock.holding():
+                await writer.wait_room()
+
+    async def _follow(self, port: OutPortRuntime[Any], recorder: AudioRecorder | ImageRecorder | JsonRecorder) -> None:
+        recording = self._recording
+        assert recording is not None
+        if isinstance(recorder, AudioRecorder):
+            await self._follow_audio(port, recorder, recording)
+            return
+        delivered = 0
+        while True:
+            await self._room(recording)
+            if port.version <= delivered:
+                await port.wait_published(delivered)
+            version = port.version
+            coalesced = version - delivered - 1 if delivered else 0
+            delivered = version
+            recorder.write(port.type.encode(port.read()), coalesced=coalesced, rig_time=self.clock.wall())
+
+    async def _follow_audio(self, port: OutPortRuntime[Any], recorder: AudioRecorder, recording: Recording) -> None:
+        """Every frame once: the items after the last one recorded, at each publication."""
+        current = port.read()
+        recorder.start_at(current.index if isinstance(current, Incremental) else 0)
+        while True:
+            await self._room(recording)
+            value = port.read()
+            if isinstance(value, Incremental):
+                recorder.restarted(value.index)
+                if value.index > recorder.since:
+                    since = recorder.since
+                    data, lost = value.since(since)
+                    recorder.write(port.type.encode(data), since=since, lost=lost, rig_time=self.clock.wall())
+                    continue
+            # Nothing is awaited between the read above and this wait: no publication slips between them.
+            await port.wait_published()

@@ -1,0 +1,46 @@
+"""The recording library: port data kept in MCAP, the robotics log format, and read back.
+
+The ``recorder`` component, the ``replay`` component, captures that replay a recording
+(``mcap:PATH``) and the ``aiogenomix-record`` command line are built on it.  What lives here:
+
+* **Message types** in ROS 2's own encoding (:class:`MessageType`: the ``.msg`` definition, CDR in
+  and out), the standard ones and our ``aiogenomix_msgs/msg/AudioFrames``.
+* **The file** (:class:`McapFile`), written chunk by chunk so that a full disk leaves a readable
+  recording, by a thread of its own (:class:`RecordingWriter`) fed through a bounded queue.
+* **Port recorders** (:class:`AudioRecorder`, :class:`ImageRecorder`, :class:`JsonRecorder`) and
+  the :class:`Recording` that holds them; **paths** confined to the operator's directories.
+* **Reading and exporting**: :class:`RecordingReader`, :func:`export_recording` (WAV and CSV).
+
+Decision 0031 records the formats and why.
+"""
+
+from ._cdr import CdrError, Field, MessageType
+from ._errors import NotARecording, PathRefused, RecordingError
+from ._export import AUDIO_COLUMNS, HEAD_COLUMNS, ExportedFile, export_recording
+from ._mcap_file import DEFAULT_CHUNK_SIZE, McapFile, WriteFailed
+from ._messages import (
+    AUDIO_DATA_STAMPED, AUDIO_FRAMES, AUDIO_INFO, HEADER, IMAGE, JOINT_STATE, LASER_SCAN, ODOMETRY, POSE_STAMPED,
+)
+from ._paths import SUFFIX, create_recording, open_recording
+from ._ports import AUDIO_TYPES, AudioRecorder, ImageRecorder, JsonRecorder, PortRecorder, RecordedPort, stamp_of
+from ._reader import AudioChunk, PortMessage, RecordingReader, SessionEventRecord
+from ._recording import EVENTS_TYPE, EventRecorder, Recording, RecordingCounts
+from ._writer import DEFAULT_QUEUE_BYTES, RecordingWriter
+
+__all__ = [
+    # Recording
+    "Recording", "RecordingCounts", "PortRecorder", "AudioRecorder", "ImageRecorder", "JsonRecorder",
+    "RecordedPort", "EventRecorder", "EVENTS_TYPE", "AUDIO_TYPES", "stamp_of",
+    # The file and its writer
+    "McapFile", "RecordingWriter", "WriteFailed", "DEFAULT_CHUNK_SIZE", "DEFAULT_QUEUE_BYTES",
+    # Paths
+    "create_recording", "open_recording", "SUFFIX",
+    # Reading and exporting
+    "RecordingReader", "AudioChunk", "PortMessage", "SessionEventRecord", "export_recording", "ExportedFile",
+    "AUDIO_COLUMNS", "HEAD_COLUMNS",
+    # Message types
+    "MessageType", "Field", "CdrError", "HEADER", "AUDIO_DATA_STAMPED", "AUDIO_FRAMES", "AUDIO_INFO", "JOINT_STATE",
+    "IMAGE", "LASER_SCAN", "ODOMETRY", "POSE_STAMPED",
+    # Errors
+    "RecordingError", "PathRefused", "NotARecording",
+]

@@ -1,0 +1,238 @@
+"""Reading a recording back: its audio chunk by chunk with their frame indexes, its ports as they were published.
+
+Used by the export (WAV and CSV), by captures that replay a recording (``mcap:PATH``) and by
+the ``replay`` component.  Messages come in the order they were received, one chunk of the
+file in memory at a time (the mcap reader decompresses whole chunks).  Blocking: run it off
+the event loop.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterator, Mapping
+from typing import Any, BinaryIO
+
+import numpy as np
+import numpy.typing as npt
+import orjson
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
+from mcap.records import Channel
+from mcap.summary import Summary
+
+from ._cdr import CdrError
+from ._errors import NotARecording
+from ._messages import AUDIO_DATA_STAMPED, AUDIO_FRAMES, IMAGE
+from ._ports import PORT_KEY, ROLE_KEY, TYPE_KEY
+
+__all__ = ["RecordingReader", "AudioChunk", "PortMessage", "SessionEventRecord"]
+
+
+@dataclasses.dataclass(frozen=True)
+class AudioChunk:
+    """One recorded chunk of audio.
+
+    Attributes:
+        frames: ``(n, 2)`` int32 frames, left then right.
+        first_frame: The number of the first frame (frames count from 1 at the capture's start).
+        chunk: The capture's number of the chunk.
+        lost_frames: Frames the recording missed just before this chunk.
+        head_azimuth: Head azimuth at the chunk's end (degrees, positive left), NaN when unknown.
+        sample_rate: Frames per second.
+        capture_time: The capture's own time of the first frame (POSIX seconds on the rig's clock).
+        receive_time: When the recorder received it (POSIX seconds on the recorder's machine).
+    """
+
+    frames: npt.NDArray[np.int32]
+    first_frame: int
+    chunk: int
+    lost_frames: int
+    head_azimuth: float
+    sample_rate: int
+    capture_time: float
+    receive_time: float
+
+
+@dataclasses.dataclass(frozen=True)
+class PortMessage:
+    """One publication of a recorded port, as its data was (JSON-ready).
+
+    Attributes:
+        port: ``instance/port``.
+        data: The port's data (arrays as numpy arrays for pictures).
+        capture_time: Its time on the rig's clock (POSIX seconds).
+        receive_time: When the recorder received it.
+    """
+
+    port: str
+    data: Any
+    capture_time: float
+    receive_time: float
+
+
+@dataclasses.dataclass(frozen=True)
+class SessionEventRecord:
+    """One recorded event of a session.
+
+    Attributes:
+        event: ``request``, ``unload`` or ``quit``.
+        data: A request's status object, the instance or the session name.
+        receive_time: When the recorder received it.
+    """
+
+    event: str
+    data: Any
+    receive_time: float
+
+
+def _stamp(header: Mapping[str, Any]) -> float:
+    stamp = header["stamp"]
+    return float(stamp["sec"]) + float(stamp["nanosec"]) * 1e-9
+
+
+class RecordingReader:
+    """An MCAP recording open for reading.
+
+    Args:
+        stream: The file, open for reading in binary (seekable).
+        name: How to name it in messages.
+
+    Raises:
+        NotARecording: when it is not an MCAP file.
+    """
+
+    def __init__(self, stream: BinaryIO, name: str = "the recording") -> None:
+        self.name = name
+        self._stream = stream
+        try:
+            self._reader = make_reader(stream)
+            summary = self._reader.get_summary()
+        except (McapError, ValueError, OSError, EOFError) as exc:
+            raise NotARecording(f"{name} is not an MCAP file this reader reads: {exc}") from exc
+        if summary is None:
+            raise NotARecording(f"{name} has no summary: it was not ended (a recording that stopped writing "
+                                "still has one)")
+        self.summary: Summary = summary
+
+    def close(self) -> None:
+        """Close the file."""
+        self._stream.close()
+
+    def __enter__(self) -> RecordingReader:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- what it holds -----------------------------------------------------------------------
+
+    def channels(self, role: str | None = None) -> list[Channel]:
+        """The channels, in the order they were made (of one *role* only: ``audio``, ``port``...)."""
+        return [c for c in self.summary.channels.values() if role is None or c.metadata.get(ROLE_KEY) == role]
+
+    def audio_ports(self) -> list[str]:
+        """The recorded audio ports, as ``instance/port``."""
+        return [c.metadata[PORT_KEY] for c in self.channels("audio")]
+
+    def port_type(self, port: str) -> dict[str, Any]:
+        """The ``/info`` type description of the recorded port *port*."""
+        for channel in self.channels():
+            if channel.metadata.get(PORT_KEY) == port and TYPE_KEY in channel.metadata:
+                value: dict[str, Any] = orjson.loads(channel.metadata[TYPE_KEY])
+                return value
+        raise NotARecording(f"{self.name} has no port {port!r}")
+
+    def message_count(self, topic: str) -> int:
+        """How many messages the channel *topic* holds."""
+        counts = self.summary.statistics.channel_message_counts if self.summary.statistics else {}
+        return sum(counts.get(c.id, 0) for c in self.channels() if c.topic == topic)
+
+    def metadata(self) -> dict[str, dict[str, str]]:
+        """The file's metadata records by name (``aiogenomix``: what was recorded; ``aiogenomix.end``: how it ended)."""
+        return {record.name: dict(record.metadata) for record in self._reader.iter_metadata()}
+
+    # -- audio -------------------------------------------------------------------------------
+
+    def audio(self, port: str | None = None) -> Iterator[AudioChunk]:
+        """The chunks of an audio port, in the order they were captured.
+
+        Args:
+            port: ``instance/port``; None for the only one.
+
+        Raises:
+            NotARecording: when the recording has no such audio port (or several and none was named).
+        """
+        ports = self.audio_ports()
+        if port is None:
+            if len(ports) != 1:
+                listed = ", ".join(ports) or "none"
+                raise NotARecording(f"{self.name} holds {len(ports)} audio ports ({listed}): name one")
+            port = ports[0]
+        elif port not in ports:
+            raise NotARecording(f"{self.name} has no audio port {port!r} (audio ports: {', '.join(ports) or 'none'})")
+        topic, frames_topic = f"/{port}", f"/{port}/frames"
+        waiting: dict[int, tuple[Any, int]] = {}
+        try:
+            for _, channel, message in self._reader.iter_messages(topics=[topic, frames_topic]):
+                # A chunk is two messages of one sequence number, received together.
+                other = waiting.pop(message.sequence, None)
+                if other is None:
+                    waiting[message.sequence] = (message, 0)
+                    continue
+                audio, frames = (message, other[0]) if channel.topic == topic else (other[0], message)
+                yield self._chunk(audio.data, frames.data, message.log_time)
+        except (McapError, CdrError) as exc:
+            raise NotARecording(f"{self.name}: {exc}") from exc
+
+    @staticmethod
+    def _chunk(audio: bytes, frames: bytes, log_time: int) -> AudioChunk:
+        index = AUDIO_FRAMES.decode(frames)
+        samples = AUDIO_DATA_STAMPED.decode(audio)["audio"]["data"]
+        stereo = samples.view("<i4").reshape(-1, 2).astype(np.int32, copy=False)
+        return AudioChunk(frames=stereo, first_frame=int(index["first_frame"]), chunk=int(index["chunk"]),
+                          lost_frames=int(index["lost_frames"]), head_azimuth=float(index["head_azimuth"]),
+                          sample_rate=int(index["sample_rate"]), capture_time=_stamp(index["header"]),
+                          receive_time=log_time * 1e-9)
+
+    def sample_rate(self, port: str | None = None) -> int:
+        """The sample rate of an audio port (that of its first chunk; 0 when it has none)."""
+        for chunk in self.audio(port):
+            return chunk.sample_rate
+        return 0
+
+    # -- other ports and sessions -------------------------------------------------------------------
+
+    def sessions(self) -> list[str]:
+        """The sessions whose events were recorded."""
+        return [c.metadata["aiogenomix.session"] for c in self.channels("events")]
+
+    def session_events(self, session: str) -> Iterator[SessionEventRecord]:
+        """The recorded events of *session*, in the order they came."""
+        try:
+            for _, _, message in self._reader.iter_messages(topics=[f"/session/{session}/events"]):
+                body = orjson.loads(message.data)
+                yield SessionEventRecord(body["event"], body["data"], message.log_time * 1e-9)
+        except (McapError, orjson.JSONDecodeError, KeyError) as exc:
+            raise NotARecording(f"{self.name}: {exc}") from exc
+
+    def ports(self) -> list[str]:
+        """The recorded ports other than audio (JSON and picture channels), as ``instance/port``."""
+        return [c.metadata[PORT_KEY] for c in self.channels("port")]
+
+    def publications(self, ports: list[str] | None = None) -> Iterator[PortMessage]:
+        """The publications of the non-audio ports (of *ports* only, when given), in the order received."""
+        wanted = {c.topic: c for c in self.channels("port") if ports is None or c.metadata[PORT_KEY] in ports}
+        if not wanted:
+            return
+        try:
+            for _, channel, message in self._reader.iter_messages(topics=list(wanted)):
+                port = channel.metadata[PORT_KEY]
+                if channel.message_encoding == "json":
+                    data = orjson.loads(message.data)
+                else:
+                    image = IMAGE.decode(message.data)
+                    data = {"width": image["width"], "height": image["height"], "encoding": image["encoding"],
+                            "step": image["step"], "data": image["data"]}
+                yield PortMessage(port, data, message.publish_time * 1e-9, message.log_time * 1e-9)
+        except (McapError, CdrError, orjson.JSONDecodeError) as exc:
+            raise NotARecording(f"{self.name}: {exc}") from exc

@@ -1,0 +1,187 @@
+"""The writer thread of a recording: the event loop hands over encoded messages, a thread compresses and writes them.
+
+Compressing and writing take milliseconds per chunk and may block on a slow or full
+disk; none of it happens on the event loop, which only appends to a queue.  The queue
+is bounded in bytes: a recorder that finds it full waits (:meth:`RecordingWriter.wait_room`)
+instead of queueing more, and what it cannot take meanwhile is counted where it is lost
+(the audio window turns over, a watch coalesces publications), never held in memory.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import dataclasses
+import threading
+from typing import BinaryIO
+
+from ._mcap_file import DEFAULT_CHUNK_SIZE, McapFile, WriteFailed
+
+__all__ = ["RecordingWriter", "DEFAULT_QUEUE_BYTES"]
+
+#: Bytes of messages the loop may have handed over that the thread has not written yet.
+DEFAULT_QUEUE_BYTES = 32 << 20
+
+
+@dataclasses.dataclass(frozen=True)
+class _Op:
+    kind: str
+    args: tuple[object, ...]
+    size: int = 0
+
+
+class RecordingWriter:
+    """An :class:`~._mcap_file.McapFile` written by a thread of its own; its methods are for the event loop.
+
+    Args:
+        stream: The file (unbuffered, at its start).
+        queue_bytes: The most message bytes handed over and not yet written.
+        chunk_size: Uncompressed bytes per MCAP chunk.
+        library: Who writes the file (in its header).
+    """
+
+    def __init__(self, stream: BinaryIO, *, queue_bytes: int = DEFAULT_QUEUE_BYTES,
+                 chunk_size: int = DEFAULT_CHUNK_SIZE, library: str = "aiogenomix") -> None:
+        self._loop = asyncio.get_running_loop()
+        self._stream, self._library, self._chunk_size = stream, library, chunk_size
+        self._file: McapFile | None = None  # made by the thread: even the header is written there
+        self._failure: OSError | None = None
+        self._limit = queue_bytes
+        self._ops: collections.deque[_Op] = collections.deque()
+        self._ready = threading.Condition()
+        self._pending = 0
+        self._closing = False
+        self._schemas = 0
+        self._channels = 0
+        self._room = asyncio.Event()
+        self._room.set()
+        #: Set (on the loop) when the file failed: the recording must stop.
+        self.failed = asyncio.Event()
+        #: Messages handed over so far.
+        self.messages_queued = 0
+        self._thread = threading.Thread(target=self._run, name="aiogenomix recording writer", daemon=True)
+        self._thread.start()
+
+    # -- the loop's side ---------------------------------------------------------------------------
+
+    @property
+    def failure(self) -> OSError | None:
+        """Why the file could not be written (None while it can)."""
+        return self._failure or (self._file.failure if self._file is not None else None)
+
+    @property
+    def bytes_written(self) -> int:
+        """Bytes of the file that readers get (whole records)."""
+        return self._file.committed if self._file is not None else 0
+
+    @property
+    def messages_written(self) -> int:
+        """Messages in the chunks written so far."""
+        return self._file.messages if self._file is not None else 0
+
+    @property
+    def pending_bytes(self) -> int:
+        """Message bytes handed over and not yet written."""
+        return self._pending
+
+    def has_room(self) -> bool:
+        """Whether the queue takes more messages now."""
+        return self._pending < self._limit
+
+    async def wait_room(self) -> None:
+        """Wait until the queue takes more messages (at once when it does)."""
+        while not self.has_room() and not self.failed.is_set():
+            self._room.clear()
+            await self._room.wait()
+
+    def _put(self, op: _Op) -> None:
+        if self._closing:
+            raise RuntimeError("the recording writer is closed")
+        with self._ready:
+            self._ops.append(op)
+            self._pending += op.size
+            self._ready.notify()
+
+    def schema(self, name: str, encoding: str, data: bytes) -> int:
+        """Register a schema; return the id its channels name."""
+        self._schemas += 1
+        self._put(_Op("schema", (name, encoding, data), len(data)))
+        return self._schemas
+
+    def channel(self, topic: str, message_encoding: str, schema_id: int, metadata: dict[str, str] | None = None
+                ) -> int:
+        """Register a channel; return the id its messages name."""
+        self._channels += 1
+        self._put(_Op("channel", (topic, message_encoding, schema_id, dict(metadata or {}))))
+        return self._channels
+
+    def metadata(self, name: str, values: dict[str, str]) -> None:
+        """Add a metadata record."""
+        self._put(_Op("metadata", (name, dict(values))))
+
+    def message(self, channel_id: int, log_time: int, publish_time: int, sequence: int, data: bytes) -> None:
+        """Hand over one message (never blocks: check :meth:`has_room` or await :meth:`wait_room` first)."""
+        self.messages_queued += 1
+        self._put(_Op("message", (channel_id, log_time, publish_time, sequence, data), len(data)))
+
+    async def close(self) -> None:
+        """Write what is queued, end the file (summary, footer), and stop the thread (idempotent).
+
+        Raises:
+            WriteFailed: when the file could not be written whole; what it holds stays readable.
+        """
+        if not self._closing:
+            self._put(_Op("finish", ()))
+            self._closing = True
+        await asyncio.to_thread(self._thread.join)
+        failure = self.failure
+        if failure is not None:
+            raise WriteFailed(failure.errno, failure.strerror or str(failure))
+
+    # -- the thread's side -------------------------------------------------------------------------
+
+    def _take(self) -> _Op:
+        with self._ready:
+            while not self._ops:
+                self._ready.wait()
+            return self._ops.popleft()
+
+    def _run(self) -> None:
+        try:
+            file = self._file = McapFile(self._stream, library=self._library, chunk_size=self._chunk_size)
+        except OSError as exc:
+            self._failure = exc
+            self._stream.close()
+            self._loop.call_soon_threadsafe(self.failed.set)
+            file = None
+        while True:
+            op = self._take()
+            if op.kind == "finish":
+                try:
+                    if file is not None:
+                        file.finish()
+                except WriteFailed:
+                    pass  # the loop reads file.failure when the thread has ended
+                return
+            try:
+                if file is not None and file.failure is None:
+                    if op.kind == "message":
+                        file.add_message(*op.args)  # type: ignore[arg-type]
+                    elif op.kind == "schema":
+                        file.add_schema(*op.args)  # type: ignore[arg-type]
+                    elif op.kind == "channel":
+                        file.add_channel(*op.args)  # type: ignore[arg-type]
+                    elif op.kind == "metadata":
+                        file.add_metadata(*op.args)  # type: ignore[arg-type]
+            except WriteFailed:
+                self._loop.call_soon_threadsafe(self.failed.set)
+            except Exception as exc:  # a bug must not leave the loop waiting for room forever
+                if file is not None and file.failure is None:
+                    file.failure = OSError(0, f"the recording writer failed: {type(exc).__name__}: {exc}")
+                self._loop.call_soon_threadsafe(self.failed.set)
+            finally:
+                with self._ready:
+                    self._pending -= op.size
+                    room = self._pending < self._limit // 2 or not self._ops
+                if room and not self._room.is_set():
+                    self._loop.call_soon_threadsafe(self._room.set)

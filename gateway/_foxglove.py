@@ -1,0 +1,334 @@
+"""The live view in Foxglove and Lichtblick: the loaded instances' ports served by the Foxglove SDK's server.
+
+``--foxglove PORT`` starts the SDK's server (the Foxglove WebSocket protocol,
+``foxglove.websocket.v1``'s messages under the SDK's subprotocol name ``foxglove.sdk.v1``)
+beside the gateway.  Every out port of every loaded instance is a channel, added when the
+instance loads and closed when it unloads, in the type Foxglove's panels show:
+
+* the head's state (``::kemar::state``): ``foxglove.JointStates``, joint ``head_yaw`` in radians;
+* camera pictures: ``foxglove.RawImage``; laser scans: ``foxglove.LaserScan``; odometry:
+  ``foxglove.Odometry``; stamped poses: ``foxglove.PoseInFrame``;
+* audio (``capture``, ``kemarcapture``, ``bass``): ``foxglove.RawAudio``, whose only format is
+  ``pcm-s16``: each int32 sample is shown by its upper 16 bits (exactly what a 16-bit sound card
+  captured: our captures left-justify samples into 32 bits), every chunk once;
+* any other port: its JSON with its JSON Schema, as ``/read`` gives it.
+
+A port is read and encoded only while a viewer subscribes to its channel.  The SDK queues each
+viewer's messages apart and drops a slow viewer's oldest: publishing never waits for a viewer,
+and the gateway's own clients never wait for the view.  The server does not check the gateway's
+token, Host or Origin (decision 0032): it binds the loopback address unless told otherwise.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import math
+import time
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+import orjson
+
+from ..components.core import Incremental, OutPortRuntime, json_schema
+from ..components.core.runtime import LoadedInstance
+
+__all__ = ["FoxgloveView", "FoxgloveUnavailable", "LOOPBACK", "BACKLOG"]
+
+log = logging.getLogger(__name__)
+
+#: Addresses that only this machine reaches.
+LOOPBACK = ("127.0.0.1", "::1", "localhost")
+#: Messages the server queues for one viewer before it drops the oldest: about a second of the world's
+#: traffic, at most 34 MB of 256×256 pictures per viewer (the SDK's default, 1024, would be 270 MB).
+BACKLOG = 128
+_NUMPY = orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS
+Json = Mapping[str, Any]
+
+
+class FoxgloveUnavailable(RuntimeError):
+    """The Foxglove SDK is not installed (``pip install "aiogenomix[foxglove]"``), or its server cannot start."""
+
+
+def _seconds(stamp: Any) -> float | None:
+    if isinstance(stamp, Mapping) and "tv_sec" in stamp:
+        seconds = float(stamp["tv_sec"]) + float(stamp.get("tv_nsec", 0)) * 1e-9
+        return seconds if seconds > 0 else None
+    return None
+
+
+def _stamp(data: Json, fallback: float) -> float:
+    for key in ("timestamp", "stamp", "ts"):
+        seconds = _seconds(data.get(key))
+        if seconds is not None:
+            return seconds
+    header = data.get("header")
+    if isinstance(header, Mapping):
+        return _seconds(header.get("stamp")) or fallback
+    return fallback
+
+
+def _number(value: Any) -> float:
+    return math.nan if value is None else float(value)
+
+
+class _Channel:
+    """One port shown in the view: its SDK channel and how its data becomes a message."""
+
+    def __init__(self, channel: Any, convert: Callable[[Json, float], Any] | None, audio: bool = False) -> None:
+        self.channel = channel
+        self.convert = convert
+        self.audio = audio
+        #: Set when a viewer subscribes: it gets the port's current data at once, not at its next publication.
+        self.subscribed = asyncio.Event()
+
+
+class _Subscriptions:
+    """The SDK's server listener: tells the view, on its event loop, which channel a viewer subscribed to."""
+
+    def __init__(self, loop: asyncio.AbstractEventLoop, notify: Callable[[int], None]) -> None:
+        self._loop, self._notify = loop, notify
+
+    def on_subscribe(self, client: Any, channel: Any) -> None:
+        # Called on one of the SDK's threads.
+        self._loop.call_soon_threadsafe(self._notify, int(channel.id))
+
+    def on_unsubscribe(self, client: Any, channel: Any) -> None:
+        """Nothing to do: the channel's subscribers are asked at each publication (``has_sinks``)."""
+
+
+class FoxgloveView:
+    """The Foxglove WebSocket server of a gateway, showing the ports of its loaded instances.
+
+    Args:
+        address: The address to bind (the loopback address unless the operator says otherwise).
+        port: The TCP port (0 picks a free one).
+        name: The server's name, shown by the viewer.
+    """
+
+    def __init__(self, address: str, port: int, name: str = "aiogenomix") -> None:
+        self.address, self.requested_port, self.name = address, port, name
+        self._fox: Any = None
+        self._context: Any = None
+        self._server: Any = None
+        self._followers: dict[str, list[asyncio.Task[None]]] = {}
+        self._channels: dict[str, list[Any]] = {}
+        self._shown: dict[int, _Channel] = {}
+
+    @property
+    def port(self) -> int:
+        """The TCP port the server listens on (0 before :meth:`start`)."""
+        return int(self._server.port) if self._server is not None else 0
+
+    def start(self, instances: Mapping[str, LoadedInstance]) -> None:
+        """Start the server and show the ports of *instances* (call on the event loop).
+
+        Raises:
+            FoxgloveUnavailable: when the SDK is missing or the server cannot listen.
+        """
+        try:
+            import foxglove
+        except ImportError as exc:
+            raise FoxgloveUnavailable('the Foxglove view needs the Foxglove SDK: pip install "aiogenomix[foxglove]"'
+                                      ) from exc
+        self._fox = foxglove
+        self._context = foxglove.Context()
+        try:
+            listener: Any = _Subscriptions(asyncio.get_running_loop(), self._subscribed)  # the SDK's ServerListener
+            self._server = foxglove.start_server(name=self.name, host=self.address, port=self.requested_port,
+                                                 context=self._context, server_listener=listener,
+                                                 message_backlog_size=BACKLOG)
+        except Exception as exc:  # the SDK raises its own error types for an address it cannot bind
+            raise FoxgloveUnavailable(f"the Foxglove view cannot listen on {self.address}:{self.requested_port}: "
+                                      f"{exc}") from exc
+        log.info("Foxglove view listening on ws://%s:%d", self.address, self.port)
+        for component in instances.values():
+            self.show(component)
+
+    async def stop(self) -> None:
+        """Stop following the ports, close the channels, stop the server (idempotent)."""
+        for instance in list(self._followers):
+            await self.hide(instance)
+        server, self._server = self._server, None
+        if server is not None:
+            await asyncio.to_thread(server.stop)
+
+    # -- instances come and go ------------------------------------------------------------------
+
+    def show(self, component: LoadedInstance) -> None:
+        """Add a channel for each out port of *component* (a loaded instance) and follow it.
+
+        A port the view cannot show is left out (and logged): the load it follows goes on.
+        """
+        try:
+            self._show(component)
+        except Exception:
+            log.exception("the Foxglove view cannot show %s", component.instance)
+
+    def _show(self, component: LoadedInstance) -> None:
+        if self._server is None or component.instance in self._followers:
+            return
+        tasks, channels = [], []
+        for described in component.description().get("ports", []):
+            if described.get("dir") != "out" or described.get("kind") == "multiple":
+                continue
+            port = component.port(described["name"])
+            if not isinstance(port, OutPortRuntime):
+                continue
+            topic = f"/{component.instance}/{described['name']}"
+            shown = self._channel_for(topic, described, component.instance)
+            self._shown[int(shown.channel.id())] = shown
+            channels.append(shown.channel)
+            tasks.append(asyncio.create_task(self._follow(port, shown), name=f"foxglove {topic}"))
+        self._followers[component.instance] = tasks
+        self._channels[component.instance] = channels
+
+    def _subscribed(self, channel_id: int) -> None:
+        shown = self._shown.get(channel_id)
+        if shown is not None:
+            shown.subscribed.set()
+
+    async def hide(self, instance: str) -> None:
+        """Close the channels of an unloaded instance."""
+        tasks = self._followers.pop(instance, [])
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+        for channel in self._channels.pop(instance, []):
+            self._shown.pop(int(channel.id()), None)
+            with contextlib.suppress(Exception):
+                channel.close()
+
+    # -- how each kind of port is shown -------------------------------------------------------
+
+    def _channel_for(self, topic: str, described: Json, instance: str) -> _Channel:
+        fox: Any = self._fox
+        channels, messages = fox.channels, fox.messages
+        context = self._context
+        kind = str(described["type"].get("name", ""))
+        if kind in ("::capture::port_t", "::kemarcapture::port_t", "::binaudio::portStruct"):
+            return _Channel(channels.RawAudioChannel(topic, context=context), None, audio=True)
+        if kind == "::kemar::state":
+            def head(data: Json, stamp: float) -> Any:
+                return messages.JointStates(timestamp=_time(fox, stamp), joints=[messages.JointState(
+                    name="head_yaw", position=math.radians(_number(data.get("position"))),
+                    velocity=math.radians(_number(data.get("speed"))))])
+            return _Channel(channels.JointStatesChannel(topic, context=context), head)
+        if kind == "::subscriber::sensor_msgs__Image":
+            frame = described["name"]
+
+            def image(data: Json, stamp: float) -> Any:
+                pixels = data.get("data", b"")
+                raw = pixels.tobytes() if isinstance(pixels, np.ndarray) else bytes(np.asarray(pixels, np.uint8))
+                return messages.RawImage(timestamp=_time(fox, stamp), frame_id=frame, width=int(data["width"]),
+                                         height=int(data["height"]), encoding=str(data["encoding"]),
+                                         step=int(data["step"]), data=raw)
+            return _Channel(channels.RawImageChannel(topic, context=context), image)
+        if kind == "::subscriber::sensor_msgs__LaserScan":
+            def scan(data: Json, stamp: float) -> Any:
+                header = data.get("header") or {}
+                return messages.LaserScan(
+                    timestamp=_time(fox, stamp), frame_id=str(header.get("frame_id", "")),
+                    start_angle=_number(data.get("angle_min")), end_angle=_number(data.get("angle_max")),
+                    ranges=[_number(r) for r in data.get("ranges", [])])
+            return _Channel(channels.LaserScanChannel(topic, context=context), scan)
+        if kind == "::world::odometry":
+            def odometry(data: Json, stamp: float) -> Any:
+                yaw = _number(data.get("w"))
+                pose = messages.Pose(position=messages.Vector3(x=_number(data.get("x")), y=_number(data.get("y")), z=0),
+                                     orientation=messages.Quaternion(x=0, y=0, z=math.sin(yaw / 2),
+                                                                     w=math.cos(yaw / 2)))
+                return messages.Odometry(
+                    timestamp=_time(fox, stamp), frame_id="map", body_frame_id="base_footprint", pose=pose,
+                    linear_velocity=messages.Vector3(x=_number(data.get("vx")), y=_number(data.get("vy")), z=0),
+                    angular_velocity=messages.Vector3(x=0, y=0, z=_number(data.get("vw"))))
+            return _Channel(channels.OdometryChannel(topic, context=context), odometry)
+        if kind == "::subscriber::geometry_msgs__PoseStamped":
+            def posed(data: Json, stamp: float) -> Any:
+                pose = data.get("pose") or {}
+                at, turn = pose.get("position") or {}, pose.get("orientation") or {}
+                return messages.PoseInFrame(
+                    timestamp=_time(fox, stamp), frame_id=str((data.get("header") or {}).get("frame_id", "")),
+                    pose=messages.Pose(position=messages.Vector3(**{k: _number(at.get(k)) for k in "xyz"}),
+                                       orientation=messages.Quaternion(**{k: _number(turn.get(k)) for k in "xyzw"})))
+            return _Channel(channels.PoseInFrameChannel(topic, context=context), posed)
+        schema = json_schema(described["type"], title=topic, doc=str(described.get("doc") or ""))
+        channel = fox.Channel(topic, message_encoding="json", context=context, schema=fox.Schema(
+            name=kind or topic, encoding="jsonschema", data=orjson.dumps(schema)))
+        return _Channel(channel, None)
+
+    async def _follow(self, port: OutPortRuntime[Any], shown: _Channel) -> None:
+        delivered = port.version
+        since: int | None = None
+        channel = shown.channel
+        subscribed: asyncio.Future[Any] | None = None
+        try:
+            while True:
+                if port.version <= delivered and not shown.subscribed.is_set():
+                    if subscribed is None or subscribed.done():
+                        subscribed = asyncio.ensure_future(shown.subscribed.wait())
+                    # The next publication, or a new viewer (who gets the current data at once).
+                    await asyncio.wait([port.next_publication(), subscribed], return_when=asyncio.FIRST_COMPLETED)
+                    continue
+                shown.subscribed.clear()
+                delivered = port.version
+                if not channel.has_sinks() or (port.version == 0 and not shown.audio):
+                    since = None  # nobody watches: nothing read, nothing encoded
+                    continue
+                value = port.read()
+                now = time.time()
+                if shown.audio:
+                    since = self._log_audio(channel, port, value, since, now)
+                    continue
+                data = port.type.encode(value)
+                stamp = _stamp(data, now) if isinstance(data, Mapping) else now
+                if shown.convert is not None:
+                    channel.log(shown.convert(data, stamp), log_time=int(stamp * 1e9))
+                else:
+                    channel.log(orjson.dumps(data, option=_NUMPY), log_time=int(stamp * 1e9))
+        except asyncio.CancelledError:
+            raise
+        except Exception:
+            log.exception("the Foxglove view stopped showing %s", channel.topic())
+        finally:
+            if subscribed is not None:
+                subscribed.cancel()
+
+    def _log_audio(self, channel: Any, port: OutPortRuntime[Any], value: Any, since: int | None,
+                   now: float) -> int | None:
+        """Log the audio published since *since* (the newest chunk when None); return the new index."""
+        if not isinstance(value, Incremental):
+            return None
+        newest = value.index
+        per_publication = int(getattr(value, "items_per_publication", 1))
+        start = max(0, newest - per_publication) if since is None or since > newest else since
+        if newest <= start:
+            return newest
+        data, lost = value.since(start)
+        encoded = port.type.encode(data)
+        left = np.asarray(encoded.get("left", ()), dtype=np.int32)
+        right = np.asarray(encoded.get("right", ()), dtype=np.int32)
+        rate = int(encoded.get("transfer_rate", encoded.get("sampleRate", 0)))
+        if not left.size or not rate:
+            return newest
+        stereo = np.empty((left.size, 2), dtype="<i2")
+        # pcm-s16 is what RawAudio carries: the upper 16 bits of each left-justified int32 sample.
+        stereo[:, 0], stereo[:, 1] = left >> 16, right >> 16
+        start_of_capture = _seconds(encoded.get("ts"))
+        if start_of_capture is not None and newest - start - lost > 0:
+            # capture: chunk k starts at ts + (k - 1) * frames per chunk / rate
+            frames_per_chunk = left.size // (newest - start - lost)
+            stamp = start_of_capture + (start + lost) * frames_per_chunk / rate
+        else:
+            stamp = now - left.size / rate  # bass: its port carries no time
+        fox = self._fox
+        channel.log(fox.messages.RawAudio(timestamp=_time(fox, stamp), data=stereo.tobytes(), format="pcm-s16",
+                                          sample_rate=rate, number_of_channels=2), log_time=int(now * 1e9))
+        return newest
+
+
+def _time(fox: Any, seconds: float) -> Any:
+    whole = math.floor(seconds)
+    return fox.messages.Timestamp(sec=int(whole), nsec=min(999_999_999, int(round((seconds - whole) * 1e9))))

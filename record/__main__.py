@@ -1,0 +1,7 @@
+"""``python -m aiogenomix.record``: the same as ``aiogenomix-record``."""
+
+import sys
+
+from ._command import main
+
+sys.exit(main())

@@ -1,0 +1,128 @@
+"""``aiogenomix-record``: a recording made over HTTP, from any machine, with a session's request events.
+
+The gateway's rig runs on a clock the test steps; the recording reads the gateway as any
+remote client would (``watch?since=``, ``read?since=``, ``session/listen``).  Ctrl-C is tried
+on the real command in a process of its own.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import signal
+import sys
+from collections.abc import AsyncIterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aiogenomix.clients import aconnect
+from aiogenomix.components.core import ComponentHost, HostSettings, ManualClock, ScaledClock
+from aiogenomix.components.recording import RecordingCounts, RecordingReader
+from aiogenomix.gateway import GatewayConfig, serve
+from aiogenomix.record import PortNotFound, record_over_http
+
+FPC = 2205
+
+
+@pytest.fixture
+async def stepped() -> AsyncIterator[tuple[str, ManualClock]]:
+    clock = ManualClock()
+    async with ComponentHost(clock=clock, settings=HostSettings(can_timeout=10.0, audio_socket_port=0)) as host, \
+            serve(GatewayConfig(port=0), host) as url:
+        yield url, clock
+
+
+class Progress:
+    """The recording's progress as the command line reports it; awaitable until a port reaches an index."""
+
+    def __init__(self) -> None:
+        self.counts: RecordingCounts | None = None
+        self.changed = asyncio.Event()
+
+    def __call__(self, counts: RecordingCounts, elapsed: float) -> None:
+        self.counts = counts
+        self.changed.set()
+
+    async def until(self, port: str, index: int) -> None:
+        while self.counts is None or self.counts.ports.get(port, {}).get("index", 0) < index:
+            self.changed.clear()
+            await self.changed.wait()
+
+
+async def test_a_recording_over_http_has_every_frame_once_and_the_sessions_requests(
+        stepped: tuple[str, ManualClock], tmp_path: Path) -> None:
+    url, clock = stepped
+    output = tmp_path / "over_http.mcap"
+    async with aconnect(url, session="lab") as lab:
+        capture = await lab.load("kemarcapture")
+        await clock.run_until(capture.Homing())
+        await capture.StartCapture(device="sim", Port_chunks=400, ack=True)
+        await clock.advance(1.0)
+        stop, progress = asyncio.Event(), Progress()
+        recording = asyncio.create_task(record_over_http(
+            url, ["kemarcapture/Port", "kemarcapture/currentState"], str(output), session="lab", stop=stop,
+            progress=progress, progress_period=0.02))
+        await progress.until("kemarcapture/Port", 1)  # the recording follows the port
+        await clock.run_until(capture.MoveAbsolutePosition(target=-30))
+        await clock.advance(10.0 - clock.now() % 1)
+        await capture.StopCapture()
+        newest = (await capture.Port(since=2**62))[0].index
+        await progress.until("kemarcapture/Port", newest)
+        stop.set()
+        path, counts, ended = await recording
+        port, lost = await capture.Port(since=0)
+    assert ended == "stopped" and path == str(output) and counts.lost_frames == 0
+    with open(output, "rb") as stream, RecordingReader(stream) as reader:
+        chunks = list(reader.audio("kemarcapture/Port"))
+        told = list(reader.session_events("lab"))
+    numbers = [c.chunk for c in chunks]
+    assert numbers == list(range(numbers[0], newest + 1)) and len(numbers) > 150
+    frames = np.concatenate([c.frames for c in chunks])
+    start = (numbers[0] - (port.index - len(port.left) // FPC + 1)) * FPC
+    np.testing.assert_array_equal(frames[:, 0], np.asarray(port.left)[start:start + len(frames)])
+    np.testing.assert_array_equal(frames[:, 1], np.asarray(port.right)[start:start + len(frames)])
+    # The session's requests, as its listen stream told them.
+    moves = [e.data for e in told if e.event == "request" and e.data["id"].startswith("kemarcapture")]
+    assert [m["status"] for m in moves if m.get("output", {}).get("position") is not None] == ["done"]
+    assert any(m["status"] == "sent" for m in moves)
+
+
+async def test_an_unknown_port_is_refused_before_any_file(stepped: tuple[str, ManualClock], tmp_path: Path) -> None:
+    url, _ = stepped
+    async with aconnect(url) as client:
+        await client.load("kemarcapture")
+    for port, why in (("kemarcapture/Nope", "kemarcapture has no out port 'Nope'"),
+                      ("nobody/Port", "no instance 'nobody' is loaded"), ("Port", "name a port as INSTANCE/PORT")):
+        with pytest.raises(PortNotFound, match=why):
+            await record_over_http(url, ["kemarcapture/Port", port], str(tmp_path / "x.mcap"), duration=1)
+    assert not (tmp_path / "x.mcap").exists()
+
+
+async def test_ctrl_c_ends_the_command_cleanly_with_a_readable_file(tmp_path: Path) -> None:
+    """The command line itself, in a process of its own, stopped by SIGINT as Ctrl-C stops it."""
+    output = tmp_path / "ctrl_c.mcap"
+    settings = HostSettings(audio_socket_port=0)
+    async with ComponentHost(clock=ScaledClock(5.0), settings=settings) as host, \
+            serve(GatewayConfig(port=0), host) as url:
+        capture = await host.load("kemarcapture")
+        running = await capture.send("StartCapture", {"device": "sim", "Port_chunks": 400})
+        command = await asyncio.create_subprocess_exec(
+            sys.executable, "-m", "aiogenomix.record", url, "kemarcapture/Port", "-o", str(output),
+            stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+        assert command.stderr is not None
+        first = await asyncio.wait_for(command.stderr.readline(), 60)
+        assert b" s " in first and b"frames lost" in first  # the progress line: the recording runs
+        command.send_signal(signal.SIGINT)
+        assert command.stdout is not None
+        rest, errors = await asyncio.wait_for(asyncio.gather(command.stdout.read(), command.stderr.read()), 60)
+        assert await command.wait() == 0
+        await capture.interrupt(running, by="test")
+    said = rest.decode()
+    assert said.startswith(f"aiogenomix-record: {output}:") and said.rstrip().endswith("(stopped)")
+    assert "Traceback" not in errors.decode()
+    with open(output, "rb") as stream, RecordingReader(stream) as reader:
+        assert reader.metadata()["aiogenomix.end"]["ended"] == "stopped"
+        numbers = [c.chunk for c in reader.audio()]
+    assert numbers and numbers == list(range(numbers[0], numbers[0] + len(numbers)))
