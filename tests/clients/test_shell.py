@@ -151,12 +151,25 @@ def shell(gateway: str, events: SessionEvents, tmp_path: Any) -> Iterator[Any]:
 
 
 def printed_until_prompt(child: Any, number: int) -> list[str]:
-    """The lines the terminal shows below a one-line command, up to prompt *number*; no escapes, no blank lines.
+    """The lines the terminal shows below a one-line command, above prompt *number*; no escapes, no blank lines.
 
+    The shell writes through prompt_toolkit's stdout proxy, whose thread may write a line after the
+    next prompt is drawn: it then erases that prompt, writes the line and draws the prompt again, so
+    the screen shows the line above it.  Read on until a drawing of prompt *number* follows what the
+    command printed (a command whose output never comes fails at pexpect's timeout).
     (The previous prompt was matched: what comes before this one starts with the rest of its line.)
     """
     child.expect(PROMPT % number)
     _, *lines = ESCAPES.sub("", child.before).splitlines()
+    printed = _printed(lines)
+    while not printed:
+        child.expect(PROMPT % number)
+        # After a drawing of the prompt: the rest of the prompt (": "), then what was written above it.
+        printed = _printed(ESCAPES.sub("", child.before).removeprefix(":").splitlines())
+    return printed
+
+
+def _printed(lines: list[str]) -> list[str]:
     # The prompt line may be drawn again while the command runs (on a busy machine, as it is typed):
     # those redraws are not what the command printed.
     return [line.strip() for line in lines if line.strip() and not re.match(r"\s*In \[\d+\]:", line)]
