@@ -76,6 +76,8 @@ class RecordedPort:
         publications: Publications recorded.
         coalesced: Publications a watch skipped (their data was replaced before the recorder read it).
         lost_frames: Audio frames the recording missed (the window turned over before they were read).
+        unavailable: Reads that found the data withdrawn by its component (a sensor down): the
+            recorder waited for the next publication.
     """
 
     def __init__(self, name: str) -> None:
@@ -84,6 +86,7 @@ class RecordedPort:
         self.publications = 0
         self.coalesced = 0
         self.lost_frames = 0
+        self.unavailable = 0
 
     @property
     def index(self) -> int:
