@@ -26,7 +26,7 @@ from ._mcap_file import DEFAULT_CHUNK_SIZE, McapFile, WriteFailed
 from ._messages import (
     AUDIO_DATA_STAMPED, AUDIO_FRAMES, AUDIO_INFO, HEADER, IMAGE, JOINT_STATE, LASER_SCAN, ODOMETRY, POSE_STAMPED,
 )
-from ._paths import SUFFIX, create_recording, open_recording
+from ._paths import SUFFIX, create_recording, open_recording, replay_roots
 from ._ports import AudioRecorder, ImageRecorder, JsonRecorder, PortRecorder, RecordedPort
 from ._reader import AudioChunk, PortMessage, RecordingReader, SessionEventRecord
 from ._recording import EVENTS_TYPE, EventRecorder, Recording, RecordingCounts
@@ -42,7 +42,7 @@ __all__ = [
     # The file and its writer
     "McapFile", "RecordingWriter", "WriteFailed", "DEFAULT_CHUNK_SIZE", "DEFAULT_QUEUE_BYTES",
     # Paths
-    "create_recording", "open_recording", "SUFFIX",
+    "create_recording", "open_recording", "replay_roots", "SUFFIX",
     # Reading and exporting
     "RecordingReader", "AudioChunk", "PortMessage", "SessionEventRecord", "export_recording", "ExportedFile",
     "AUDIO_COLUMNS", "HEAD_COLUMNS",

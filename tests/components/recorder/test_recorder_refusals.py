@@ -60,6 +60,13 @@ async def test_a_path_outside_the_record_directory_is_refused_without_a_file(cap
     assert not (tmp_path / "elsewhere.mcap").exists()
 
 
+async def test_a_path_with_a_control_character_is_refused(capturing: ComponentHost, tmp_path: Path) -> None:
+    ended = await start(capturing, path="cut\x00short.mcap", ports=["kemarcapture/Port"])
+    assert ended["exception"]["ex"] == "::recorder::PATH_REFUSED"
+    assert "holds a control character ('\\x00')" in ended["exception"]["detail"]["what"]
+    assert list((tmp_path / "records").iterdir()) == []
+
+
 async def test_a_link_out_of_the_record_directory_is_refused(capturing: ComponentHost, tmp_path: Path) -> None:
     outside = tmp_path / "outside"
     outside.mkdir()
