@@ -22,7 +22,7 @@ from ._request import AsyncRequest
 from ._service import USE_CLIENT_DEFAULT, CallOptions, PortSpec, ServiceSpec
 from ._streams import PortEvent, SessionEvent, session_events, watch_port
 from ._tracker import RequestTracker
-from ._wire import base_url, check_info, parse_status
+from ._wire import GatewayClock, base_url, check_info, clock_of, parse_status
 
 __all__ = ["AsyncClient", "AsyncModule", "aconnect", "component_name"]
 
@@ -243,6 +243,10 @@ class AsyncClient:
         gateway = self._check_open()
         await gateway.get_text(f"/unload/{instance}", timeout=self._timeout(timeout), module=instance)
         self._modules.pop(instance, None)
+
+    async def clock(self, *, timeout: Any = USE_CLIENT_DEFAULT) -> GatewayClock | None:
+        """The gateway's clock now: the time its rig stamps the ports' data with (None from a genomixd)."""
+        return clock_of(await self._check_open().get_json("/", timeout=self._timeout(timeout)))
 
     async def loaded(self, *, timeout: Any = USE_CLIENT_DEFAULT) -> dict[str, str]:
         """The instances loaded on the gateway, ``{instance: component}``."""

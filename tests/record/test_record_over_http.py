@@ -8,6 +8,8 @@ on the real command in a process of its own.
 from __future__ import annotations
 
 import asyncio
+import csv
+import math
 import os
 import signal
 import sys
@@ -19,7 +21,7 @@ import pytest
 
 from aiogenomix.clients import aconnect
 from aiogenomix.components.core import ComponentHost, HostSettings, ManualClock, ScaledClock
-from aiogenomix.components.recording import RecordingCounts, RecordingReader
+from aiogenomix.components.recording import RecordingCounts, RecordingReader, export_recording
 from aiogenomix.gateway import GatewayConfig, serve
 from aiogenomix.record import PortNotFound, record_over_http
 
@@ -183,3 +185,35 @@ def newest_frame(data: object) -> int:
     if hasattr(data, "lastFrameIndex"):
         return int(data.lastFrameIndex)
     return int(data.index) * FPC  # type: ignore[attr-defined]
+
+
+async def test_bass_audio_over_http_is_stamped_on_the_rigs_clock(tmp_path: Path) -> None:
+    """A rig whose clock runs 20 times faster than real time: bass's audio (no time of its own) and the head's
+    azimuths (stamped by the rig) are recorded on one clock, so the export finds each chunk's azimuth."""
+    output = tmp_path / "scaled.mcap"
+    settings = HostSettings(can_timeout=10.0, audio_socket_port=0)
+    async with ComponentHost(clock=ScaledClock(20.0), settings=settings) as host, \
+            serve(GatewayConfig(port=0), host) as url, aconnect(url) as lab:
+        kemar, bass = await lab.load("kemar"), await lab.load("bass")
+        await kemar.Homing()
+        await bass.Acquire(device="sim", nChunksOnPort=400, ack=True)
+        stop, progress = asyncio.Event(), Progress()
+        recording = asyncio.create_task(record_over_http(url, ["bass/Audio", "kemar/currentState"], str(output),
+                                                         stop=stop, progress=progress, progress_period=0.02))
+        await progress.until("bass/Audio", 1)
+        await kemar.MoveAbsolutePosition(target=40)
+        await progress.until("bass/Audio", (await bass.Audio(since=2**62))[0].lastFrameIndex)
+        stop.set()
+        await recording
+        await bass.Stop()
+    export_recording(output, tmp_path / "export")
+    with open(tmp_path / "export" / "bass_Audio.csv", newline="") as table:
+        rows = list(csv.DictReader(table))
+    with open(tmp_path / "export" / "kemar_currentState.csv", newline="") as table:
+        heads = list(csv.DictReader(table))
+    audio_end = float(rows[-1]["capture_time_s"]) + int(rows[-1]["frames"]) / 44100
+    head_end = float(heads[-1]["capture_time_s"])
+    assert abs(audio_end - head_end) < 1.0, (audio_end, head_end)  # rig seconds (50 ms of real time)
+    azimuths = [float(row["azimuth_deg"]) for row in rows]
+    assert all(math.isfinite(a) for a in azimuths[1:])
+    assert azimuths[-1] == pytest.approx(40.0, abs=0.5) and min(azimuths[1:]) < 10.0  # it turned while recorded
