@@ -283,8 +283,15 @@ class AsyncClient:
     def session_events(self, session: str) -> AsyncIterator[SessionEvent]:
         """The events of any session (``request``, ``unload``, ``quit``) until it stops, for a logger or a recorder.
 
+        This is one more listener of the session.  A session not started yet is started by it
+        (genomix clients may listen before they start), and the events a session kept while
+        nobody listened go to the first listener that comes: listen after the session's own
+        client does, or those events come here instead of there.  A stream that drops is opened
+        again; the events of the time in between come only if nobody else listened meanwhile.
+
         Raises:
-            NotFound: when there is no such session.
+            InvalidInput: for a name that cannot name a session.
+            TransportError: when the stream drops and cannot be opened again.
         """
         return session_events(self._check_open(), session)
 

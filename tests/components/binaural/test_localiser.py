@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from aiogenomix.components.binaural import (
-    GRID_DEGREES, AzimuthLikelihood, BinauralLocaliser, BinauralRenderer, HrirSet, LocalisationError,
-    LocaliserSetup, combine_in_room, speech_like, white_noise,
+    GRID_DEGREES, AzimuthEstimate, AzimuthLikelihood, BinauralLocaliser, BinauralRenderer, FrontBackPolicy, HrirSet,
+    LocalisationError, LocaliserSetup, combine_in_room, speech_like, white_noise,
 )
 
 RATE = 24_414.0
@@ -172,3 +172,17 @@ def test_long_estimates_of_large_frames_hold_a_few_megabytes(kemar) -> None:
     assert learner.frames == 30 * block // setup.hop
     assert len(estimates) == 1 and estimates[0].frames == 200
     assert peak < 32 << 20, f"{peak / 2**20:.0f} MiB"
+
+
+def test_looks_near_a_limit_never_ask_twice_for_one_azimuth() -> None:
+    # The head starts at 70° (limits ±89.5°), the source on its left: the first look there (100°) is beyond the
+    # limit, so the looks go the other way, each from an azimuth not looked from before.
+    policy = FrontBackPolicy(turn=30.0, limits=(-89.5, 89.5), max_turns=4)
+    flat = AzimuthLikelihood(np.zeros(len(GRID_DEGREES)), "head")  # nothing learnt: never settled by confidence
+    policy.add(AzimuthEstimate(math.radians(30.0), 0.1, flat, 10, 1, head_azimuth=70.0))
+    policy.looked(70.0)
+    looks = []
+    while (target := policy.next_look()) is not None:
+        looks.append(target)
+        policy.looked(target)
+    assert looks == [40.0, 10.0, -20.0, -50.0]
