@@ -106,6 +106,7 @@ class ProgressLine:
             self.stream.flush()
 
     def end(self) -> None:
+        """End the progress line (on a terminal, the line redrawn in place is left as the last one)."""
         if self.tty:
             self.stream.write("\n")
 

@@ -20,6 +20,7 @@ from ..core import (
     Component, Double, InPortRuntime, InPort, Out, OutPort, Task, ULong, activity, function, redeclare,
 )
 from ..kemarcapture import KemarPortData
+from ..recording import AUDIO_TYPES
 from ._feed import AudioBlock, NotStreaming, PortFeed
 from ._types import AzimuthsData, SourceData, Window, e_head, e_noData, e_noHead, e_rate, e_setup
 
@@ -27,8 +28,8 @@ __all__ = ["Binauloc", "AUDIO_PORTS"]
 
 log = logging.getLogger(__name__)
 
-#: The audio in ports, each reading one kind of port, and what its port numbers.
-AUDIO_PORTS = {"Audio": "frames", "CapturePort": "chunks", "KemarPort": "chunks"}
+#: The audio in ports, each reading one kind of port (what its port numbers, frames or chunks, its type says).
+AUDIO_PORTS = ("Audio", "CapturePort", "KemarPort")
 #: The services that analyse the audio; each interrupts the others (one localiser, one stream).
 ANALYSES = ("LearnNoise", "LocalizeSources", "FaceSource")
 #: Bounds of Setup: an analysis a client may ask for holds at most this much memory and time per estimate.
@@ -93,7 +94,7 @@ class Binauloc(Component, name="binauloc", version="1.0"):
         assert isinstance(port, InPortRuntime)
         # kemarcapture carries the head's azimuth with each chunk; otherwise it is read as the audio arrives.
         position = None if name == "KemarPort" or head is None else head.position
-        return PortFeed(port, "frames" if AUDIO_PORTS[name] == "frames" else "chunks", position)
+        return PortFeed(port, AUDIO_TYPES[port.type.name], position)
 
     async def _localiser_for(self, rate: int) -> BinauralLocaliser:
         """The localiser of the current setup at the port's *rate* (built on first use, off the event loop)."""
