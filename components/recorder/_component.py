@@ -24,6 +24,8 @@ log = logging.getLogger(__name__)
 
 #: Runtime seconds between two publications of the Status port while recording.
 STATUS_PERIOD = 0.5
+#: What a read gives while the component has withdrawn the port's data.
+_WITHDRAWN = object()
 
 
 class Recorder(Component, name="recorder", version="1.0"):
@@ -227,10 +229,10 @@ class Recorder(Component, name="recorder", version="1.0"):
 
     @staticmethod
     def _current(port: OutPortRuntime[Any], recorder: AudioRecorder | ImageRecorder | JsonRecorder) -> Any:
-        """The port's data, or None while its component has withdrawn it (a sensor down): counted, waited for."""
+        """The port's data, or ``_WITHDRAWN`` while its component has withdrawn it (a sensor down): counted."""
         if port.withdrawn is not None:
             recorder.unavailable += 1
-            return None
+            return _WITHDRAWN
         return port.read()
 
     async def _follow(self, port: OutPortRuntime[Any], recorder: AudioRecorder | ImageRecorder | JsonRecorder) -> None:
@@ -248,7 +250,7 @@ class Recorder(Component, name="recorder", version="1.0"):
             coalesced = version - delivered - 1 if delivered else 0
             delivered = version
             value = self._current(port, recorder)
-            if value is not None:  # (else the next publication is current again)
+            if value is not _WITHDRAWN:  # (else the next publication is current again)
                 recorder.write(port.type.encode(value), coalesced=coalesced, rig_time=self.clock.wall())
 
     async def _follow_audio(self, port: OutPortRuntime[Any], recorder: AudioRecorder, recording: Recording) -> None:
@@ -256,7 +258,7 @@ class Recorder(Component, name="recorder", version="1.0"):
         current = self._current(port, recorder)
         if isinstance(current, Incremental):
             recorder.start_at(current.index)
-        started = current is not None
+        started = current is not _WITHDRAWN
         while True:
             await self._room(recording)
             value = self._current(port, recorder)
