@@ -76,6 +76,8 @@ BEAT_PERIOD = 0.25
 
 #: What a host id may be: one key chunk, no wildcard or separator Zenoh or a load name gives a meaning to.
 _HOST_ID = re.compile(r"[A-Za-z0-9_.-]{1,64}")
+#: What a Zenoh session id is: its hexadecimal form.
+_ZID = re.compile(r"[0-9a-f]{1,32}")
 
 
 def host_id_error(host_id: str) -> str | None:
@@ -126,8 +128,15 @@ def parse_offer(key: str) -> OfferKey | None:
         protocol = int(chunks[2])
     except ValueError:
         return None
-    if protocol == PROTOCOL and len(chunks) == 6:
-        return OfferKey(protocol, chunks[3], chunks[4], chunks[5], key)
+    if protocol == PROTOCOL:
+        # Ours: exactly host, session and instance, each what they can be; anything else is no offer
+        # (a host and session left empty would make a name ambiguous for good, or a key of nothing).
+        if len(chunks) != 6:
+            return None
+        host, zid, instance = chunks[3:]
+        if host_id_error(host) is not None or not _ZID.fullmatch(zid) or not instance.isidentifier():
+            return None
+        return OfferKey(protocol, host, zid, instance, key)
     # Another version's layout is not ours to read: its last chunk is taken for the instance, to name it
     # when its load is refused.
     return OfferKey(protocol, "", "", chunks[-1], key)

@@ -8,7 +8,7 @@ import pathlib
 import pytest
 
 from aiogenomix.components.core.runtime import AmbiguousModule, NoSuchModule, RemoteRefusal
-from aiogenomix.remote._offers import OfferBook, OfferedBefore
+from aiogenomix.remote._offers import OfferBook, OfferedBefore, split_name
 from aiogenomix.remote._session import ZenohSessionError, ZenohSettings
 from aiogenomix.remote._wire import offer_token, parse_offer
 
@@ -81,6 +81,24 @@ def test_a_host_of_another_protocol_is_refused_and_listed() -> None:
     assert "protocol 1, 3" in refused.value.body["message"]
     assert [r["protocol"] for r in book.refused()] == [1, 3]
     assert book.names() == []
+
+
+@pytest.mark.parametrize("name", ["de*mo", "a#b", "demo@**", "demo@rob/ot", "de$mo@robot1", "demo@robot 1", "*",
+                                  "de mo", "demo@", "@robot1", "dé/mo"])
+def test_a_load_name_that_cannot_be_a_key_is_no_module(name: str) -> None:
+    # Each would be a Zenoh key expression (a wildcard, a separator) or no key at all: 404, never a 500.
+    with pytest.raises(NoSuchModule, match="not a load name"):
+        split_name(name)
+    with pytest.raises(NoSuchModule):
+        OfferBook().resolve(name)
+
+
+@pytest.mark.parametrize("key", ["aiogenomix/offer/2//zz/demo", "aiogenomix/offer/2/robot1/aa", "aiogenomix/offer/2",
+                                 "aiogenomix/offer/2/robot1/aa/demo/more", "aiogenomix/offer/2/robot1/not-hex/demo",
+                                 "aiogenomix/offer/2/robot1/aa/de-mo", "aiogenomix/offer/2/rob%ot/aa/demo"])
+def test_a_malformed_offer_of_our_protocol_is_no_offer(key: str) -> None:
+    assert parse_offer(key) is None
+    assert parse_offer("aiogenomix/offer/2/robot1/aa/demo") is not None
 
 
 def test_hosts_show_where_each_runs_and_what_it_offers() -> None:
