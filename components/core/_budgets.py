@@ -163,7 +163,7 @@ class Reservation:
         self.ledger._release(self)
 
     def progressed(self) -> None:
-        """Say that the holder made progress (a client drained part of its reply): it is evicted after those that did not."""
+        """Say that the holder made progress (a client drained part of its reply): evicted after those that did not."""
         self.ledger._progressed(self)
 
     def resize(self, amount: int, what: str) -> None:

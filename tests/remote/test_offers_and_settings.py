@@ -8,6 +8,8 @@ import pathlib
 import pytest
 
 from aiogenomix.components.core.runtime import AmbiguousModule, NoSuchModule, RemoteRefusal
+from aiogenomix.remote._host_main import parse_args as parse_host_args
+from aiogenomix.remote._host_main import token_warning
 from aiogenomix.remote._offers import OfferBook, OfferedBefore, split_name
 from aiogenomix.remote._session import ZenohSessionError, ZenohSettings
 from aiogenomix.remote._wire import offer_token, parse_offer
@@ -158,3 +160,13 @@ def test_zenoh_s_own_file_is_kept_and_the_flags_replace_its_endpoints(tmp_path: 
     assert kept["scouting/multicast/enabled"] is True and kept["listen/endpoints"] == ["tcp/10.0.0.1:0"]
     with pytest.raises(ZenohSessionError, match="cannot read the Zenoh configuration"):
         ZenohSettings(config_file=str(tmp_path / "missing.json5")).config()
+
+
+def test_the_host_s_socket_token_comes_from_the_environment_and_the_command_line_is_warned_about(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("AIOGENOMIX_TOKEN", "s3cret")
+    assert parse_host_args(["demo", "--zenoh-listen", "tcp/127.0.0.1:7447"]).token == "s3cret"
+    assert token_warning(["demo", "--zenoh-listen", "tcp/127.0.0.1:7447"]) is None
+    for argv in (["demo", "--token", "s3cret"], ["demo", "--token=s3cret"]):
+        warning = token_warning(argv)
+        assert warning is not None and "AIOGENOMIX_TOKEN" in warning and "every user" in warning
