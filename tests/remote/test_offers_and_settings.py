@@ -158,6 +158,11 @@ def test_zenoh_s_own_file_is_kept_and_the_flags_replace_its_endpoints(tmp_path: 
                                             '["tcp/10.0.0.1:0"]}}')
     kept = _values(ZenohSettings(config_file=str(tmp_path / "scouting.json5")))
     assert kept["scouting/multicast/enabled"] is True and kept["listen/endpoints"] == ["tcp/10.0.0.1:0"]
+    # What the file says is kept even when it says Zenoh's default (gossip on, in peer mode).
+    (tmp_path / "gossip.json5").write_text('{mode: "peer", scouting: {gossip: {enabled: true}}, connect: '
+                                          '{endpoints: ["tcp/10.0.0.9:7447"]}}')
+    gossip = _values(ZenohSettings(config_file=str(tmp_path / "gossip.json5")))
+    assert gossip["scouting/gossip/enabled"] is True and gossip["scouting/multicast/enabled"] is False
     with pytest.raises(ZenohSessionError, match="cannot read the Zenoh configuration"):
         ZenohSettings(config_file=str(tmp_path / "missing.json5")).config()
 
