@@ -37,8 +37,9 @@ if TYPE_CHECKING:
 __all__ = ["ComponentExporter", "PortEncoder"]
 
 log = logging.getLogger(__name__)
-#: Faults of ours while publishing a port (each place's traceback once): ports change all the time.
-_port_faults = ThrottledLog(log)
+#: Lines that gateways' comings and goings cause (an unload, a dead-man), and faults while publishing a
+#: port (each place's traceback once): rate-limited, as a client can repeat them.
+_throttled = ThrottledLog(log)
 
 #: Python 3.12 runs a task's first step at once: a query the component answers without waiting (most of
 #: them) is answered in the loop turn that took it, with no second turn to schedule the task.
@@ -373,16 +374,16 @@ class ComponentExporter:
         motions = [request for request in theirs if request.service.motion]
         why = "the gateway that started it is gone (dead-man)" if by == "gateway_gone" else "its gateway unloaded it"
         for request in motions:
-            log.warning("%s: stopping %s (%s): %s", self.instance, request.id, request.service.name, why)
+            _throttled.warning("%s: stopping %s (%s): %s", self.instance, request.id, request.service.name, why)
         await asyncio.gather(*(self.component.interrupt(request, by=by) for request in motions))
         last = self._last_mover
         if last is not None and last[0] == gateway and via in (None, last[1]):
             self._last_mover = None
-            log.warning("%s: stopping what the last motion left going: %s", self.instance, why)
+            _throttled.warning("%s: stopping what the last motion left going: %s", self.instance, why)
             try:
                 await self.component.stop_motions()
             except Exception as exc:  # noqa: BLE001  # a fault of the component: said, and the rest goes on
-                _port_faults.error("%s: stop_motions failed: %s", self.instance, exc, exc=exc)
+                _throttled.error("%s: stop_motions failed: %s", self.instance, exc, exc=exc)
         for request in theirs:
             self._owners.pop(request, None)
         return motions
@@ -441,7 +442,7 @@ class ComponentExporter:
         except zenoh.ZError:
             pass  # the session is closing
         except Exception as exc:  # noqa: BLE001  # a reply or an event must not be lost to a port's fault
-            _port_faults.error("%s: port %s not published: %s", self.instance, encoder.port.name, exc, exc=exc)
+            _throttled.error("%s: port %s not published: %s", self.instance, encoder.port.name, exc, exc=exc)
 
     async def _pump(self, encoder: PortEncoder, publisher: Any) -> None:
         port = encoder.port

@@ -8,10 +8,14 @@ its host id ``H`` (``aiogenomix-component --host-id``); a gateway by its session
     aiogenomix/2/Z/host               query: the host's facts (id, endpoints, versions, instances)
     aiogenomix/2/Z/beat               publication every BEAT seconds: the host is heard from
     aiogenomix/2/Z/M/info             query: the /info description (JSON)
-    aiogenomix/2/Z/M/rq/send          query: {"service", "input", "session", "oneway", "gateway"} -> status object
+    aiogenomix/2/Z/M/rq/send          query: {"service", "input", "session", "oneway", "gateway", "via"}
+                                      -> status object ("via": the proxy of the gateway that sends it)
     aiogenomix/2/Z/M/rq/status        query: {"id", "gateway"} -> status object
     aiogenomix/2/Z/M/rq/abort         query: {"id", "gateway"} -> status object
     aiogenomix/2/Z/M/rq/clean         query: {"id", "gateway"} -> null
+    aiogenomix/2/Z/M/rq/release       query: {"gateway", "via"} -> {"ended": [status object...]}: the proxy
+                                      was unloaded: its running motions are interrupted (by kill), and
+                                      the component's stop_motions runs when it sent the last motion
                                       (every rq query may carry "cleaned": the ids of requests the gateway
                                       saw end and cleaned itself, applied first; with no query to carry
                                       them, they are a publication {"ids"} on .../M/cleaned/G)
@@ -38,6 +42,9 @@ Port messages use the binary layout of port reads (``AGXB``, ``encode_binary``);
   data the whole data itself.  A ``base`` message carries the whole window instead, with ``held``: how
   many of its last elements per array are numbered items (the rest is the zero padding of a window
   that has not filled yet).
+
+A ``withdrawn`` message (no data) says the component withdrew the port's data, with ``reason``: its
+exception object.  The next publication is a whole message again.
 """
 
 from __future__ import annotations
