@@ -32,7 +32,8 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
                         help="HTTP port, 0 for a free one (default %(default)s)")
     add_rig_arguments(parser)
     parser.add_argument("--load", action="append", default=[], metavar="NAME[:ARGS]",
-                        help="load a component at start (repeatable), e.g. demo or demo:-i demo2")
+                        help="load a component at start (repeatable), e.g. demo, or 'demo:-i demo2' (quoted: it holds "
+                             "a space)")
     parser.add_argument("--components", help="comma-separated allow-list of loadable components")
     parser.add_argument("--token", default=os.environ.get("AIOGENOMIX_TOKEN"),
                         help="require 'Authorization: Bearer TOKEN'; better given as $AIOGENOMIX_TOKEN, which "

@@ -32,8 +32,8 @@ from typing import Any
 import numpy as np
 import orjson
 
-from ..components.core import Incremental, OutPortRuntime, json_schema
-from ..components.core.runtime import LoadedInstance
+from ..components.core import Incremental, OutPortRuntime, OverBudget, json_schema
+from ..components.core.runtime import LoadedInstance, PortUnavailable, RemoteUnreachable
 
 from ..components.recording import (
     AUDIO_TYPES, frames_per_chunk, head_state, number, planar_odometry, seconds_of, stamp_of,
@@ -263,7 +263,10 @@ class FoxgloveView:
                 if not channel.has_sinks() or (port.version == 0 and not shown.audio):
                     since = None  # nobody watches: nothing read, nothing encoded
                     continue
-                value = port.read()
+                try:
+                    value = port.read()
+                except (PortUnavailable, RemoteUnreachable, OverBudget):
+                    continue  # not current (a sensor down, a silent host): shown again at the next publication
                 now = time.time()
                 if shown.audio:
                     since = self._log_audio(channel, port, value, since, now)

@@ -45,10 +45,14 @@ def _errors(*codes: int) -> Json:
                     "does not fit its type",
                401: "The gateway needs its token", 403: "Refused to browsers of other sites",
                404: "No such module, service, port, request or session",
-               409: "The request is running, or the module stops", 415: "A body that is not JSON",
+               409: "The request is running, or the module stops, or several component hosts offer the name "
+                    "(::genomix::ambiguous_module: load NAME@HOST)", 415: "A body that is not JSON",
                429: "Too many running activities, sessions or instances, or a budget of all reached "
                     "(::genomix::over_budget)",
-               503: "The gateway shuts down, or the port's data is withdrawn (its sensor is down)"}
+               502: "The component host offering the name speaks another remote protocol (::genomix::remote_protocol)",
+               503: "The gateway shuts down, or the port's data is withdrawn (its sensor is down)",
+               504: "The component host running the instance did not answer in time, or was not heard from within "
+                    "the stale bound (::genom::remote_io)"}
     return {str(c): {"description": meaning[c], "content": {"application/json": {"schema": _ERROR}}} for c in codes}
 
 
@@ -93,7 +97,7 @@ def _service_operations(instance: str, info: Json, service: Json, schemas: JsonS
     replies = {"200": {"description": "The status object of the new request: `sent` for a running activity, "
                                       "`done` with its output, or `error` with the component's exception",
                        "content": {"application/json": {"schema": status}}, "links": links},
-               **_errors(400, 401, 404, 409, 429)}
+               **_errors(400, 401, 404, 409, 429, 504)}
     common = {"tags": [instance], "summary": doc.splitlines()[0], "description": description}
     oneway = {"name": "oneway", "in": "query", "required": False, "allowEmptyValue": True,
               "description": "Nobody is told the result: no events, and the request is forgotten when it ends",
@@ -131,7 +135,7 @@ def _port_operation(instance: str, port: Json, schemas: JsonSchemas) -> Json:
                     "responses": {"200": {"description": f"`{{\"{port['name']}\": data}}`",
                                           "content": {"application/json": {"schema": reply},
                                                       "application/x-aiogenomix-binary": {}}},
-                                  **_errors(400, 401, 404, 503)}}}
+                                  **_errors(400, 401, 404, 429, 503, 504)}}}
 
 
 def _get(operation: str, summary: str, params: list[Json], responses: Json, tag: str = "gateway") -> Json:
@@ -183,7 +187,7 @@ def _endpoints() -> Json:
                                      "description": "Load options, such as `-i INSTANCE`",
                                      "schema": {"type": "string"}}],
                              {"200": {"description": "The instance name", "content": _TEXT},
-                              **_errors(400, 403, 404, 429)}),
+                              **_errors(400, 403, 404, 409, 429, 502, 504)}),
         "/unload/{name}": _get("unloadInstance", "Unload an instance", [name],
                                {"200": {"description": "The instance name", "content": _TEXT}, **_errors(404)}),
         "/usage/{name}": _get("getUsage", "A component's load options", [name],
@@ -192,7 +196,7 @@ def _endpoints() -> Json:
         "/module/{module}/info": _get("getInfo", "The description of an instance", [module],
                                       {"200": _json("The /info description"), **_errors(404)}, "modules"),
         "/module/{module}/status/{rqst}": _get("getStatus", "A request's status", [module, rq],
-                                               {"200": status, **_errors(404)}, "modules"),
+                                               {"200": status, **_errors(404, 504)}, "modules"),
         "/module/{module}/wait/{rqst}": _get(
             "waitRequest", "A request's status once it has ended (or after timeout seconds)",
             [module, rq, {"name": "timeout", "in": "query", "required": False,
@@ -200,9 +204,9 @@ def _endpoints() -> Json:
                           "schema": {"type": "number", "minimum": 0, "maximum": MAX_WAIT}}],
             {"200": status, **_errors(400, 404, 503)}, "modules"),
         "/module/{module}/abort/{rqst}": _get("abortRequest", "Interrupt a request", [module, rq],
-                                              {"200": status, **_errors(404)}, "modules"),
+                                              {"200": status, **_errors(404, 504)}, "modules"),
         "/module/{module}/clean/{rqst}": _get("cleanRequest", "Forget an ended request", [module, rq],
-                                              {"200": {"description": "Forgotten"}, **_errors(404, 409)},
+                                              {"200": {"description": "Forgotten"}, **_errors(404, 409, 504)},
                                               "modules"),
         "/module/{module}/read/{port}": _get(
             "readPort", "Read a port (each loaded module's ports also have a typed path of their own)",
@@ -216,7 +220,7 @@ def _endpoints() -> Json:
             {"200": {"description": "{PORT: data}, or the binary form",
                      "content": {"application/json": {"schema": {"type": "object"}},
                                  "application/x-aiogenomix-binary": {}}},
-             **_errors(400, 404, 503)}, "ports"),
+             **_errors(400, 404, 429, 503, 504)}, "ports"),
         "/module/{module}/watch/{port}": _get(
             "watchPort", "Watch a port",
             [module, _path_param("port", "The port"),
@@ -224,7 +228,8 @@ def _endpoints() -> Json:
               "schema": {"type": "string"}},
              {"name": "since", "in": "query", "required": False, "description": "Only the items after this one",
               "schema": {"type": "integer", "minimum": 0}}],
-            {"200": stream, "204": {"description": "A reconnect after unload"}, **_errors(400, 404, 503)}, "ports"),
+            {"200": stream, "204": {"description": "A reconnect after unload"}, **_errors(400, 404, 429, 503, 504)},
+            "ports"),
     }
 
 

@@ -19,8 +19,8 @@ from typing import Any
 import orjson
 from aiohttp import web
 
-from ..components.core import Chunked, Incremental, OutPortRuntime
-from ..components.core.runtime import BINARY_CONTENT_TYPE, encode_binary
+from ..components.core import Chunked, Incremental, OutPortRuntime, OverBudget
+from ..components.core.runtime import BINARY_CONTENT_TYPE, PortUnavailable, RemoteUnreachable, encode_binary
 from ._errors import BadQuery
 from ._keys import HOST, READ_BODIES, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, WatchFrames
 from ._pieces import PiecesPayload, body_of, json_pieces
@@ -201,8 +201,9 @@ async def watch(request: web.Request) -> web.StreamResponse:
         if element is None:
             raise BadQuery(f"port {name} is multiple: watch one element with name=")
         port.read(element)
-    if port.withdrawn is not None:
-        port.read(element)  # refused now (503), not after the stream has started
+    # Refused now, as an HTTP error, not after the stream has started: data withdrawn (503), a silent
+    # component host (504), a remote window this gateway cannot hold (429).
+    port.read(element)
     if (last_event is not None and last_event.isascii() and last_event.isdigit()
             and isinstance(port.read(element), Incremental)):
         # An EventSource resuming where it was: it opens the same URL again, so its since= is the
@@ -221,15 +222,20 @@ async def watch(request: web.Request) -> web.StreamResponse:
         last_index = since
         while not shutdown.is_set() and not unloaded.done():
             # Withdrawn data (a sensor down) is not current: the watcher waits for the next publication.
+            stuck = False
             if port.version > delivered and port.withdrawn is None:
-                frame, delivered, last_index = _watch_frame(frames, name, port, element, delivered, last_index)
-                if stream.standard:
-                    frame = event_id(delivered if last_index is None else last_index) + frame
-                await stream.write(frame)
-                continue
+                try:
+                    frame, delivered, last_index = _watch_frame(frames, name, port, element, delivered, last_index)
+                except (PortUnavailable, RemoteUnreachable, OverBudget):
+                    stuck = True  # not current after all (a silent component host...): as withdrawn data
+                else:
+                    if stream.standard:
+                        frame = event_id(delivered if last_index is None else last_index) + frame
+                    await stream.write(frame)
+                    continue
             # With every other watcher of the port: woken by a publication, the end, or a ping.
             await wakes.wait(port)
-            if ((port.version == delivered or port.withdrawn is not None) and not shutdown.is_set()
+            if ((stuck or port.version == delivered or port.withdrawn is not None) and not shutdown.is_set()
                     and not unloaded.done()):
                 await stream.write(PING)
         if unloaded.done():

@@ -145,10 +145,12 @@ class ZenohDirectory:
         description = await describe_remote(self.session, offer, self.timeouts.control)
         proxy = RemoteInstance(host, self.link, offer, local_name, description,
                                lambda: self._book.facts(offer.zid))
-        await proxy.start()
-        self._proxies[local_name] = proxy
-        self._lost.pop((offer.host, offer.instance), None)
-        return proxy
+        try:
+            await proxy.start()
+        except BaseException:
+            await proxy.stop()  # what it declared goes with it (it sent nothing: nothing to let go of)
+            raise
+        return proxy  # the host lists it (or stops it, when a concurrent load won): see _attached
 
     async def _resolve(self, name: str, instance: str, host_id: str | None) -> OfferKey | None:
         deadline = self._loop.time() + self.timeouts.control
@@ -184,7 +186,21 @@ class ZenohDirectory:
     def _follow(self, host: ComponentHost) -> None:
         if self._host is None:
             self._host = host
+            host.add_load_listener(self._attached)
             host.add_unload_listener(self._forget)
+
+    def _attached(self, instance: LoadedInstance) -> None:
+        """A proxy of ours is listed by the host: follow its host's offer from now on."""
+        if not isinstance(instance, RemoteInstance) or instance.link is not self.link:
+            return
+        offer = instance.offer
+        self._proxies[instance.instance] = instance
+        self._lost.pop((offer.host, offer.instance), None)
+        if offer.key not in {o.key for o in self._book.offers_of(offer.instance)}:
+            # Withdrawn while it started: lost at once, as if heard now.
+            self._lost[(offer.host, offer.instance)] = instance.instance
+            instance.lost(f"{instance.instance} ran on component host {offer.host}, which stopped or cannot be "
+                          f"reached")
 
     def _forget(self, instance: str) -> None:
         proxy = self._proxies.get(instance)
@@ -245,6 +261,11 @@ class ZenohDirectory:
             return
         loaded = None
         name = self._lost.pop((offer.host, offer.instance), None)
+        lost = None if name is None else self._proxies.get(name)
+        if name is not None and lost is not None and self._host is not None and self._host.instances.get(name) is lost:
+            # Its unload (under way since it was lost) ends first: the name is free for the new run.
+            with contextlib.suppress(NoSuchModule):
+                await self._host.unload(name)
         if name is not None and self._host is not None and name not in self._host.instances:
             try:
                 loaded = (await self._host.load(offer.name, ["-i", name])).instance

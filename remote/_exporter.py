@@ -21,9 +21,9 @@ from typing import TYPE_CHECKING, Any
 import orjson
 import zenoh
 
-from ..components.core import Chunked, Component, Incremental, OutPortRuntime
+from ..components.core import Chunked, Component, Incremental, OutPortRuntime, ThrottledLog
 from ..components.core.runtime import (
-    ComponentError, ComputedOutPortRuntime, NoSuchRequest, Request, RequestStatus, error_body,
+    SENDER_SCOPE, ComponentError, ComputedOutPortRuntime, NoSuchRequest, Request, RequestStatus, error_body,
 )
 from ._session import on_zenoh_thread
 from ._wire import (
@@ -37,6 +37,9 @@ if TYPE_CHECKING:
 __all__ = ["ComponentExporter", "PortEncoder"]
 
 log = logging.getLogger(__name__)
+#: Lines that gateways' comings and goings cause (an unload, a dead-man), and faults while publishing a
+#: port (each place's traceback once): rate-limited, as a client can repeat them.
+_throttled = ThrottledLog(log)
 
 #: Python 3.12 runs a task's first step at once: a query the component answers without waiting (most of
 #: them) is answered in the loop turn that took it, with no second turn to schedule the task.
@@ -57,8 +60,22 @@ class PortEncoder:
         self.port = port
         #: The port version the last messages carried.
         self.version = port.version
+        #: Whether the last message said the data was withdrawn (the next publication says otherwise).
+        self.withdrawn = False
         self._sent: int | None = None
         self._counts: dict[str, int] | None = None
+
+    def due(self) -> bool:
+        """Whether the port changed since the last messages: a publication, or its data withdrawn."""
+        return self.port.version != self.version or (self.port.withdrawn is not None) != self.withdrawn
+
+    def _withdrawal(self) -> bytes:
+        """The message saying the data is withdrawn, with the component's reason (its exception object)."""
+        reason = self.port.withdrawn
+        assert reason is not None
+        owner = self.port.owner
+        body = owner.exception_object(reason) if isinstance(owner, Component) else {"ex": reason.id}
+        return encode_message(self.port.name, None, None, kind="withdrawn", reason=body)
 
     def _struct(self, value: Any, since: int | None) -> tuple[Any, int]:
         if isinstance(value, Chunked):
@@ -99,6 +116,8 @@ class PortEncoder:
         """The whole data now (a numbered window with its items marked)."""
         if self.port.spec.multiple:
             raise ValueError("a multiple port has no single base: its elements are sent one by one")
+        if self.port.withdrawn is not None:
+            return self._withdrawal()
         value = self.port.read()
         if not isinstance(value, Incremental):
             data = self.port.type.encode(value)
@@ -115,6 +134,13 @@ class PortEncoder:
         """The messages of the publications since the last call (one per element of a multiple port)."""
         port = self.port
         self.version = port.version
+        if port.withdrawn is not None:
+            # Once: the gateways refuse the data until the next publication, which is a whole message.
+            if self.withdrawn:
+                return []
+            self.withdrawn, self._sent = True, None
+            return [self._withdrawal()]
+        self.withdrawn = False
         if port.spec.multiple:
             out = []
             for element in port.elements():
@@ -159,6 +185,10 @@ class ComponentExporter:
         self._answered: set[RequestStatus] = set()
         #: The gateway that sent each request (the requests are the tracker's: they go when it forgets them).
         self._owners: weakref.WeakKeyDictionary[RequestStatus, str] = weakref.WeakKeyDictionary()
+        #: The proxy of that gateway that sent it (a gateway may load one instance under two names).
+        self._via: weakref.WeakKeyDictionary[RequestStatus, str] = weakref.WeakKeyDictionary()
+        #: Who sent the last motion, as (gateway, proxy): when it lets go, what it set going stops.
+        self._last_mover: tuple[str, str] | None = None
         self._events: dict[str, Any] = {}
         self._declared.append(session.declare_queryable(info_key(zid, self.instance),
                                                         on_zenoh_thread(self._on_query(self._info))))
@@ -183,6 +213,7 @@ class ComponentExporter:
                 reliability=zenoh.Reliability.RELIABLE, express=True)
             self._declared.append(publisher)
             task = self.loop.create_task(self._pump(encoder, publisher), name=f"zenoh {self.instance}/{name}")
+            task.add_done_callback(self._pump_ended)
             self._tasks.add(task)
         component.host.add_request_listener(self._on_request)
         # Last: the gateway that sees the token finds everything above declared.
@@ -240,15 +271,27 @@ class ComponentExporter:
             return error_reply(400, {"ex": "::genom::serialization", "detail": {"what": message}, "message": message})
         component = self.component
         self._clean_answered(gateway, payload.get("cleaned"))
+        via = str(payload.get("via", ""))
         if operation == "send":
-            request = await component.send(payload.get("service", ""), payload.get("input"),
-                                           session=payload.get("session"), oneway=bool(payload.get("oneway")))
+            # A request may name only this gateway's requests (abort_activity): another's are unknown.
+            scope = SENDER_SCOPE.set(lambda request: self._owners.setdefault(request, gateway) == gateway)
+            try:
+                request = await component.send(payload.get("service", ""), payload.get("input"),
+                                               session=payload.get("session"), oneway=bool(payload.get("oneway")))
+            finally:
+                SENDER_SCOPE.reset(scope)
             self._owners[request] = gateway
-            if request.running and request.service.motion:
+            self._via[request] = via
+            if request.service.motion and request.status != "error":
+                # Even one that ended at once (a speed command) may have left the robot moving.
+                self._last_mover = (gateway, via)
                 self.node.expect_gateway(gateway)
             if not (request.running or request.oneway):
                 self._answered.add(request)
             return ok_reply(_status_with_serial(request))
+        if operation == "release":
+            stopped = await self.let_go(gateway, via=via, by="kill")
+            return ok_reply({"ended": [_status_with_serial(request) for request in stopped]})
         request_id = str(payload.get("id", ""))
         if operation == "status":
             return ok_reply(_status_with_serial(self._owned(request_id, gateway)))
@@ -311,13 +354,36 @@ class ComponentExporter:
         Only activities declared ``motion=True`` stop: a capture or a recording goes on, its data
         kept for whoever reads it next.  Its other requests then belong to no gateway: the first
         gateway that asks for one (its status, an abort, a clean) adopts it, and hears its events.
+        When it sent the last motion, what that motion left going stops too (``stop_motions``).
         """
-        theirs = [request for request in self.component.requests.running() if self._owners.get(request) == gateway]
+        return await self.let_go(gateway, via=None, by="gateway_gone")
+
+    async def let_go(self, gateway: str, *, via: str | None, by: str) -> list[Request]:
+        """Stop the motions of *gateway* (of its proxy *via* only, when given); let its other requests go.
+
+        The running motions are interrupted (``by`` says why: ``gateway_gone`` for the dead-man,
+        ``kill`` for an unload, as a local unload says); then, when that gateway (that proxy) sent
+        the last motion, the component's ``stop_motions`` stops what a command that ended left
+        going.  The gateway's other requests belong to nobody from now on (see :meth:`orphan`).
+        Returns the motions interrupted.
+        """
+        def sent_by(request: RequestStatus) -> bool:
+            return self._owners.get(request) == gateway and via in (None, self._via.get(request))
+
+        theirs = [request for request in self.component.requests.running() if sent_by(request)]
         motions = [request for request in theirs if request.service.motion]
+        why = "the gateway that started it is gone (dead-man)" if by == "gateway_gone" else "its gateway unloaded it"
         for request in motions:
-            log.warning("%s: stopping %s (%s): the gateway that started it is gone (dead-man)",
-                        self.instance, request.id, request.service.name)
-        await asyncio.gather(*(self.component.interrupt(request, by="gateway_gone") for request in motions))
+            _throttled.warning("%s: stopping %s (%s): %s", self.instance, request.id, request.service.name, why)
+        await asyncio.gather(*(self.component.interrupt(request, by=by) for request in motions))
+        last = self._last_mover
+        if last is not None and last[0] == gateway and via in (None, last[1]):
+            self._last_mover = None
+            _throttled.warning("%s: stopping what the last motion left going: %s", self.instance, why)
+            try:
+                await self.component.stop_motions()
+            except Exception as exc:  # noqa: BLE001  # a fault of the component: said, and the rest goes on
+                _throttled.error("%s: stop_motions failed: %s", self.instance, exc, exc=exc)
         for request in theirs:
             self._owners.pop(request, None)
         return motions
@@ -365,9 +431,18 @@ class ComponentExporter:
     def _flush_ports(self) -> None:
         """Publish now the ports that changed since their last message (not the computed ones: see _pump)."""
         for name, encoder in self._encoders.items():
-            if encoder.port.version != encoder.version and not isinstance(encoder.port, ComputedOutPortRuntime):
-                for message in encoder.messages():
-                    self._publishers[name].put(message)
+            if encoder.due() and not isinstance(encoder.port, ComputedOutPortRuntime):
+                self._publish(encoder, self._publishers[name])
+
+    def _publish(self, encoder: PortEncoder, publisher: Any) -> None:
+        """Send the messages of what changed on a port; a fault of ours is logged, never the caller's end."""
+        try:
+            for message in encoder.messages():
+                publisher.put(message)
+        except zenoh.ZError:
+            pass  # the session is closing
+        except Exception as exc:  # noqa: BLE001  # a reply or an event must not be lost to a port's fault
+            _throttled.error("%s: port %s not published: %s", self.instance, encoder.port.name, exc, exc=exc)
 
     async def _pump(self, encoder: PortEncoder, publisher: Any) -> None:
         port = encoder.port
@@ -375,17 +450,25 @@ class ComponentExporter:
         # COMPUTED_PERIOD, its last state always, so that requests do not pay for it one by one.
         pause = COMPUTED_PERIOD if isinstance(port, ComputedOutPortRuntime) else 0.0
         while True:
-            await port.wait_published(encoder.version)
+            if not encoder.due():
+                # A publication, or the data withdrawn (which wakes this too, with no new version).
+                await asyncio.shield(port.next_publication())
+                continue
             if pause:
                 await asyncio.sleep(pause)
-            if port.version != encoder.version:  # not flushed before a reply meanwhile
-                for message in encoder.messages():
-                    publisher.put(message)
+            if encoder.due():  # not flushed before a reply meanwhile
+                self._publish(encoder, publisher)
+
+    def _pump_ended(self, task: asyncio.Task[Any]) -> None:
+        if not task.cancelled() and task.exception() is not None:
+            log.error("%s: %s stopped: gateways no longer get its data", self.instance, task.get_name(),
+                      exc_info=task.exception())
 
     async def close(self) -> None:
         """Withdraw the instance: the token first (the gateway hears it is gone), then the rest."""
         with contextlib.suppress(zenoh.ZError):
             self._token.undeclare()  # type: ignore[no-untyped-call]
+        self.component.host.remove_request_listener(self._on_request)
         tasks = list(self._tasks)
         for task in tasks:
             task.cancel()

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import logging
+import os
 import signal
 import socket
 import sys
@@ -26,7 +27,7 @@ from ..components.core.runtime import (
 from ._session import ZenohSessionError, ZenohSettings
 from ._wire import host_id_error
 
-__all__ = ["main", "parse_args"]
+__all__ = ["main", "parse_args", "token_warning"]
 
 log = logging.getLogger(__name__)
 
@@ -67,8 +68,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--audio-socket-host", default="127.0.0.1", metavar="ADDRESS",
                         help="address the dedicated audio sockets listen on (default %(default)s: only this machine "
                              "can connect; give an address of this machine to reach them from the gateway's)")
-    parser.add_argument("--token", default=None,
-                        help="token of the dedicated audio socket (the gateway checks its own HTTP token)")
+    parser.add_argument("--token", default=os.environ.get("AIOGENOMIX_TOKEN"),
+                        help="token of the dedicated audio sockets (the gateway checks its own HTTP token); better "
+                             "given as $AIOGENOMIX_TOKEN, which other users cannot read in the process list")
     add_budget_arguments(parser.add_argument_group("budgets of what clients can make the components hold"),
                          Budgets())
     args = parser.parse_args(argv)
@@ -83,6 +85,15 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 def _say(line: str) -> None:
     print(f"aiogenomix-component: {line}", file=sys.stderr, flush=True)
+
+
+def token_warning(argv: list[str]) -> str | None:
+    """The start-up warning for a token on the command line *argv* (None: there is none)."""
+    if any(arg == "--token" or arg.startswith("--token=") for arg in argv):
+        # Every user of the machine can read a process's command line (/proc/PID/cmdline).
+        return ("warning: a --token on the command line can be read by every user of this machine (ps, /proc); "
+                "set AIOGENOMIX_TOKEN in the environment instead")
+    return None
 
 
 async def serve(args: argparse.Namespace, stop: asyncio.Event) -> None:
@@ -118,12 +129,13 @@ async def serve(args: argparse.Namespace, stop: asyncio.Event) -> None:
         node = HostNode(directory.session, host, args.host_id, endpoints)
 
         def withdraw(instance: str) -> None:
-            if node is None or instance not in node.exporters:
+            exporter = None if node is None else node.withdraw(instance)
+            if exporter is None:
                 return
-            task = asyncio.get_running_loop().create_task(node.withdraw(instance))
+            task = asyncio.get_running_loop().create_task(exporter.close(), name=f"withdraw {instance}")
             closing.add(task)
             task.add_done_callback(closing.discard)
-            if not node.exporters:
+            if node is not None and not node.exporters:
                 stop.set()  # every component was killed: nothing left to offer
 
         host.add_unload_listener(withdraw)
@@ -150,6 +162,9 @@ async def serve(args: argparse.Namespace, stop: asyncio.Event) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Run until SIGINT/SIGTERM; return the exit status (1 for a component that cannot be loaded)."""
     args = parse_args(argv)
+    warning = token_warning(sys.argv[1:] if argv is None else argv)
+    if warning:
+        _say(warning)
     logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
 
     async def run() -> None:

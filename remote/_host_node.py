@@ -66,12 +66,14 @@ class HostNode:
         self._facts = ok_reply(self.facts())
         return exporter
 
-    async def withdraw(self, instance: str) -> None:
-        """Withdraw the offer of *instance* (killed or unloaded)."""
+    def withdraw(self, instance: str) -> ComponentExporter | None:
+        """Stop listing *instance* (killed or unloaded) at once; return its exporter, for the caller to close.
+
+        The offer itself goes when the exporter is closed (``await exporter.close()``).
+        """
         exporter = self.exporters.pop(instance, None)
         self._facts = ok_reply(self.facts())
-        if exporter is not None:
-            await exporter.close()
+        return exporter
 
     def facts(self) -> dict[str, Any]:
         """What gateways show of this host: id, session, protocol, versions, endpoints, instances, sockets."""
@@ -113,8 +115,14 @@ class HostNode:
         self._spawn(self._gateway_gone(gateway), f"dead-man {gateway}")
 
     async def _gateway_gone(self, gateway: str) -> None:
-        for exporter in list(self.exporters.values()):
-            await exporter.orphan(gateway)
+        # Every instance's motions stop at once, not one instance after another's stop paths.
+        exporters = list(self.exporters.values())
+        outcomes = await asyncio.gather(*(exporter.orphan(gateway) for exporter in exporters),
+                                        return_exceptions=True)
+        for exporter, outcome in zip(exporters, outcomes, strict=True):
+            if isinstance(outcome, BaseException):
+                log.error("%s: the motions of gateway %s could not all be stopped", exporter.instance, gateway,
+                          exc_info=outcome)
             exporter.forget_gateway(gateway)
 
     def expect_gateway(self, gateway: str) -> None:
@@ -147,7 +155,9 @@ class HostNode:
     async def close(self) -> None:
         """Withdraw every offer, then stop the heartbeat and the dead-man switch."""
         for instance in list(self.exporters):
-            await self.withdraw(instance)
+            exporter = self.withdraw(instance)
+            if exporter is not None:
+                await exporter.close()
         for task in list(self._tasks):
             task.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)

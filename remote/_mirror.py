@@ -2,28 +2,74 @@
 
 A :class:`MirroredOutPort` is an :class:`~aiogenomix.components.core.OutPortRuntime`, so the read and
 watch routes serve it as they serve a local port, as long as its host is heard from (its proxy says
-so: beyond the stale bound a read answers ``::genom::remote_io`` rather than an old value).  Its data
-is already encoded (JSON-ready, arrays as numpy arrays), so its type encodes nothing again.  Numbered
-data (the audio window) is held as a :class:`MirroredWindow`: the chunks of every publication arrive
-once, are kept as long as the remote window holds them, and answer whole reads, ``since=`` reads and
-watchers exactly as the remote port would, counting the items that never arrived as lost.
+so: beyond the stale bound a read answers ``::genom::remote_io`` rather than an old value), and an in
+port of this process connected to it reads it the same way.  Data the remote component withdrew (a
+sensor down) is withdrawn here too, with the component's reason.  Its data is already encoded
+(JSON-ready, arrays as numpy arrays), so its type encodes nothing again.  Numbered data (the audio
+window) is held as a :class:`MirroredWindow`: the chunks of every publication arrive once, are kept as
+long as the remote window holds them, and answer whole reads, ``since=`` reads and watchers exactly as
+the remote port would, counting the items that never arrived as lost.  What a window holds is
+reserved against this process's audio ledger (``--max-audio-bytes``): a window that does not fit is
+not kept, and its reads are refused naming the flag, until it fits.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import time
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..components.core import Chunk, ChunkedArray, OutPortRuntime
+from ..components.core import Chunk, ChunkedArray, GenomException, Ledger, OutPortRuntime, OverBudget, Reservation
 from ..components.core.runtime import PortSpec
 from ._wire import arrays_of
 
 if TYPE_CHECKING:
     from ._proxy import RemoteInstance
 
-__all__ = ["MirroredOutPort", "MirroredWindow", "MirroredType"]
+__all__ = ["MirroredOutPort", "MirroredWindow", "MirroredType", "remote_exception"]
+
+#: Seconds between two tries of a window that did not fit the ledger (each asks the host for the whole window).
+REFIT_PERIOD = 5.0
+
+
+class RemoteException(GenomException):
+    """An exception of a component of another process, with its id and detail as its host sent them.
+
+    Args:
+        encoded: The detail as the remote component encoded it (None: none).
+    """
+
+    def __init__(self, encoded: dict[str, Any] | None = None) -> None:
+        super().__init__()
+        # Not an annotated member: those are the detail members of a declared exception.
+        self.remote_detail = encoded
+
+    def encoded_detail(self) -> dict[str, Any] | None:
+        """The detail as the remote component encoded it."""
+        return self.remote_detail
+
+
+_REMOTE_EXCEPTIONS: dict[str, type[RemoteException]] = {}
+
+
+def remote_exception(body: dict[str, Any]) -> GenomException:
+    """The exception whose object (``{"ex": "::world::SENSOR_DOWN", "detail": {...}}``) a host sent.
+
+    Its id stays the remote component's, whoever reports it (a read's 503, a service that read it).
+    """
+    ex = str(body.get("ex") or "::genom::unkex")
+    scope, _, name = ex.strip(":").rpartition("::")
+    klass = _REMOTE_EXCEPTIONS.get(ex)
+    if klass is None:
+        klass = type(name or "unkex", (RemoteException,), {"scope": scope or "genom", "__doc__": f"{ex}, remote"})
+        if len(_REMOTE_EXCEPTIONS) < 256:  # ids come from hosts: kept, but not without bound
+            _REMOTE_EXCEPTIONS[ex] = klass
+    detail = body.get("detail")
+    exc = klass(detail if isinstance(detail, dict) else None)
+    exc.args = (f"{ex} {detail}" if exc.remote_detail else ex,)
+    return exc
 
 
 class MirroredType:
@@ -71,6 +117,11 @@ class _Entry:
     first: int | None
     last: int | None
     chunks: tuple[Chunk, ...]
+    #: The bytes its chunks hold.
+    nbytes: int = dataclasses.field(init=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "nbytes", sum(chunk.array.nbytes for chunk in self.chunks))
 
     @property
     def items(self) -> int:
@@ -202,45 +253,91 @@ class MirroredOutPort(OutPortRuntime[Any]):
     Args:
         described: The port's description in the remote ``/info``.
         owner: The proxy of the remote component.
+        ledger: Where a window's bytes are held (the gateway's audio ledger); None: not held.
     """
 
     owner: RemoteInstance
 
-    def __init__(self, described: dict[str, Any], owner: RemoteInstance) -> None:
+    def __init__(self, described: dict[str, Any], owner: RemoteInstance, ledger: Ledger | None = None) -> None:
         super().__init__(_MirroredSpec(described), owner)
         self._entries: tuple[_Entry, ...] = ()
         self._index = 0
         self._counts: dict[str, int] = {}
+        self._ledger = ledger
+        self._reservation: Reservation | None = None
+        #: Why the window is not kept (it did not fit the ledger), until it fits; and when to try again.
+        self.refused: OverBudget | None = None
+        self._refit_at = 0.0
         #: Messages that did not follow the previous one (items the gateway never got).
         self.gaps = 0
+
+    @property
+    def index(self) -> int:
+        """The newest item the window holds (0: none, or no numbered data)."""
+        return self._index
 
     def read(self, name: str | None = None) -> Any:
         """The data as the host last published it, while the host is heard from.
 
         Raises:
             RemoteUnreachable: when the host was not heard from within the stale bound.
+            PortUnavailable: when the remote component withdrew the data (its reason).
+            OverBudget: when the window does not fit this process's audio ledger.
         """
         self.owner.check_heard()
+        if self.refused is not None:
+            raise self.refused
         return super().read(name)
 
     def read_kept(self, name: str | None = None) -> Any:
-        """The data as the host last published it, however old."""
+        """The data as the host last published it, however old (not withdrawn)."""
         return super().read(name)
 
     def read_as(self, kind: Any, name: str | None = None) -> Any:
-        """The data decoded as type *kind*, however old (for an in port of this process connected here)."""
-        value = self.read_kept(name)
+        """The data decoded as type *kind* (for an in port of this process connected here), as :meth:`read`."""
+        value = self.read(name)
         if isinstance(value, MirroredWindow):
             value = value.whole()
         return None if value is None else kind.decode(value, self.name)
+
+    def release(self) -> None:
+        """Give back what the window holds against the ledger (the proxy stops)."""
+        if self._reservation is not None:
+            self._reservation.release()
+            self._reservation = None
+
+    def _hold(self, entries: tuple[_Entry, ...]) -> bool:
+        """Hold the bytes of *entries* against the ledger; False when they do not fit (nothing is kept then)."""
+        if self._ledger is None:
+            return True
+        amount = sum(entry.nbytes for entry in entries)
+        what = f"the gateway's copy of {self.owner.instance}/{self.name}, a window of {amount} bytes"
+        try:
+            if self._reservation is None:
+                self._reservation = self._ledger.reserve(amount, f"{self.owner.instance}/{self.name}", what)
+            else:
+                self._reservation.resize(amount, what)
+        except OverBudget as exc:
+            self.release()
+            self.refused, self._refit_at = exc, time.monotonic() + REFIT_PERIOD
+            self._entries, self._index, self._value = (), 0, None
+            self.changed()  # its readers and watchers learn it now
+            return False
+        self.refused = None
+        return True
 
     def apply(self, header: dict[str, Any], whole: Any, delta: Any) -> bool:
         """Take one port message; return False when it does not follow the previous one (ask for a base).
 
         A message that does not follow is still taken: its items are kept, the missing ones
-        are counted as lost by the readers that ask for them.
+        are counted as lost by the readers that ask for them.  While a window does not fit the
+        ledger, its messages are dropped, and a base is asked for every ``REFIT_PERIOD`` seconds.
         """
         kind = header.get("kind", "value")
+        if kind == "withdrawn":
+            self.withdraw(remote_exception(header.get("reason") or {}))
+            return True
+        self.withdrawn = None  # published again: current again
         if kind == "value":
             if self.spec.multiple:
                 self._elements[header["element"]] = delta
@@ -248,6 +345,11 @@ class MirroredOutPort(OutPortRuntime[Any]):
                 self._value = delta
             self.changed()
             return True
+        if self.refused is not None and kind != "base":
+            if time.monotonic() < self._refit_at:
+                return True
+            self._refit_at = time.monotonic() + REFIT_PERIOD
+            return False  # the proxy asks for the whole window again: it may fit now
         arrays: list[Any] = []
         arrays_of(delta, arrays)
         dtypes = tuple(np.asarray(a).dtype for a in arrays)
@@ -268,6 +370,8 @@ class MirroredOutPort(OutPortRuntime[Any]):
                 self.gaps += 1
             entry = _Entry(prev + 1, index, tuple(_chunk(a) for a in arrays))
             entries = _trimmed((*self._entries, entry), whole) if index > prev else self._entries
+        if not self._hold(entries):
+            return True  # refused: said to the readers; a base is asked for later
         self._entries, self._index = entries, index
         self._value = MirroredWindow(whole, entries, index, index - prev if kind != "base" else 1,
                                      dict(self._counts), dtypes)

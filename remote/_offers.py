@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..components.core.runtime import AmbiguousModule, NoSuchModule, RemoteRefusal
-from ._wire import PROTOCOL, OfferKey
+from ._wire import PROTOCOL, OfferKey, host_id_error
 
 __all__ = ["OfferBook", "OfferedBefore", "split_name"]
 
@@ -31,12 +31,17 @@ class OfferedBefore(LookupError):
 def split_name(name: str) -> tuple[str, str | None]:
     """``demo@robot1`` as ``("demo", "robot1")``; ``demo`` as ``("demo", None)``.
 
+    Both parts become chunks of Zenoh keys: an instance is an identifier, a host a host id
+    (:func:`~aiogenomix.remote._wire.host_id_error`), never a wildcard or a separator.
+
     Raises:
-        NoSuchModule: for a name with an empty part.
+        NoSuchModule: for a name that is neither.
     """
     instance, at, host = name.partition("@")
-    if at and not (instance and host and "@" not in host):
-        raise NoSuchModule(f"{name!r} is not a load name: write INSTANCE or INSTANCE@HOST (demo@robot1)")
+    if not instance.isidentifier() or (at and host_id_error(host) is not None):
+        shown = ascii(name if len(name) <= 60 else name[:57] + "...")
+        raise NoSuchModule(f"{shown} is not a load name: write INSTANCE or INSTANCE@HOST (demo@robot1), an "
+                           f"instance of letters, digits and _, a host of letters, digits, '.', '_' and '-'")
     return instance, host if at else None
 
 
@@ -77,10 +82,6 @@ class OfferBook:
     def facts(self, zid: str) -> dict[str, Any]:
         """What the host of session *zid* said of itself (empty until it answered)."""
         return self._facts.get(zid, {})
-
-    def has_zid(self, zid: str) -> bool:
-        """Whether the host of session *zid* offers something now."""
-        return any(o.zid == zid for o in self._offers.values())
 
     # -- what a load finds -------------------------------------------------------------------
 

@@ -8,7 +8,9 @@ listen stream, ``read`` and ``watch`` are answered as for a local instance.  A p
 not heard from within the stale bound is not served as current: its read answers
 ``::genom::remote_io``.  When the host process goes away, :meth:`RemoteInstance.lost` ends the
 pending queries and requests at once with ``::genom::remote_io`` and unloads the proxy (the listen
-stream says ``unload``).
+stream says ``unload``).  Unloading the proxy lets go of the instance as a gateway that vanished
+would, at once: the motions this proxy sent stop there (``interrupted``, by ``kill``, as a local
+unload says), what they left going stops too, and its other requests go on, for whoever asks.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import asyncio
 import contextlib
 import dataclasses
 import logging
+import secrets
 import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
@@ -25,8 +28,8 @@ import orjson
 import zenoh
 
 from ..components.core.runtime import (
-    REMOTE_IO, NoSuchPort, NoSuchRequest, Placement, RemoteUnreachable, RequestRunning, RequestStatus,
-    parse_request_id,
+    REMOTE_IO, ComponentError, NoSuchPort, NoSuchRequest, Placement, RemoteUnreachable, RequestRunning,
+    RequestStatus, parse_request_id,
 )
 from ._mirror import MirroredOutPort
 from ._session import GONE, Answer, ask, ask_all, on_zenoh_thread
@@ -138,7 +141,8 @@ class RemoteInstance:
         # Cleans answered here that the host has not been told yet, and the timer that tells it.
         self._cleans_due: list[str] = []
         self._clean_timer: asyncio.TimerHandle | None = None
-        self._mirrors = {port["name"]: MirroredOutPort(port, self)
+        # What a mirrored window holds counts against this process's audio budget, as a local port would.
+        self._mirrors = {port["name"]: MirroredOutPort(port, self, host.ledgers.audio)
                          for port in description.get("ports", []) if port.get("dir") == "out"}
         self._in_ports = {port["name"] for port in description.get("ports", []) if port.get("dir") == "in"}
         self._subscribers: list[Any] = []
@@ -147,6 +151,10 @@ class RemoteInstance:
         self._pending: set[asyncio.Future[Answer]] = set()
         self._started = False
         self._gone = False
+        # This proxy among the proxies of this gateway (one instance may be loaded under two names): the
+        # host lets go of what this one sent when it is unloaded, and of nothing else.
+        self._via = secrets.token_hex(4)
+        self._sent = False
         #: When a port message or an answer last came (set on Zenoh's thread too): news of the host.
         self._last_message = time.monotonic()
 
@@ -197,8 +205,9 @@ class RemoteInstance:
                    oneway: bool = False) -> RemoteRequest:
         """Send the request to the remote instance; return its copy (its status as the host replied)."""
         self.check_heard()
+        self._sent = True
         status = await self._ask("send", {"service": name, "input": raw_input, "session": session,
-                                          "oneway": oneway}, self.timeouts.send, f"send {name}")
+                                          "oneway": oneway, "via": self._via}, self.timeouts.send, f"send {name}")
         number = parse_request_id(self.remote_instance, status["id"])
         if oneway:
             # Nobody tracks a oneway request: the host forgets it when it ends.
@@ -337,7 +346,7 @@ class RemoteInstance:
                 header, whole, delta = decode_message(body)
                 mirror = self._mirrors[name]
                 # Publications that came while this was asked are newer: a base never goes back in time.
-                if header.get("kind") != "base" or mirror.version == 0 or header["index"] >= mirror.read_kept().index:
+                if header.get("kind") != "base" or mirror.version == 0 or header["index"] >= mirror.index:
                     mirror.apply(header, whole, delta)
 
     def _on_event(self, sample: zenoh.Sample) -> None:
@@ -396,20 +405,50 @@ class RemoteInstance:
         self.host.unload_soon(self.instance)
 
     async def stop(self) -> None:
-        """Stop following the instance (it keeps running in its process); pending copies end with remote_io."""
+        """Let go of the instance (it keeps running in its process) and stop following it.
+
+        The motions this proxy sent stop there first, and their copies end as the host ended them
+        (``interrupted``, by ``kill``); its other requests go on there, their copies here end with
+        ``::genom::remote_io`` saying so.
+        """
         if not self._started:
             return
         self._cancel_clean_timer()
         self._publish_cleans()  # the host keeps running: leave it nothing this gateway cleaned
         self._started = False
         if not self._gone:
-            self._end_all(f"{self.instance} was unloaded from this gateway")
+            self._end_all(await self._let_go())
+        for mirror in self._mirrors.values():
+            mirror.release()
         for subscriber in self._subscribers:
             with contextlib.suppress(zenoh.ZError):
                 subscriber.undeclare()
         for task in list(self._background):
             task.cancel()
         await asyncio.gather(*self._background, return_exceptions=True)
+
+
+    async def _let_go(self) -> str:
+        """Ask the host to stop this proxy's motions (it answers their ends); return why the others end here."""
+        host, place = self.offer.host, f"{self.remote_instance}@{self.offer.host}"
+        going_on = (f"{self.instance} was unloaded from this gateway; the request goes on on {host} (load {place} "
+                    f"to follow it)")
+        if not self._sent:
+            return going_on
+        try:
+            self.check_heard()
+            released = await self._ask("release", {"via": self._via}, self.timeouts.control, "release")
+        except (ComponentError, zenoh.ZError) as exc:
+            log.warning("%s was unloaded without reaching its host %s (%s): its motions there stop when the host "
+                        "finds this gateway gone", self.instance, host, exc)
+            return (f"{self.instance} was unloaded from this gateway without reaching {host} ({exc}): the request "
+                    f"may go on there")
+        for status in (released or {}).get("ended", []):
+            with contextlib.suppress(NoSuchRequest, KeyError, TypeError):
+                request = self._remote.get(parse_request_id(self.remote_instance, status["id"]))
+                if request is not None and request.serial == status["serial"] and request.take(status):
+                    self.host.announce_request(request)
+        return going_on
 
 
 async def describe_remote(session: zenoh.Session, offer: OfferKey, timeout: float) -> dict[str, Any]:

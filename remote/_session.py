@@ -10,9 +10,11 @@ import asyncio
 import contextlib
 import dataclasses
 import json
+import pathlib
 from collections.abc import Callable
 from typing import Any, TypeVar
 
+import json5
 import orjson
 import zenoh
 
@@ -47,9 +49,10 @@ class ZenohSettings:
         connect: Endpoints to connect to, such as ``tcp/192.168.1.10:7447``.
         listen: Endpoints to listen on, such as ``tcp/192.168.1.10:7447``.
         config_file: A Zenoh configuration file (JSON5, Zenoh's own format: TLS, user/password
-            authentication, access control, a router to connect to...).  Its settings are kept;
-            ``connect`` and ``listen`` replace its endpoints when given.  A setting it leaves at
-            Zenoh's default (scouting, gossip, listeners, the mode) is isolated as above.
+            authentication, access control, a router to connect to...).  Its settings are kept,
+            even those it sets to Zenoh's default; ``connect`` and ``listen`` replace its endpoints
+            when given.  A setting it leaves out (scouting, gossip, listeners, the mode) is isolated
+            as above.
         scout: Find peers by multicast scouting and gossip, and listen on every interface
             (Zenoh's defaults): for a lab network where every machine is trusted.
     """
@@ -76,7 +79,8 @@ class ZenohSettings:
         else:
             config = zenoh.Config()
         default = zenoh.Config()
-        unset = {key for key in _ISOLATION if config.get_json(key) == default.get_json(key)}
+        written = _written(self.config_file) if self.config_file is not None else set()
+        unset = {key for key in _ISOLATION if key not in written and config.get_json(key) == default.get_json(key)}
         if "mode" in unset:
             config.insert_json5("mode", '"peer"')
         for key in ("scouting/multicast/enabled", "scouting/gossip/enabled"):
@@ -113,6 +117,29 @@ class ZenohSettings:
         return (f"listening on {', '.join(listen) or 'nothing'}; connecting to {', '.join(connect) or 'nobody'}; "
                 f"scouting {'by ' + ' and '.join(scouting) if scouting else 'off'}"
                 + (f"; configuration {self.config_file}" if self.config_file else ""))
+
+
+def _written(path: str) -> set[str]:
+    """The keys of ``_ISOLATION`` the configuration file *path* writes, whatever their value.
+
+    Zenoh's configuration cannot tell a value the file wrote from its default; the file itself can.
+    A file this cannot read (Zenoh read it) writes nothing as far as it knows: its values that
+    differ from Zenoh's defaults are still kept.
+    """
+    try:
+        tree = json5.loads(pathlib.Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return set()
+    written = set()
+    for key in _ISOLATION:
+        node = tree
+        for part in key.split("/"):
+            if not isinstance(node, dict) or part not in node:
+                break
+            node = node[part]
+        else:
+            written.add(key)
+    return written
 
 
 def listen_endpoints(config: zenoh.Config) -> list[str]:

@@ -8,10 +8,14 @@ its host id ``H`` (``aiogenomix-component --host-id``); a gateway by its session
     aiogenomix/2/Z/host               query: the host's facts (id, endpoints, versions, instances)
     aiogenomix/2/Z/beat               publication every BEAT seconds: the host is heard from
     aiogenomix/2/Z/M/info             query: the /info description (JSON)
-    aiogenomix/2/Z/M/rq/send          query: {"service", "input", "session", "oneway", "gateway"} -> status object
+    aiogenomix/2/Z/M/rq/send          query: {"service", "input", "session", "oneway", "gateway", "via"}
+                                      -> status object ("via": the proxy of the gateway that sends it)
     aiogenomix/2/Z/M/rq/status        query: {"id", "gateway"} -> status object
     aiogenomix/2/Z/M/rq/abort         query: {"id", "gateway"} -> status object
     aiogenomix/2/Z/M/rq/clean         query: {"id", "gateway"} -> null
+    aiogenomix/2/Z/M/rq/release       query: {"gateway", "via"} -> {"ended": [status object...]}: the proxy
+                                      was unloaded: its running motions are interrupted (by kill), and
+                                      the component's stop_motions runs when it sent the last motion
                                       (every rq query may carry "cleaned": the ids of requests the gateway
                                       saw end and cleaned itself, applied first; with no query to carry
                                       them, they are a publication {"ids"} on .../M/cleaned/G)
@@ -38,6 +42,9 @@ Port messages use the binary layout of port reads (``AGXB``, ``encode_binary``);
   data the whole data itself.  A ``base`` message carries the whole window instead, with ``held``: how
   many of its last elements per array are numbered items (the rest is the zero padding of a window
   that has not filled yet).
+
+A ``withdrawn`` message (no data) says the component withdrew the port's data, with ``reason``: its
+exception object.  The next publication is a whole message again.
 """
 
 from __future__ import annotations
@@ -76,6 +83,8 @@ BEAT_PERIOD = 0.25
 
 #: What a host id may be: one key chunk, no wildcard or separator Zenoh or a load name gives a meaning to.
 _HOST_ID = re.compile(r"[A-Za-z0-9_.-]{1,64}")
+#: What a Zenoh session id is: its hexadecimal form.
+_ZID = re.compile(r"[0-9a-f]{1,32}")
 
 
 def host_id_error(host_id: str) -> str | None:
@@ -126,8 +135,15 @@ def parse_offer(key: str) -> OfferKey | None:
         protocol = int(chunks[2])
     except ValueError:
         return None
-    if protocol == PROTOCOL and len(chunks) == 6:
-        return OfferKey(protocol, chunks[3], chunks[4], chunks[5], key)
+    if protocol == PROTOCOL:
+        # Ours: exactly host, session and instance, each what they can be; anything else is no offer
+        # (a host and session left empty would make a name ambiguous for good, or a key of nothing).
+        if len(chunks) != 6:
+            return None
+        host, zid, instance = chunks[3:]
+        if host_id_error(host) is not None or not _ZID.fullmatch(zid) or not instance.isidentifier():
+            return None
+        return OfferKey(protocol, host, zid, instance, key)
     # Another version's layout is not ours to read: its last chunk is taken for the instance, to name it
     # when its load is refused.
     return OfferKey(protocol, "", "", chunks[-1], key)

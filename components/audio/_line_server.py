@@ -20,7 +20,7 @@ What clients make the server hold is bounded (:class:`~aiogenomix.components.cor
 at most ``socket_clients`` clients (one more gets an ``ERROR`` line naming the bound); a reply
 is cut to ``socket_client_bytes`` by the protocol's own means (each server's ``reply_to``); and
 the replies every client of the host leaves unsent are held against the host's ``socket_bytes``
-ledger, which drops the clients whose replies have waited longest when a new one does not fit.
+ledger, which drops the clients that have waited longest without reading when a new one does not fit.
 A reply is handed to the transport piece by piece as the client drains it, so a client that
 never reads holds its reply (shared with the other readers of the same publication) and one
 piece, not a copy of the whole reply in its transport.
@@ -309,6 +309,9 @@ class LineServer:
                     raise ConnectionResetError("the client was dropped or went away")
                 writer.write(view[start:start + PIECE])
                 await writer.drain()
+                # Drained: this client reads.  The ledger drops those that have waited longest since
+                # they last read, never a reader of a large reply for the age of its request.
+                reservation.progressed()
         finally:
             reservation.release()
 

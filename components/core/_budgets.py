@@ -9,7 +9,8 @@ the bound and the flag that changes it.
 Bounds on one thing (one port, one world) are checked where it is asked for.  Bounds on everything
 of a kind together are kept by a :class:`Ledger` of the host (``host.ledgers``): a component
 reserves what it holds and releases it when done; a reservation that may be taken back (a slow
-socket client's unsent reply) is evicted, oldest first, to make room for a new one.
+socket client's unsent reply) is evicted to make room for a new one, the one that has waited longest
+without progress first (a client that reads, however slowly, goes after those that do not).
 """
 
 from __future__ import annotations
@@ -161,6 +162,10 @@ class Reservation:
         """Give the amount back (idempotent)."""
         self.ledger._release(self)
 
+    def progressed(self) -> None:
+        """Say that the holder made progress (a client drained part of its reply): evicted after those that did not."""
+        self.ledger._progressed(self)
+
     def resize(self, amount: int, what: str) -> None:
         """Hold *amount* instead (*what* names it in a refusal); growing must fit, shrinking always does.
 
@@ -188,7 +193,8 @@ class Ledger:
 
     def __init__(self, name: str, limit: int, flag: str, unit: str = "bytes") -> None:
         self.name, self.limit, self.flag, self.unit = name, limit, flag, unit
-        # Insertion order is age: eviction takes the oldest first.
+        # Insertion order is the time since the last progress (a reservation that progresses moves to
+        # the end): eviction takes the first, the one that has waited longest.
         self._held: dict[Reservation, None] = {}
         self.held = 0
         #: Reservations taken back to make room for others since the start.
@@ -201,8 +207,9 @@ class Ledger:
             amount: How much.
             holder: Who holds it (an instance, a client), for the refusal and the log.
             what: What it is, in words (``a port of 400 chunks of 19200 frames``).
-            evict: When given, the reservation may be taken back to make room for a newer one:
-                ``evict()`` is called (after the reservation is released) and must let go of
+            evict: When given, the reservation may be taken back to make room for a newer one
+                (those that waited longest since they were made or last :meth:`~Reservation.progressed`
+                first): ``evict()`` is called (after the reservation is released) and must let go of
                 what it held.
 
         Raises:
@@ -234,13 +241,18 @@ class Ledger:
         reservation.amount = amount
         self.held += growth
 
+    def _progressed(self, reservation: Reservation) -> None:
+        if reservation in self._held:
+            del self._held[reservation]
+            self._held[reservation] = None
+
     def _release(self, reservation: Reservation) -> None:
         if reservation in self._held:
             del self._held[reservation]
             self.held -= reservation.amount
 
     def holders(self) -> list[tuple[str, int]]:
-        """Who holds how much, oldest first."""
+        """Who holds how much, the longest without progress first."""
         return [(r.holder, r.amount) for r in self._held]
 
 

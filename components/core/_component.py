@@ -15,12 +15,13 @@ import logging
 from typing import TYPE_CHECKING, Annotated, Any, ClassVar, TypeVar
 
 from ._exceptions import (
-    GenomException, InputError, NoSuchPort, NoSuchRequest, NoSuchService, PortUnavailable, disallowed, interrupted,
-    no_such_activity, no_such_inport, no_such_outport, no_such_service, port_io, too_many_activities, unkex,
+    AmbiguousModule, ComponentError, GenomException, InputError, NoSuchPort, NoSuchRequest, NoSuchService,
+    PortUnavailable, RemoteUnreachable, disallowed, interrupted, no_such_activity, no_such_inport,
+    no_such_outport, no_such_service, port_io, remote_io, too_many_activities, unkex,
 )
 from ._log_limits import ThrottledLog
 from ._ports import ComputedOutPort, InPortRuntime, OutPortRuntime, PortSpec
-from ._requests import Request, RequestTracker
+from ._requests import SENDER_SCOPE, Request, RequestTracker
 from ._services import ServiceSpec, activity, check_redeclaration, check_validate_hook, function, service_spec
 from ._state import GenomState
 from ._tasks import Task, TaskRuntime
@@ -230,6 +231,16 @@ class Component:
 
     async def on_stop(self) -> None:
         """Hook run when the component stops (close hardware)."""
+
+    async def stop_motions(self) -> None:
+        """Hook: bring to a stop what the motions set going and left going after their request ended.
+
+        A component host calls it when the gateway that sent the last motion (a service declared
+        ``motion=True``) vanished, or unloaded this instance: the dead-man switch.  The running
+        motions are interrupted first (their stop paths run); this is for a command that ends
+        at once and leaves the robot moving (a speed command: ``morse_kemar``'s ``Rotate``).  By
+        default nothing: a component whose motions stop when their request ends needs none.
+        """
 
     # -- requests -------------------------------------------------------------------------
 
@@ -485,19 +496,22 @@ class Component:
             request = self.requests.get(activity)
         except NoSuchRequest:
             raise no_such_activity() from None
-        if request.service.kind != "activity":
+        scope = SENDER_SCOPE.get()
+        if request.service.kind != "activity" or (scope is not None and not scope(request)):
+            # Another gateway's request (SENDER_SCOPE): as unknown to this sender as a free number.
             raise no_such_activity()
         if request.running:
             await self.interrupt(request, by="abort_activity")
 
-    @function(throws=(no_such_inport, no_such_outport, port_io))
+    @function(throws=(no_such_inport, no_such_outport, port_io, remote_io))
     async def connect_port(self, local: Annotated[str, Bound(128)], remote: Annotated[str, Bound(128)]) -> None:
         """Connect the in port ``local`` to the out port ``remote`` ("component/port[/element]").
 
         The out port must publish the in port's type (``port_io`` names both types otherwise, and
         the in ports of this component that read the out port's type). It may belong to a
         component of another process when the host finds remote components
-        (``aiogenomix-component --zenoh-...``).
+        (``aiogenomix-component --zenoh-...``): ``remote_io`` when its host does not answer,
+        ``port_io`` saying why for any other refusal (two hosts offer the name: ``NAME@HOST``).
         """
         spec = self._ports.get(local)
         if spec is None or spec.direction != "in":
@@ -508,8 +522,14 @@ class Component:
         try:
             peer = await self.host.peer(parts[0])
             target = peer.port(parts[1])
+        except AmbiguousModule as exc:  # a LookupError, but its message says how to name one
+            raise port_io(what=str(exc)) from None
         except (LookupError, InputError):
             raise no_such_outport() from None
+        except RemoteUnreachable as exc:
+            raise remote_io(what=str(exc)) from None
+        except ComponentError as exc:  # the finder's refusals: a host of another protocol, no room, a name taken
+            raise port_io(what=str(exc)) from None
         if not isinstance(target, OutPortRuntime):
             raise no_such_outport()
         if target.type.name != spec.type.name:

@@ -31,7 +31,7 @@ __all__ = [
     "ComponentError", "InputError", "NoSuchModule", "NoSuchService", "NoSuchPort", "NoSuchRequest",
     "RequestRunning", "PortUnavailable", "AmbiguousModule", "RemoteUnreachable", "RemoteRefusal", "GenomException",
     "interrupted", "too_many_activities", "unkex", "syserr", "no_such_service", "no_such_outport", "no_such_inport",
-    "port_io", "serialization", "disallowed", "no_such_activity",
+    "port_io", "serialization", "disallowed", "no_such_activity", "remote_io",
 ]
 
 
@@ -200,3 +200,5 @@ port_io = _standard("port_io", "A port could not be read, written or connected (
 serialization = _standard("serialization", "Input data could not be decoded.", what="string")
 disallowed = _standard("disallowed", "The service is not allowed now.")
 no_such_activity = _standard("no_such_activity", "No activity of that id.")
+remote_io = _standard("remote_io", "A component of another process did not answer, or was not heard from "
+                      "(``what`` says which and why).", what="string")

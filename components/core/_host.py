@@ -67,7 +67,9 @@ class RemoteFinder(Protocol):
     async def find(self, host: ComponentHost, name: str, argv: list[str]) -> LoadedInstance | None:
         """The started proxy that *name* designates (the one loaded already, if any); None: it runs here.
 
-        A new proxy is made only after ``host.check_room()``; the host then holds it.
+        A new proxy is made only after ``host.check_room()``.  It is called without the host's
+        lock (it may wait for the network): the host lists the proxy it returns, or stops it when a
+        concurrent load listed the name first.
 
         Raises:
             NoSuchModule: when no process offers *name* and it may not run here.
@@ -194,15 +196,12 @@ class ComponentHost:
         nested = _LOADING.get() == (self, asyncio.current_task())
         if self.finder is not None:
             # What another process offers runs there, not here: it is what the user started that
-            # process for.  The finder says which names may run here at all.
-            async with contextlib.nullcontext() if nested else self._lock:
-                proxy = await self.finder.find(self, name, list(argv or []))
-                if proxy is not None:
-                    if self._instances.get(proxy.instance) is not proxy:
-                        self._instances[proxy.instance] = proxy
-                        _client_log.info("loaded %s from another process as %s", name, proxy.instance)
-                        self._loaded(proxy)
-                    return proxy
+            # process for.  The finder says which names may run here at all.  It waits for the
+            # network (a host's facts, a host that restarts, the description): never under the
+            # lock, which every unload needs.
+            proxy = await self.finder.find(self, name, list(argv or []))
+            if proxy is not None:
+                return await self._hold(proxy, name, nested)
         # The first load imports the component's package (scipy, sound and CAN libraries):
         # up to seconds of work that must not stall the gateway's event loop.
         await asyncio.to_thread(self.component_class, name)
@@ -243,6 +242,40 @@ class ComponentHost:
             raise TooManyInstances(f"{len(self._instances)} instances are loaded, the most this gateway allows: "
                                    f"unload one first")
 
+    async def _hold(self, proxy: LoadedInstance, name: str, nested: bool = False) -> LoadedInstance:
+        """List the started *proxy* a finder gave for *name*, unless another load listed its name meanwhile.
+
+        The finder ran outside the lock: a concurrent load of the same name may have won.  The
+        loser is stopped; its winner is the answer when it runs in the same place, else the name
+        is taken.
+
+        Raises:
+            LoadError: when the name was taken meanwhile by an instance running elsewhere.
+            TooManyInstances: when the room went meanwhile.
+        """
+        full: TooManyInstances | None = None
+        async with contextlib.nullcontext() if nested else self._lock:
+            listed = self._instances.get(proxy.instance)
+            if listed is proxy:
+                return proxy
+            if listed is None:
+                try:
+                    self.check_room()
+                except TooManyInstances as exc:
+                    full = exc  # the room went while the proxy started
+                else:
+                    self._instances[proxy.instance] = proxy
+                    _client_log.info("loaded %s from another process as %s", name, proxy.instance)
+                    self._loaded(proxy)
+                    return proxy
+        await proxy.stop()
+        if full is not None:
+            raise full
+        if listed is not None and listed.placement() == proxy.placement():
+            return listed
+        raise LoadError(f"instance name {proxy.instance!r} was taken while {name} was loaded: load it with "
+                        f"-i ANOTHER_NAME")
+
     async def peer(self, instance: str) -> LoadedInstance:
         """The instance *instance*, loaded here or, with a finder, the proxy of one in another process.
 
@@ -251,14 +284,10 @@ class ComponentHost:
         """
         if instance in self._instances or self.finder is None:
             return self.get(instance)
-        async with self._lock:
-            if instance not in self._instances:
-                proxy = await self.finder.find(self, instance, [])
-                if proxy is None:
-                    raise NoSuchModule(f"no module {instance!r} is loaded here or offered by another process")
-                self._instances[proxy.instance] = proxy
-                return proxy
-        return self._instances[instance]
+        proxy = await self.finder.find(self, instance, [])
+        if proxy is None:
+            raise NoSuchModule(f"no module {instance!r} is loaded here or offered by another process")
+        return await self._hold(proxy, instance)
 
     async def unload(self, instance: str) -> None:
         """Stop and forget an instance, then tell the unload listeners.
@@ -351,6 +380,11 @@ class ComponentHost:
     def add_request_listener(self, listener: Callable[[RequestStatus], None]) -> None:
         """Call *listener* with every request whose status changed."""
         self._request_listeners.append(listener)
+
+    def remove_request_listener(self, listener: Callable[[RequestStatus], None]) -> None:
+        """Stop calling *listener* (added by :meth:`add_request_listener`; nothing if it was not)."""
+        with contextlib.suppress(ValueError):
+            self._request_listeners.remove(listener)
 
     def add_load_listener(self, listener: Callable[[LoadedInstance], None]) -> None:
         """Call *listener* with every instance loaded from now on (started, and listed in :attr:`instances`).

@@ -226,9 +226,14 @@ class OutPortRuntime(_PortRuntime, Generic[T]):
 
         A reader gets :class:`PortUnavailable` carrying *reason* (the gateway answers 503 with
         *reason*'s id and detail; a service reading it through an in port ends with *reason*),
-        never the old data as if it were new.  Watchers wait for the next publication.
+        never the old data as if it were new.  Watchers wait for the next publication.  Those
+        waiting for it (:meth:`next_publication`) are woken, with no new version: the ones that
+        tell others (a component host's exporter) look at :attr:`withdrawn`.
         """
         self.withdrawn = reason
+        if self._published is not None and not self._published.done():
+            self._published.set_result(None)
+        self._published = None
 
     def read(self, name: str | None = None) -> T:
         """The latest value (for a multiple port, of element *name*).
@@ -265,7 +270,7 @@ class OutPortRuntime(_PortRuntime, Generic[T]):
         return self.type.encode(self.read(name))
 
     def next_publication(self) -> asyncio.Future[None]:
-        """A future, shared by every reader, done at the next publication (never cancel it)."""
+        """A future, shared by every reader, done at the next publication or withdrawal (never cancel it)."""
         if self._published is None:
             self._published = asyncio.get_running_loop().create_future()
         return self._published

@@ -9,6 +9,7 @@ it to the request's session as a ``request`` event).
 from __future__ import annotations
 
 import asyncio
+import contextvars
 import dataclasses
 import heapq
 from collections import OrderedDict
@@ -18,7 +19,13 @@ from typing import Any, Literal
 from ._exceptions import NoSuchRequest, RequestRunning
 from ._services import ServiceSpec
 
-__all__ = ["Request", "RequestStatus", "RequestTracker", "Status", "parse_request_id"]
+__all__ = ["Request", "RequestStatus", "RequestTracker", "Status", "parse_request_id", "SENDER_SCOPE"]
+
+#: Which requests the sender of the request being made may name (None: every one).  A component host
+#: serving several gateways sets it while it makes one gateway's request: ``abort_activity`` of another
+#: gateway's request then ends ``::genom::no_such_activity``, as for a number that names no request.
+SENDER_SCOPE: contextvars.ContextVar[Callable[[Request], bool] | None] = contextvars.ContextVar(
+    "aiogenomix_sender_scope", default=None)
 
 Status = Literal["sent", "done", "error"]
 

@@ -16,7 +16,7 @@ from ._host import NoCapability, RemoteFinder, TooManyInstances
 from ._instance import LoadedInstance, Placement
 from ._ports import ComputedOutPortRuntime, PortSpec
 from ._public import show_as_public as _show_as_public
-from ._requests import Request, RequestStatus, RequestTracker, parse_request_id
+from ._requests import SENDER_SCOPE, Request, RequestStatus, RequestTracker, parse_request_id
 from ._rig_arguments import add_rig_arguments, rig_settings
 from ._services import NO_DEFAULT, ParamSpec, ServiceDecorator, ServiceSpec
 from ._tasks import TaskRuntime
@@ -27,7 +27,7 @@ from ._types import (
 __all__ = [
     # Describing and hosting components, local or in other processes
     "describe", "TooManyInstances", "RemoteFinder", "LoadedInstance", "Placement", "Request", "RequestStatus",
-    "RequestTracker", "parse_request_id", "TaskRuntime",
+    "RequestTracker", "parse_request_id", "SENDER_SCOPE", "TaskRuntime",
     # What the runtime reads from declarations
     "ServiceSpec", "ParamSpec", "NO_DEFAULT", "ServiceDecorator", "PortSpec", "ComputedOutPortRuntime",
     # IDL type objects: description, decoding and encoding of data

@@ -149,6 +149,11 @@ class MorseKemar(Component, name="morse_kemar", version="1.0"):
         """Send one speed command: the head turns at *z* deg/s until told otherwise or a limit stops it."""
         self.RobotMotion.publish(_twist(z))
 
+    async def stop_motions(self) -> None:
+        """Stop the head a Rotate left turning (the dead-man switch of a remote host calls it)."""
+        if self.RobotMotion.read().angular.z != 0.0:
+            self.RobotMotion.publish(_twist(0.0))
+
     async def _go(self, target: float, velocity: float) -> None:
         """Turn to *target* degrees (kept inside the limits) at up to *velocity* deg/s."""
         limit = math.degrees(KEMAR_LIMIT) - LIMIT_MARGIN

@@ -69,7 +69,14 @@ class Recorder(Component, name="recorder", version="1.0"):
         try:
             peer = await self.host.peer(instance)
         except LookupError as exc:
-            raise NO_SUCH_PORT(port=name, what=f"no instance {instance!r} is loaded") from exc
+            # With components of other processes, the finder's message says more (two hosts: NAME@HOST).
+            what = str(exc) if self.host.finder is not None else f"no instance {instance!r} is loaded"
+            raise NO_SUCH_PORT(port=name, what=what) from exc
+        except Exception as exc:
+            if self.host.finder is None:
+                raise
+            # An instance of another process that cannot be reached as asked (its host silent, no room).
+            raise NO_SUCH_PORT(port=name, what=str(exc)) from exc
         described = next((p for p in peer.description()["ports"] if p["name"] == port), None)
         if described is None or described["dir"] != "out":
             outs = ", ".join(p["name"] for p in peer.description()["ports"] if p["dir"] == "out")

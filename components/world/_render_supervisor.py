@@ -14,7 +14,6 @@ from __future__ import annotations
 import asyncio
 import logging
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
@@ -131,11 +130,6 @@ class RenderSupervisor:
                 self._log.error("world %s: a new render process failed (%s); next attempt in %.2g s", self.name, exc,
                            delay)
                 self._notify()
-
-    def state(self) -> dict[str, Any]:
-        """What a person would want to know: up, starts, failures, the last error."""
-        return {"up": self.up, "starts": self.starts, "failures": self.failures,
-                "start_failures": self.start_failures, "last_error": self.last_error}
 
     async def aclose(self) -> None:
         """End the render process (see :meth:`SensorRenderer.aclose`)."""

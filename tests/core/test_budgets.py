@@ -87,6 +87,20 @@ def test_the_oldest_evictable_reservations_make_room_for_a_new_one() -> None:
     assert evicted == ["a", "b"]
 
 
+def test_a_reservation_that_makes_progress_is_evicted_after_those_that_do_not() -> None:
+    # A client reading a large reply slowly, asked before clients that never read, is not the one dropped.
+    ledger = Ledger("socket_bytes", 100, "--max-socket-bytes")
+    evicted: list[str] = []
+    slow_reader = ledger.reserve(40, "reader", "a reply", evict=lambda: evicted.append("reader"))
+    for name in ("stuck1", "stuck2"):
+        ledger.reserve(25, name, "a reply", evict=lambda name=name: evicted.append(name))
+    slow_reader.progressed()
+    ledger.reserve(30, "new", "a reply", evict=lambda: evicted.append("new"))
+    assert evicted == ["stuck1"]
+    ledger.reserve(30, "newer", "a reply", evict=lambda: evicted.append("newer"))
+    assert evicted == ["stuck1", "stuck2"]          # the reader's progress came after stuck2 was asked
+
+
 class _Clock:
     def __init__(self) -> None:
         self.now = 0.0
@@ -107,6 +121,29 @@ def test_a_kind_of_line_is_written_a_few_times_a_period_then_counted(caplog: pyt
     messages = [r.getMessage() for r in caplog.records]
     assert messages == ["client 0 refused", "client 1 refused", "client 2 refused", "another kind",
                         "client 1000 refused (997 more like this left out of the log)"]
+
+
+def _fail_elsewhere() -> None:
+    raise KeyError("another fault")
+
+
+def test_a_new_fault_s_first_traceback_is_written_however_busy_its_template(
+        caplog: pytest.LogCaptureFixture) -> None:
+    # Every 500 of the gateway shares one template: a client's loop of one fault must not hide another.
+    log = ThrottledLog(logging.getLogger("test.new_fault"), burst=2, period=60.0, clock=_Clock())
+    with caplog.at_level(logging.ERROR, "test.new_fault"):
+        for n in range(10):
+            try:
+                _fail(n)
+            except ValueError as exc:
+                log.error("request failed: %s", exc, exc=exc)
+        try:
+            _fail_elsewhere()
+        except KeyError as exc:
+            assert log.error("request failed: %s", exc, exc=exc)
+    traced = [r for r in caplog.records if r.exc_info is not None]
+    assert [r.exc_info[0] for r in traced] == [ValueError, KeyError]
+    assert len(caplog.records) == 3  # the first fault twice (its bucket), then the new one
 
 
 def _fail(n: int) -> None:

@@ -51,18 +51,27 @@ def decoder(channel: dict[str, Any]) -> Any:
     return message_factory.GetMessageClass(pool.FindMessageTypeByName(channel["schemaName"]))
 
 
+INSTANCES = ("kemar", "world", "demo", "kemarcapture")
+
+
 @pytest.fixture
 async def gateway() -> AsyncIterator[tuple[str, int]]:
     port = free_port()
     async with serve(GatewayConfig(port=0, audio_socket_port=0, foxglove_port=port)) as url:
         async with aiohttp.ClientSession(base_url=url) as http:
-            for name in ("kemar", "world", "demo", "kemarcapture"):
+            for name in INSTANCES:
                 async with http.get(f"/load/{name}") as loaded:
                     assert loaded.status == 200, await loaded.text()
             capture = {"input": '{"device":"sim","Port_chunks":200}'}
             async with http.get("/module/kemarcapture/send/StartCapture", params=capture):
                 pass
         yield url, port
+        # Unloaded one by one, each to its end: the gateway's own shutdown gives them a second in all,
+        # which a busy machine may not leave them.
+        async with aiohttp.ClientSession(base_url=url) as http:
+            for name in reversed(INSTANCES):
+                async with http.get(f"/unload/{name}") as unloaded:
+                    assert unloaded.status == 200, await unloaded.text()
 
 
 async def advertised(viewer: Any, topics: set[str]) -> dict[str, dict[str, Any]]:

@@ -6,6 +6,7 @@ import asyncio
 import socket
 
 import aiohttp
+import orjson
 import pytest
 
 from aiogenomix.clients import AsyncAudioSocketClient, AsyncFrameSocketClient, AudioSocketError
@@ -31,10 +32,17 @@ async def send(http: aiohttp.ClientSession, path: str) -> None:
 
 
 async def open_socket(http: aiohttp.ClientSession, module: str) -> None:
-    """Load *module*, open its dedicated socket (it listens once the request runs) and start capturing."""
+    """Load *module*, open its dedicated socket (it listens once the request runs), capture, await a first chunk."""
     await send(http, f"/load/{module}")
     await send(http, f"/module/{module}/send/DedicatedSocket")
     await send(http, f"/module/{module}/send/{'Acquire' if module == 'bass' else 'StartCapture'}")
+    # A read before the first chunk finds no frame to send (on a busy machine it comes late).
+    port = "Audio" if module == "bass" else "Port"
+    async with http.get(f"/module/{module}/watch/{port}", headers=AUTH) as stream:
+        async for line in stream.content:
+            if line.startswith(b"data: ") and orjson.loads(line[6:])[port][
+                    "lastFrameIndex" if module == "bass" else "index"] > 0:
+                break
 
 
 async def raw_exchange(port: int, lines: bytes) -> bytes:

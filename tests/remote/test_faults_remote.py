@@ -108,11 +108,15 @@ async def test_a_gateway_started_before_its_host_finds_it_when_it_comes(started:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     gateway, url = await start_gateway([endpoint])  # nobody listens there yet: the gateway starts anyway
     started.append(gateway)
-    started.append(await start_component_host(["demo"], listen=endpoint))
     async with aiohttp.ClientSession(base_url=url) as http:
-        async with asyncio.timeout(30):
-            while "demo" not in (await _get(http, "/"))[1]["offered"]:
-                await asyncio.sleep(0.1)
+        session = (await (await http.get("/session/start?s=")).text()).strip()
+        events = await RawEventStream.open(url, session)
+        try:
+            started.append(await start_component_host(["demo"], listen=endpoint))
+            # The gateway tells every session when a host offers an instance.
+            assert await _next_event(events) == ("offered", '{"name":"demo","host":"robot","loaded":null}')
+        finally:
+            events.close()
         async with http.get("/load/demo") as reply:
             assert (reply.status, await reply.text()) == (200, "demo")
 

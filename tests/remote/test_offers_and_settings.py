@@ -8,7 +8,9 @@ import pathlib
 import pytest
 
 from aiogenomix.components.core.runtime import AmbiguousModule, NoSuchModule, RemoteRefusal
-from aiogenomix.remote._offers import OfferBook, OfferedBefore
+from aiogenomix.remote._host_main import parse_args as parse_host_args
+from aiogenomix.remote._host_main import token_warning
+from aiogenomix.remote._offers import OfferBook, OfferedBefore, split_name
 from aiogenomix.remote._session import ZenohSessionError, ZenohSettings
 from aiogenomix.remote._wire import offer_token, parse_offer
 
@@ -83,6 +85,24 @@ def test_a_host_of_another_protocol_is_refused_and_listed() -> None:
     assert book.names() == []
 
 
+@pytest.mark.parametrize("name", ["de*mo", "a#b", "demo@**", "demo@rob/ot", "de$mo@robot1", "demo@robot 1", "*",
+                                  "de mo", "demo@", "@robot1", "dé/mo"])
+def test_a_load_name_that_cannot_be_a_key_is_no_module(name: str) -> None:
+    # Each would be a Zenoh key expression (a wildcard, a separator) or no key at all: 404, never a 500.
+    with pytest.raises(NoSuchModule, match="not a load name"):
+        split_name(name)
+    with pytest.raises(NoSuchModule):
+        OfferBook().resolve(name)
+
+
+@pytest.mark.parametrize("key", ["aiogenomix/offer/2//zz/demo", "aiogenomix/offer/2/robot1/aa", "aiogenomix/offer/2",
+                                 "aiogenomix/offer/2/robot1/aa/demo/more", "aiogenomix/offer/2/robot1/not-hex/demo",
+                                 "aiogenomix/offer/2/robot1/aa/de-mo", "aiogenomix/offer/2/rob%ot/aa/demo"])
+def test_a_malformed_offer_of_our_protocol_is_no_offer(key: str) -> None:
+    assert parse_offer(key) is None
+    assert parse_offer("aiogenomix/offer/2/robot1/aa/demo") is not None
+
+
 def test_hosts_show_where_each_runs_and_what_it_offers() -> None:
     book = OfferBook()
     _offer(book, "robot1", "aa", "demo")
@@ -138,5 +158,20 @@ def test_zenoh_s_own_file_is_kept_and_the_flags_replace_its_endpoints(tmp_path: 
                                             '["tcp/10.0.0.1:0"]}}')
     kept = _values(ZenohSettings(config_file=str(tmp_path / "scouting.json5")))
     assert kept["scouting/multicast/enabled"] is True and kept["listen/endpoints"] == ["tcp/10.0.0.1:0"]
+    # What the file says is kept even when it says Zenoh's default (gossip on, in peer mode).
+    (tmp_path / "gossip.json5").write_text('{mode: "peer", scouting: {gossip: {enabled: true}}, connect: '
+                                          '{endpoints: ["tcp/10.0.0.9:7447"]}}')
+    gossip = _values(ZenohSettings(config_file=str(tmp_path / "gossip.json5")))
+    assert gossip["scouting/gossip/enabled"] is True and gossip["scouting/multicast/enabled"] is False
     with pytest.raises(ZenohSessionError, match="cannot read the Zenoh configuration"):
         ZenohSettings(config_file=str(tmp_path / "missing.json5")).config()
+
+
+def test_the_host_s_socket_token_comes_from_the_environment_and_the_command_line_is_warned_about(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("AIOGENOMIX_TOKEN", "s3cret")
+    assert parse_host_args(["demo", "--zenoh-listen", "tcp/127.0.0.1:7447"]).token == "s3cret"
+    assert token_warning(["demo", "--zenoh-listen", "tcp/127.0.0.1:7447"]) is None
+    for argv in (["demo", "--token", "s3cret"], ["demo", "--token=s3cret"]):
+        warning = token_warning(argv)
+        assert warning is not None and "AIOGENOMIX_TOKEN" in warning and "every user" in warning

@@ -12,7 +12,8 @@ from aiogenomix.components.bass._history import ChunkHistory
 from aiogenomix.components.bass._types import AudioPortData
 from aiogenomix.components.audio import ChunkWindow
 from aiogenomix.components.capture import PortData, PortView
-from aiogenomix.components.core.runtime import idl_type
+from aiogenomix.components.core import InPort, Ledger, OverBudget
+from aiogenomix.components.core.runtime import RemoteUnreachable, idl_type
 from aiogenomix.components.core._ports import OutPort
 from aiogenomix.components.kemarcapture._types import KemarPortData
 from aiogenomix.gateway._pieces import json_pieces
@@ -31,6 +32,7 @@ class _Port:
         self.type = idl_type(annotation)
         self.value: Any = None
         self.version = 0
+        self.withdrawn = None
 
     def read(self, name: str | None = None) -> Any:
         return self.value
@@ -104,3 +106,60 @@ def test_a_missing_message_is_counted_as_lost_not_hidden() -> None:
     assert mirror.gaps == 1
     data, lost = mirror.read_kept().chunked(1)
     assert lost == 1 and list(data["left"].numpy()) == [2, 2, 4, 4] and data["nbframes"] == 4
+
+
+class _Proxy:
+    """What a mirror asks of its proxy: whether its host is heard from."""
+
+    instance = "capture"
+
+    def __init__(self) -> None:
+        self.silent = False
+
+    def check_heard(self) -> None:
+        if self.silent:
+            raise RemoteUnreachable("capture runs on robot1, not heard from for 3.0 s")
+
+
+def test_an_in_port_connected_to_a_silent_host_s_port_is_refused_as_its_reads_are() -> None:
+    window = ChunkWindow(4, 2)
+    port = _Port(PortData)
+    encoder = PortEncoder(port)  # type: ignore[arg-type]
+    proxy = _Proxy()
+    mirror = MirroredOutPort({"name": "Port", "kind": "simple", "type": idl_type(PortData).describe()},
+                             proxy)  # type: ignore[arg-type]
+    window.append([1, 1], [1, 1])
+    port.value = PortView(window)
+    _relay(encoder, mirror)
+    reader = InPort(PortData).runtime(None)
+    reader.spec.name = "Audio"
+    reader.connect(mirror, "capture/Port")
+    assert reader.read().index == 1  # type: ignore[union-attr]
+    proxy.silent = True
+    with pytest.raises(RemoteUnreachable):
+        reader.read()
+
+
+def test_a_window_the_gateway_s_audio_budget_cannot_hold_is_refused_naming_the_flag() -> None:
+    window = ChunkWindow(8, 1000)  # 8 chunks of 1000 frames: 64000 bytes
+    port = _Port(PortData)
+    encoder = PortEncoder(port)  # type: ignore[arg-type]
+    ledger = Ledger("audio_bytes", 40_000, "--max-audio-bytes")
+    mirror = MirroredOutPort({"name": "Port", "kind": "simple", "type": {"name": "capture::port_t"}},
+                             _Proxy(), ledger)  # type: ignore[arg-type]
+    for chunk in range(3):
+        window.append(np.full(1000, chunk), np.full(1000, chunk))
+        port.value = PortView(window)
+        _relay(encoder, mirror)
+    with pytest.raises(OverBudget, match="--max-audio-bytes"):
+        mirror.read()
+    assert ledger.held == 0  # nothing kept
+    mirror.release()
+    # With room, the next base is kept again, and held.
+    roomy = Ledger("audio_bytes", 100_000, "--max-audio-bytes")
+    kept = MirroredOutPort({"name": "Port", "kind": "simple", "type": {"name": "capture::port_t"}},
+                           _Proxy(), roomy)  # type: ignore[arg-type]
+    kept.apply(*decode_message(PortEncoder(port).base()))  # type: ignore[arg-type]
+    assert kept.read().index == 3 and roomy.held == 64_000
+    kept.release()
+    assert roomy.held == 0

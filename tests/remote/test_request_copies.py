@@ -134,17 +134,22 @@ async def test_a_clean_no_query_carries_is_published(rig: _Rig) -> None:
 class _SilentSession:
     """A Zenoh session whose queries get no reply (the host is frozen, or about to be found gone)."""
 
+    def __init__(self) -> None:
+        #: Set once a query was asked.
+        self.asked = asyncio.Event()
+
     def get(self, *args: Any, **kwargs: Any) -> None:
-        pass
+        self.asked.set()
 
 
 async def test_a_host_found_gone_ends_the_queries_waiting_for_it_at_once() -> None:
     async with ComponentHost(factories={}) as host:
-        link = RemoteLink(_SilentSession(), "gateway1", RemoteTimeouts(send=60.0), lambda zid: 0.0)  # type: ignore[arg-type]
+        session = _SilentSession()
+        link = RemoteLink(session, "gateway1", RemoteTimeouts(send=60.0), lambda zid: 0.0)  # type: ignore[arg-type]
         offer = OfferKey(2, "robot1", "zid1", "demo", "aiogenomix/offer/2/robot1/zid1/demo")
         proxy = RemoteInstance(host, link, offer, "demo", _DESCRIPTION, dict)
         sending = asyncio.ensure_future(proxy.send("GotoPosition", {"posRef": 0.5}))
-        await asyncio.sleep(0)  # the send's first step: its query is asked, and waits for a reply
+        await session.asked.wait()  # the send's query is asked, and waits for a reply
         assert len(proxy._pending) == 1
         proxy.lost("demo ran on component host robot1, which stopped or cannot be reached")
         with pytest.raises(RemoteUnreachable) as gone:

@@ -125,9 +125,9 @@ async def test_an_authenticated_isolated_deployment(tmp_path: pathlib.Path, star
         assert await curl(ws, f"{url}/load/bass") == (200, "bass")
         assert (await curl(ws, f"{url}/module/bass/send/DedicatedSocket"))[1]["status"] == "sent"  # type: ignore[index]
         assert (await curl(ws, f"{url}/module/bass/send/Acquire"))[1]["status"] == "sent"  # type: ignore[index]
-        async with asyncio.timeout(30):  # until the port holds ten frames (the gateway's copy says so)
-            while (await curl(ws, f"{url}/module/bass/read/Audio"))[1]["Audio"]["lastFrameIndex"] < 10:  # type: ignore[index]
-                await asyncio.sleep(0.05)
+        # Until the port holds ten frames: the first publication of the gateway's copy that says so.
+        await run_in(ws, "sh", "-c", f"curl -sN --max-time 30 {url}/module/bass/watch/Audio"
+                                     " | grep -q -m1 -E '\"lastFrameIndex\":[1-9][0-9]'")
         header = await run_in(ws, "sh", "-c", _README_SOCKET_READ.format(address=ROBOT_ADDRESS))
         count, lost, next_low, next_high = (int(word) for word in header.split())
         # Ten frames from the oldest the robot's port holds (the frames before it, gone from the window, are lost).

@@ -77,6 +77,9 @@ async def test_morse_kemar_speed_control_stops_before_the_limit(host: ComponentH
     assert kemar.RobotMotion.read().angular.z == 0.0  # stopped
     rotate = await _run(kemar, "Rotate", z=-30.0)
     assert rotate.status == "done" and kemar.RobotMotion.read().angular.z == pytest.approx(math.radians(-30))
+    # The request ended; the head still turns: the dead-man switch of a component host stops it thus.
+    await kemar.stop_motions()
+    assert kemar.RobotMotion.read().angular.z == 0.0
     assert (await _run(kemar, "MoveRelativePosition", target=-20.0, velocity=0.0)).exception["ex"] == \
         "::morse_kemar::INVALID_VALUE"
     await _run(kemar, "Rotate", z=0.0)
