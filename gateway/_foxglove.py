@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 import orjson
 
-from ..components.core import Incremental, OutPortRuntime, OverBudget, json_schema
+from ..components.core import Clock, Incremental, OutPortRuntime, OverBudget, json_schema
 from ..components.core.runtime import LoadedInstance, PortUnavailable, RemoteUnreachable
 
 from ..components.recording import (
@@ -91,10 +91,13 @@ class FoxgloveView:
         address: The address to bind (the loopback address unless the operator says otherwise).
         port: The TCP port (0 picks a free one).
         name: The server's name, shown by the viewer.
+        clock: The rig's clock, which stamps data that carries no time (``bass``'s audio, pictures)
+            as the rig stamps the rest (default: this machine's time).
     """
 
-    def __init__(self, address: str, port: int, name: str = "aiogenomix") -> None:
+    def __init__(self, address: str, port: int, name: str = "aiogenomix", clock: Clock | None = None) -> None:
         self.address, self.requested_port, self.name = address, port, name
+        self._wall: Callable[[], float] = clock.wall if clock is not None else time.time
         self._fox: Any = None
         self._context: Any = None
         self._server: Any = None
@@ -267,7 +270,7 @@ class FoxgloveView:
                     value = port.read()
                 except (PortUnavailable, RemoteUnreachable, OverBudget):
                     continue  # not current (a sensor down, a silent host): shown again at the next publication
-                now = time.time()
+                now = self._wall()
                 if shown.audio:
                     since = self._log_audio(channel, port, value, since, now)
                     continue

@@ -17,7 +17,7 @@ from typing import Any
 
 import pytest
 
-from aiogenomix.components.core import Component, ComponentHost, HostSettings, OutPort, ScaledClock
+from aiogenomix.components.core import Component, ComponentHost, Double, HostSettings, ManualClock, OutPort
 from aiogenomix.components.kemar import KemarState
 from aiogenomix.components.recording import head_state, planar_odometry
 from aiogenomix.components.world import Odometry
@@ -33,51 +33,67 @@ class Robot(Component, name="robot"):
 
     Head = OutPort(KemarState, doc="The head's state")
     Odom = OutPort(Odometry, doc="The base's odometry")
+    Level = OutPort(Double, doc="A reading without a time of its own")
 
 
 @pytest.fixture
-async def view() -> AsyncIterator[tuple[FoxgloveView, Any]]:
-    async with ComponentHost(clock=ScaledClock(1.0), settings=HostSettings(audio_socket_port=0),
+async def view() -> AsyncIterator[tuple[FoxgloveView, Any, ManualClock]]:
+    clock = ManualClock()
+    async with ComponentHost(clock=clock, settings=HostSettings(audio_socket_port=0),
                              factories={"robot": Robot}) as host:
         robot = await host.load("robot")
-        shown = FoxgloveView("127.0.0.1", 0)
+        shown = FoxgloveView("127.0.0.1", 0, clock=host.clock)
         shown.start(host.instances)
         try:
-            yield shown, robot
+            yield shown, robot, clock
         finally:
             await shown.stop()
 
 
-async def test_odometry_moves_in_the_robots_frame_and_the_head_turns_in_radians(
-        view: tuple[FoxgloveView, Any]) -> None:
+async def shown_messages(shown: FoxgloveView, topics: list[str]) -> dict[str, tuple[int, Any]]:
+    """Subscribe to *topics* and return the first message of each: its log time (ns) and its decoded payload."""
     import websockets
 
-    shown, robot = view
-    robot.Head.publish(KemarState(position=45.0, speed=-30.0))
-    robot.Odom.publish(Odometry(x=1.0, y=2.0, w=math.pi / 2, vx=0.3, vy=0.0, vw=0.1))
     async with websockets.connect(f"ws://127.0.0.1:{shown.port}", subprotocols=["foxglove.sdk.v1"],
                                   max_size=None, close_timeout=1) as viewer:
         await asyncio.wait_for(viewer.recv(), 30)  # serverInfo
-        channels = await advertised(viewer, {"/robot/Head", "/robot/Odom"})
-        head, odometry = channels["/robot/Head"], channels["/robot/Odom"]
+        channels = await advertised(viewer, set(topics))
         await viewer.send(json.dumps({"op": "subscribe", "subscriptions": [
-            {"id": 1, "channelId": head["id"]}, {"id": 2, "channelId": odometry["id"]}]}))
-        decoded: dict[int, Any] = {}
-        subscribed = {1: head, 2: odometry}
-        while len(decoded) < 2:
+            {"id": n, "channelId": channels[topic]["id"]} for n, topic in enumerate(topics)]}))
+        decoded: dict[str, tuple[int, Any]] = {}
+        while len(decoded) < len(topics):
             frame = await asyncio.wait_for(viewer.recv(), 30)
             if isinstance(frame, bytes) and frame[0] == 1:  # messageData: op, subscription, log time, payload
-                subscription = int.from_bytes(frame[1:5], "little")
-                decoded[subscription] = decoder(subscribed[subscription]).FromString(frame[13:])
-    joint = decoded[1].joints[0]
+                channel = channels[topics[int.from_bytes(frame[1:5], "little")]]
+                payload = frame[13:]
+                message = json.loads(payload) if channel["encoding"] == "json" else decoder(channel).FromString(payload)
+                decoded[channel["topic"]] = (int.from_bytes(frame[5:13], "little"), message)
+    return decoded
+
+
+async def test_odometry_moves_in_the_robots_frame_and_the_head_turns_in_radians(
+        view: tuple[FoxgloveView, Any, ManualClock]) -> None:
+    shown, robot, _ = view
+    robot.Head.publish(KemarState(position=45.0, speed=-30.0))
+    robot.Odom.publish(Odometry(x=1.0, y=2.0, w=math.pi / 2, vx=0.3, vy=0.0, vw=0.1))
+    decoded = await shown_messages(shown, ["/robot/Head", "/robot/Odom"])
+    joint = decoded["/robot/Head"][1].joints[0]
     assert (joint.name, joint.position, joint.velocity) == pytest.approx(("head_yaw", math.pi / 4, -math.pi / 6))
-    moved = decoded[2]
+    moved = decoded["/robot/Odom"][1]
     assert moved.body_frame_id == "base_footprint" and moved.frame_id == "map"
     # Heading +y, moving along +x: to its own right (body y negative), nothing ahead.
     assert (moved.linear_velocity.x, moved.linear_velocity.y) == pytest.approx((0.0, -0.3), abs=1e-12)
     assert moved.angular_velocity.z == pytest.approx(0.1)
     assert (moved.pose.position.x, moved.pose.position.y) == pytest.approx((1.0, 2.0))
     assert (moved.pose.orientation.z, moved.pose.orientation.w) == pytest.approx((math.sqrt(0.5), math.sqrt(0.5)))
+
+
+async def test_data_without_a_time_is_stamped_on_the_rigs_clock(view: tuple[FoxgloveView, Any, ManualClock]) -> None:
+    shown, robot, clock = view
+    await clock.advance(3600.0)  # the rig's clock an hour ahead of this machine's
+    robot.Level.publish(0.5)
+    log_time, level = (await shown_messages(shown, ["/robot/Level"]))["/robot/Level"]
+    assert level == 0.5 and log_time == pytest.approx(clock.wall() * 1e9, abs=1e6)
 
 
 def test_the_recording_and_the_view_read_the_same_conversion() -> None:
