@@ -42,7 +42,7 @@ from ._service import USE_CLIENT_DEFAULT
 from ._streams import PortEvent, SessionEvent
 from ._sync_client import Client, Module, Request, connect
 from ._types import Record
-from ._wire import DEFAULT_ADDRESS, Status
+from ._wire import DEFAULT_ADDRESS, GatewayClock, Status
 from .audio_socket import (
     DEFAULT_PORT,
     AsyncAudioSocketClient,
@@ -57,8 +57,8 @@ __all__ = [
     "connect", "aconnect", "Client", "AsyncClient", "DEFAULT_ADDRESS",
     # Modules and requests
     "Module", "AsyncModule", "Request", "AsyncRequest", "Status", "Record", "USE_CLIENT_DEFAULT",
-    # Event streams of ports and sessions (AsyncClient.watch, AsyncClient.session_events)
-    "PortEvent", "SessionEvent",
+    # Event streams of ports and sessions (AsyncClient.watch, AsyncClient.session_events), the rig's clock
+    "PortEvent", "SessionEvent", "GatewayClock",
     # Errors
     "GenomixError", "GenoMError", "RemoteError", "Interrupted", "InvalidInput", "NotFound", "Forbidden",
     "TooManyActivities", "TransportError", "RequestTimeout", "ProtocolError", "ModuleUnloaded", "ClientClosed",

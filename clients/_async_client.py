@@ -22,7 +22,7 @@ from ._request import AsyncRequest
 from ._service import USE_CLIENT_DEFAULT, CallOptions, PortSpec, ServiceSpec
 from ._streams import PortEvent, SessionEvent, session_events, watch_port
 from ._tracker import RequestTracker
-from ._wire import base_url, check_info, parse_status
+from ._wire import GatewayClock, base_url, check_info, clock_of, parse_status
 
 __all__ = ["AsyncClient", "AsyncModule", "aconnect", "component_name"]
 
@@ -244,6 +244,10 @@ class AsyncClient:
         await gateway.get_text(f"/unload/{instance}", timeout=self._timeout(timeout), module=instance)
         self._modules.pop(instance, None)
 
+    async def clock(self, *, timeout: Any = USE_CLIENT_DEFAULT) -> GatewayClock | None:
+        """The gateway's clock now: the time its rig stamps the ports' data with (None from a genomixd)."""
+        return clock_of(await self._check_open().get_json("/", timeout=self._timeout(timeout)))
+
     async def loaded(self, *, timeout: Any = USE_CLIENT_DEFAULT) -> dict[str, str]:
         """The instances loaded on the gateway, ``{instance: component}``."""
         index = await self._check_open().get_json("/", timeout=self._timeout(timeout))
@@ -279,8 +283,15 @@ class AsyncClient:
     def session_events(self, session: str) -> AsyncIterator[SessionEvent]:
         """The events of any session (``request``, ``unload``, ``quit``) until it stops, for a logger or a recorder.
 
+        This is one more listener of the session.  A session not started yet is started by it
+        (genomix clients may listen before they start), and the events a session kept while
+        nobody listened go to the first listener that comes: listen after the session's own
+        client does, or those events come here instead of there.  A stream that drops is opened
+        again; the events of the time in between come only if nobody else listened meanwhile.
+
         Raises:
-            NotFound: when there is no such session.
+            InvalidInput: for a name that cannot name a session.
+            TransportError: when the stream drops and cannot be opened again.
         """
         return session_events(self._check_open(), session)
 

@@ -70,14 +70,21 @@ async def _events(gateway: HttpGateway, path: str, params: Mapping[str, str], la
                     yield item
 
 
-async def _resuming(gateway: HttpGateway, path: str, params: Mapping[str, str],
-                    idle_timeout: float) -> AsyncIterator[ServerSentEvent]:
-    """The events of *path*, the stream opened again with its last id when it drops."""
+async def _resuming(gateway: HttpGateway, path: str, params: Mapping[str, str], idle_timeout: float, *,
+                    resume_param: str | None = None) -> AsyncIterator[ServerSentEvent]:
+    """The events of *path* (queried with *params*), the stream opened again with its last id when it drops.
+
+    A watch's ``since``, named by *resume_param*, is replaced by the last id when the stream is
+    opened again: the first one would start again from the same item.
+    """
     last_id: str | None = None
     failures = 0
     while True:
+        query = dict(params)
+        if last_id is not None and resume_param is not None and resume_param in query:
+            query[resume_param] = last_id
         try:
-            async for event in _events(gateway, path, params, last_id, idle_timeout):
+            async for event in _events(gateway, path, query, last_id, idle_timeout):
                 failures = 0
                 last_id = event.id if event.id is not None else last_id
                 yield event
@@ -99,7 +106,9 @@ async def watch_port(gateway: HttpGateway, instance: str, port: str, *, since: i
     if element is not None:
         params["name"] = element
     path = f"/module/{instance}/watch/{port}"
-    async for event in _resuming(gateway, path, params, idle_timeout):
+    # A watch of numbered data that drops resumes after the newest item it had (its last id), not
+    # again after the item it first asked for.
+    async for event in _resuming(gateway, path, params, idle_timeout, resume_param="since"):
         if event.event == "unload":
             raise ModuleUnloaded(f"{instance} was unloaded: its port {port} is no longer published")
         if event.event != "port":

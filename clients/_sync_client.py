@@ -14,7 +14,7 @@ from ._module import ModuleProxy, build_members, dress
 from ._request import AsyncRequest
 from ._service import USE_CLIENT_DEFAULT, PortSpec, ServiceSpec
 from ._types import Record
-from ._wire import Status
+from ._wire import GatewayClock, Status
 
 __all__ = ["Client", "Module", "Request", "connect"]
 
@@ -183,6 +183,10 @@ class Client:
     def loaded(self, *, timeout: Any = USE_CLIENT_DEFAULT) -> dict[str, str]:
         """The instances loaded on the gateway, ``{instance: component}``."""
         return self._run(self._core.loaded(timeout=timeout))  # type: ignore[no-any-return]
+
+    def clock(self, *, timeout: Any = USE_CLIENT_DEFAULT) -> GatewayClock | None:
+        """The gateway's clock now: the time its rig stamps the ports' data with (None from a genomixd)."""
+        return self._run(self._core.clock(timeout=timeout))  # type: ignore[no-any-return]
 
     def _module(self, core: AsyncModule) -> Module:
         description = core._description

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
 import enum
+import math
 import re
 from collections.abc import Mapping
 from typing import Any, Literal, NotRequired, TypedDict
@@ -12,6 +14,7 @@ from ._errors import ProtocolError
 
 __all__ = [
     "DEFAULT_ADDRESS",
+    "GatewayClock",
     "ExceptionInfo",
     "ExceptionObject",
     "ModuleInfo",
@@ -24,6 +27,7 @@ __all__ = [
     "TypeInfo",
     "base_url",
     "check_info",
+    "clock_of",
     "parse_status",
     "request_number",
 ]
@@ -196,3 +200,29 @@ def base_url(address: str | None) -> str:
 def request_number(request_id: str) -> str:
     """The ``n`` of ``demo::n`` (the gateway accepts both forms; the short one is path-safe)."""
     return request_id.rpartition("::")[2]
+
+
+@dataclasses.dataclass(frozen=True)
+class GatewayClock:
+    """The gateway's clock as its ``/`` told it: the time its rig stamps the ports' data with.
+
+    Attributes:
+        wall: POSIX seconds on that clock when the reply was made.
+        scale: Its runtime seconds per real second; ``math.inf`` for a clock that moves with a
+            simulation, not with real time (``ManualClock``, ``VirtualClock``).
+        kind: ``RealClock``, ``ScaledClock``, ``ManualClock`` or ``VirtualClock``.
+    """
+
+    wall: float
+    scale: float
+    kind: str
+
+
+def clock_of(index: Any) -> GatewayClock | None:
+    """The clock a gateway's ``/`` describes (None from a gateway that describes none, such as genomixd)."""
+    clock = index.get("clock") if isinstance(index, Mapping) else None
+    if not isinstance(clock, Mapping) or not isinstance(clock.get("wall"), int | float):
+        return None
+    scale = clock.get("scale")
+    return GatewayClock(float(clock["wall"]), float(scale) if isinstance(scale, int | float) else math.inf,
+                        str(clock.get("kind", "")))

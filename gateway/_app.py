@@ -73,7 +73,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app.add_routes(_routes_docs.routes)
     app.cleanup_ctx.append(_host_lifetime(owns_host))
     if config.foxglove_port is not None:
-        app[FOXGLOVE] = FoxgloveView(config.foxglove_host, config.foxglove_port)
+        app[FOXGLOVE] = FoxgloveView(config.foxglove_host, config.foxglove_port, clock=app[HOST].clock)
         app.cleanup_ctx.append(_foxglove_lifetime)
     app.on_shutdown.append(shut_down(owns_host))
     return app

@@ -32,15 +32,17 @@ from typing import Any
 import numpy as np
 import orjson
 
-from ..components.core import Incremental, OutPortRuntime, OverBudget, json_schema
+from ..components.core import Clock, Incremental, OutPortRuntime, OverBudget, json_schema
 from ..components.core.runtime import LoadedInstance, PortUnavailable, RemoteUnreachable
 
-__all__ = ["FoxgloveView", "FoxgloveUnavailable", "LOOPBACK", "BACKLOG"]
+from ..components.recording import (
+    AUDIO_TYPES, frames_per_chunk, head_state, number, planar_odometry, seconds_of, stamp_of,
+)
+
+__all__ = ["FoxgloveView", "FoxgloveUnavailable", "BACKLOG"]
 
 log = logging.getLogger(__name__)
 
-#: Addresses that only this machine reaches.
-LOOPBACK = ("127.0.0.1", "::1", "localhost")
 #: Messages the server queues for one viewer before it drops the oldest: about a second of the world's
 #: traffic, at most 34 MB of 256×256 pictures per viewer (the SDK's default, 1024, would be 270 MB).
 BACKLOG = 128
@@ -52,26 +54,9 @@ class FoxgloveUnavailable(RuntimeError):
     """The Foxglove SDK is not installed (``pip install "aiogenomix[foxglove]"``), or its server cannot start."""
 
 
-def _seconds(stamp: Any) -> float | None:
-    if isinstance(stamp, Mapping) and "tv_sec" in stamp:
-        seconds = float(stamp["tv_sec"]) + float(stamp.get("tv_nsec", 0)) * 1e-9
-        return seconds if seconds > 0 else None
-    return None
-
-
 def _stamp(data: Json, fallback: float) -> float:
-    for key in ("timestamp", "stamp", "ts"):
-        seconds = _seconds(data.get(key))
-        if seconds is not None:
-            return seconds
-    header = data.get("header")
-    if isinstance(header, Mapping):
-        return _seconds(header.get("stamp")) or fallback
-    return fallback
-
-
-def _number(value: Any) -> float:
-    return math.nan if value is None else float(value)
+    """The capture time the data carries, as the recording reads it; *fallback* when it carries none."""
+    return stamp_of(data) or fallback
 
 
 class _Channel:
@@ -106,10 +91,13 @@ class FoxgloveView:
         address: The address to bind (the loopback address unless the operator says otherwise).
         port: The TCP port (0 picks a free one).
         name: The server's name, shown by the viewer.
+        clock: The rig's clock, which stamps data that carries no time (``bass``'s audio, pictures)
+            as the rig stamps the rest (default: this machine's time).
     """
 
-    def __init__(self, address: str, port: int, name: str = "aiogenomix") -> None:
+    def __init__(self, address: str, port: int, name: str = "aiogenomix", clock: Clock | None = None) -> None:
         self.address, self.requested_port, self.name = address, port, name
+        self._wall: Callable[[], float] = clock.wall if clock is not None else time.time
         self._fox: Any = None
         self._context: Any = None
         self._server: Any = None
@@ -208,13 +196,13 @@ class FoxgloveView:
         channels, messages = fox.channels, fox.messages
         context = self._context
         kind = str(described["type"].get("name", ""))
-        if kind in ("::capture::port_t", "::kemarcapture::port_t", "::binaudio::portStruct"):
+        if kind in AUDIO_TYPES:
             return _Channel(channels.RawAudioChannel(topic, context=context), None, audio=True)
         if kind == "::kemar::state":
             def head(data: Json, stamp: float) -> Any:
+                state = head_state(data)  # radians, as the recording's JointState
                 return messages.JointStates(timestamp=_time(fox, stamp), joints=[messages.JointState(
-                    name="head_yaw", position=math.radians(_number(data.get("position"))),
-                    velocity=math.radians(_number(data.get("speed"))))])
+                    name="head_yaw", position=state.position, velocity=state.velocity)])
             return _Channel(channels.JointStatesChannel(topic, context=context), head)
         if kind == "::subscriber::sensor_msgs__Image":
             frame = described["name"]
@@ -231,19 +219,20 @@ class FoxgloveView:
                 header = data.get("header") or {}
                 return messages.LaserScan(
                     timestamp=_time(fox, stamp), frame_id=str(header.get("frame_id", "")),
-                    start_angle=_number(data.get("angle_min")), end_angle=_number(data.get("angle_max")),
-                    ranges=[_number(r) for r in data.get("ranges", [])])
+                    start_angle=number(data.get("angle_min")), end_angle=number(data.get("angle_max")),
+                    ranges=[number(r) for r in data.get("ranges", [])])
             return _Channel(channels.LaserScanChannel(topic, context=context), scan)
         if kind == "::world::odometry":
             def odometry(data: Json, stamp: float) -> Any:
-                yaw = _number(data.get("w"))
-                pose = messages.Pose(position=messages.Vector3(x=_number(data.get("x")), y=_number(data.get("y")), z=0),
-                                     orientation=messages.Quaternion(x=0, y=0, z=math.sin(yaw / 2),
-                                                                     w=math.cos(yaw / 2)))
+                # foxglove.Odometry's velocities are in body_frame_id, as the recording's nav_msgs/Odometry.
+                moved = planar_odometry(data)
+                pose = messages.Pose(position=messages.Vector3(x=moved.x, y=moved.y, z=0),
+                                     orientation=messages.Quaternion(**dict(zip("xyzw", moved.orientation,
+                                                                                strict=True))))
                 return messages.Odometry(
                     timestamp=_time(fox, stamp), frame_id="map", body_frame_id="base_footprint", pose=pose,
-                    linear_velocity=messages.Vector3(x=_number(data.get("vx")), y=_number(data.get("vy")), z=0),
-                    angular_velocity=messages.Vector3(x=0, y=0, z=_number(data.get("vw"))))
+                    linear_velocity=messages.Vector3(x=moved.forward, y=moved.leftward, z=0),
+                    angular_velocity=messages.Vector3(x=0, y=0, z=moved.turn))
             return _Channel(channels.OdometryChannel(topic, context=context), odometry)
         if kind == "::subscriber::geometry_msgs__PoseStamped":
             def posed(data: Json, stamp: float) -> Any:
@@ -251,8 +240,8 @@ class FoxgloveView:
                 at, turn = pose.get("position") or {}, pose.get("orientation") or {}
                 return messages.PoseInFrame(
                     timestamp=_time(fox, stamp), frame_id=str((data.get("header") or {}).get("frame_id", "")),
-                    pose=messages.Pose(position=messages.Vector3(**{k: _number(at.get(k)) for k in "xyz"}),
-                                       orientation=messages.Quaternion(**{k: _number(turn.get(k)) for k in "xyzw"})))
+                    pose=messages.Pose(position=messages.Vector3(**{k: number(at.get(k)) for k in "xyz"}),
+                                       orientation=messages.Quaternion(**{k: number(turn.get(k)) for k in "xyzw"})))
             return _Channel(channels.PoseInFrameChannel(topic, context=context), posed)
         schema = json_schema(described["type"], title=topic, doc=str(described.get("doc") or ""))
         channel = fox.Channel(topic, message_encoding="json", context=context, schema=fox.Schema(
@@ -281,7 +270,7 @@ class FoxgloveView:
                     value = port.read()
                 except (PortUnavailable, RemoteUnreachable, OverBudget):
                     continue  # not current (a sensor down, a silent host): shown again at the next publication
-                now = time.time()
+                now = self._wall()
                 if shown.audio:
                     since = self._log_audio(channel, port, value, since, now)
                     continue
@@ -319,13 +308,12 @@ class FoxgloveView:
         stereo = np.empty((left.size, 2), dtype="<i2")
         # pcm-s16 is what RawAudio carries: the upper 16 bits of each left-justified int32 sample.
         stereo[:, 0], stereo[:, 1] = left >> 16, right >> 16
-        start_of_capture = _seconds(encoded.get("ts"))
-        if start_of_capture is not None and newest - start - lost > 0:
-            # capture: chunk k starts at ts + (k - 1) * frames per chunk / rate
-            frames_per_chunk = left.size // (newest - start - lost)
-            stamp = start_of_capture + (start + lost) * frames_per_chunk / rate
-        else:
-            stamp = now - left.size / rate  # bass: its port carries no time
+        stamp = now - left.size / rate  # bass: its port carries no time
+        start_of_capture = seconds_of(encoded.get("ts"))
+        if start_of_capture is not None:
+            # capture: chunk k starts at ts + (k - 1) * frames per chunk / rate (a read not of whole chunks: now)
+            with contextlib.suppress(ValueError):
+                stamp = start_of_capture + (start + lost) * frames_per_chunk(left.size, newest - start - lost) / rate
         fox = self._fox
         channel.log(fox.messages.RawAudio(timestamp=_time(fox, stamp), data=stereo.tobytes(), format="pcm-s16",
                                           sample_rate=rate, number_of_channels=2), log_time=int(now * 1e9))

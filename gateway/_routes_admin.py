@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import math
 import pathlib
 import shlex
+from typing import Any
 
 import orjson
 from aiohttp import web
 
+from ..components.core import Clock
 from ..components.core.runtime import NoSuchModule
 from ._access import console_policy
 from ._auth import AUTH_PATH, LOGIN_PATH
@@ -45,12 +48,24 @@ async def index(request: web.Request) -> web.Response:
         "offered": host.finder.offered() if host.finder is not None else [],
         "sessions": len(request.app[SESSIONS]),
         "simulated": request.app[CONFIG].simulated_parts(),
+        # The rig's clock, which stamps the ports' data: a recorder elsewhere stamps data without time with it.
+        "clock": clock_reading(host.clock),
         "features": FEATURES,
     }
     if host.finder is not None:
         # This gateway's Zenoh session and links, each host heard (what it offers), the hosts refused.
         index["zenoh"] = host.finder.view()
     return json_reply(index)
+
+
+def clock_reading(clock: Clock) -> dict[str, Any]:
+    """The clock as ``/`` tells it: ``{"wall", "scale", "kind"}``.
+
+    Its POSIX time now, its runtime seconds per real second (null when it moves with a
+    simulation, not with real time), and its kind.
+    """
+    scale = clock.scale
+    return {"wall": clock.wall(), "scale": scale if math.isfinite(scale) else None, "kind": type(clock).__name__}
 
 
 _CONSOLE = (pathlib.Path(__file__).parent / "console.html").read_bytes()

@@ -183,8 +183,9 @@ async def watch(request: web.Request) -> web.StreamResponse:
 
     In the standard form (``Accept: text/event-stream``) each event's id is the
     newest item it holds (numbered data) or the publication's number: an
-    EventSource that reconnects resumes after the chunks it had, as with
-    ``since``; after ``unload`` it gets 204 and stops.
+    EventSource that reconnects resumes after the chunks it had (its
+    ``Last-Event-ID`` wins over the ``since`` of the URL it opens again);
+    after ``unload`` it gets 204 and stops.
     """
     last_event = request.headers.get("Last-Event-ID")
     if last_event == FINAL_ID:
@@ -203,11 +204,13 @@ async def watch(request: web.Request) -> web.StreamResponse:
     # Refused now, as an HTTP error, not after the stream has started: data withdrawn (503), a silent
     # component host (504), a remote window this gateway cannot hold (429).
     port.read(element)
-    if since is not None and port.version:
+    if (last_event is not None and last_event.isascii() and last_event.isdigit()
+            and isinstance(port.read(element), Incremental)):
+        # An EventSource resuming where it was: it opens the same URL again, so its since= is the
+        # first one, and the id of the last event it had is the newer truth.
+        since = parse_since(last_event)
+    elif since is not None and port.version:
         _require_incremental(port, port.read(element))
-    elif (last_event is not None and last_event.isascii() and last_event.isdigit()
-          and isinstance(port.read(element), Incremental)):
-        since = parse_since(last_event)  # an EventSource resuming where it was
     shutdown = request.app[SHUTDOWN]
     frames = request.app[WATCH_FRAMES]
     wakes = request.app[WATCH_WAKES]

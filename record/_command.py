@@ -48,7 +48,10 @@ def _record_parser() -> argparse.ArgumentParser:
                         help="the new recording (an existing file is never overwritten)")
     parser.add_argument("--duration", type=_positive, metavar="SECONDS",
                         help="record this long (default: until Ctrl-C)")
-    parser.add_argument("--session", metavar="NAME", help="also record the events of this genomix session")
+    parser.add_argument("--session", metavar="NAME",
+                        help="also record the events of this genomix session (as one more listener: start "
+                             "recording after the session's own client listens, or the events kept while "
+                             "nobody listened come to the recording instead of to it)")
     parser.add_argument("--token", default=os.environ.get("AIOGENOMIX_TOKEN"),
                         help="the gateway's token (better given as $AIOGENOMIX_TOKEN)")
     parser.add_argument("--quiet", action="store_true", help="no progress line")
@@ -103,6 +106,7 @@ class ProgressLine:
             self.stream.flush()
 
     def end(self) -> None:
+        """End the progress line (on a terminal, the line redrawn in place is left as the last one)."""
         if self.tty:
             self.stream.write("\n")
 

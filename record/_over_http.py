@@ -3,7 +3,9 @@
 The gateway is any aiogenomix gateway, on this machine or another: the recording is made
 with its public protocol (``/info``, ``read?since=``, ``watch?since=``, ``session/listen``)
 through the Python client, and written by the recording library as the ``recorder``
-component writes it.  Only here are a session's request events recorded: components see no
+component writes it.  Data that carries no time (``bass``'s audio, pictures) is stamped with
+the gateway's clock as this machine estimates it (:class:`RigClock`), as the component stamps
+it with the rig's.  Only here are a session's request events recorded: components see no
 sessions.
 """
 
@@ -17,8 +19,9 @@ from typing import Any
 
 from ..clients import AsyncClient, ModuleUnloaded, NotFound
 from ..components.recording import (
-    AudioRecorder, Recording, RecordingCounts, RecordingError, WriteFailed, create_recording,
+    AudioRecorder, ImageRecorder, Recording, RecordingCounts, RecordingError, WriteFailed, create_recording, stamp_of,
 )
+from ._rig_clock import RigClock
 
 __all__ = ["record_over_http", "PortNotFound"]
 
@@ -62,16 +65,17 @@ async def _newest_index(client: AsyncClient, instance: str, port: str) -> int:
 
 
 async def _follow_audio(client: AsyncClient, instance: str, port: str, recorder: AudioRecorder,
-                        recording: Recording) -> None:
+                        recording: Recording, rig: RigClock) -> None:
     """Every frame once: a watch of the items after the newest one when the recording started."""
     recorder.start_at(await _newest_index(client, instance, port))
     while True:
         async for event in client.watch(instance, port, since=recorder.since):
+            rig_time = await rig.now()  # as received: the rig's time of the read (bass's audio carries none)
             newest = recorder.index_of(event.data)
             if recorder.restarted(newest):
                 break  # a new capture: watched again from its first chunk
             since = recorder.since
-            recorder.write(event.data, since=since, lost=event.lost, rig_time=time.time())
+            recorder.write(event.data, since=since, lost=event.lost, rig_time=rig_time)
             # A full queue leaves the watch unread: the gateway counts what its window loses meanwhile.
             await recording.writer.wait_room()
         else:
@@ -79,14 +83,16 @@ async def _follow_audio(client: AsyncClient, instance: str, port: str, recorder:
 
 
 async def _follow(client: AsyncClient, instance: str, port: str, recording: Recording,
-                  description: dict[str, Any]) -> None:
+                  description: dict[str, Any], rig: RigClock) -> None:
     recorder = recording.add_port(f"{instance}/{port}", description)
     try:
         if isinstance(recorder, AudioRecorder):
-            await _follow_audio(client, instance, port, recorder, recording)
+            await _follow_audio(client, instance, port, recorder, recording, rig)
             return
         async for event in client.watch(instance, port):
-            recorder.write(event.data, coalesced=event.lost, rig_time=time.time())
+            # The rig's time, for data that does not say when it was captured (pictures, stamp-less JSON).
+            untimed = isinstance(recorder, ImageRecorder) or stamp_of(event.data) is None
+            recorder.write(event.data, coalesced=event.lost, rig_time=await rig.now() if untimed else 0.0)
             await recording.writer.wait_room()
     except ModuleUnloaded:
         return  # the instance went away: the other ports go on
@@ -129,11 +135,14 @@ async def record_over_http(url: str, ports: Sequence[str], output: str, *, durat
     stop = stop or asyncio.Event()
     async with AsyncClient(url, token=token) as client:
         described = [await _describe(client, name) for name in dict.fromkeys(ports)]
+        rig = RigClock(client)
+        await rig.now()
         stream, path = await asyncio.to_thread(create_recording, output, None)
         recording = Recording.open(stream, path, {
             "recorder": "aiogenomix-record (over HTTP)", "gateway": client.url,
-            "ports": ",".join(f"{i}/{p}" for i, p, _ in described), **({"session": session} if session else {})})
-        tasks = [asyncio.create_task(_follow(client, instance, port, recording, description),
+            "ports": ",".join(f"{i}/{p}" for i, p, _ in described), "clock": rig.kind,
+            **({"session": session} if session else {})})
+        tasks = [asyncio.create_task(_follow(client, instance, port, recording, description, rig),
                                      name=f"record {instance}/{port}") for instance, port, description in described]
         if session:
             tasks.append(asyncio.create_task(_follow_session(client, recording, session), name=f"record {session}"))

@@ -13,6 +13,7 @@ import logging
 from collections.abc import Callable
 
 from ..core import Clock, ComponentHost
+from ..recording import replay_roots
 from ._backend import Azimuth, CaptureBackend, SourceAzimuths, SourceOptions, backend_class, split_device
 from ._errors import DeviceError
 from ._scene import Scene
@@ -84,11 +85,7 @@ def open_for_host(host: ComponentHost, device: str, rate: int, frames_per_chunk:
 def _file_roots(host: ComponentHost, kind: str) -> tuple[str, ...] | None:
     """The directories a backend of *kind* may open files from (None: anywhere, a host built in code)."""
     settings = host.settings
-    if kind != "mcap":
-        return settings.audio_files
-    if settings.audio_files is None or settings.record_dirs is None:
-        return None
-    return (*settings.audio_files, *settings.record_dirs)
+    return replay_roots(settings.record_dirs, settings.audio_files) if kind == "mcap" else settings.audio_files
 
 
 def _follow(host: ComponentHost) -> Azimuth:

@@ -8,6 +8,11 @@ not delivered, the next chunk comes at its time and says how many frames were lo
 A chunk cut by a gap or by the end is completed with zeros (as a WAV file's last chunk).  A rate
 other than the recording's is refused (no resampling).
 
+A recording may hold a capture that started again (its frames numbered from 1 again): the new
+capture plays after the one before, the pause between them kept as a gap (from their capture
+times, as recorded on the rig's clock).  Each capture's rate is checked: one of another rate
+ends the replay there, saying so.
+
 ``mcap:PATH`` plays the recording's only audio port; ``mcap:PATH#instance/port`` names one.
 Files come from the directories the operator allowed for audio files (``--audio-files``) and for
 recordings (``--record-dir``), reached without following links.
@@ -60,8 +65,15 @@ class RecordingBackend(CaptureBackend):
         self.path, self.port, self._roots = path, port, roots
         self._reader: RecordingReader | None = None
         self._chunks: Iterator[AudioChunk] | None = None
-        self._pending: list[AudioChunk] = []
-        self._first_frame: int | None = None
+        #: Recorded chunks read and not delivered yet, each with its replay position (of its first frame).
+        self._pending: list[tuple[int, AudioChunk]] = []
+        # Where the recording's current capture is: its first frame number and where it plays, where the last
+        # chunk read ends (replay position, capture time) and its first frame number.
+        self._capture_first = 0
+        self._capture_start = 0
+        self._end = 0
+        self._end_time = 0.0
+        self._last_first: int | None = None
         self._origin = 0.0
         self._start_wall = 0.0
         self._next = 0  # the replay chunk to deliver next (its frames start at _next * frames_per_chunk)
@@ -79,8 +91,7 @@ class RecordingBackend(CaptureBackend):
         with self.clock.holding():
             self._reader, first = await asyncio.to_thread(self._open_file)
         if first is not None:
-            self._pending.append(first)
-            self._first_frame = first.first_frame
+            self._pending.append(self._place(first))
         self._origin = self.clock.now()
         self._start_wall = self.clock.wall()
 
@@ -106,6 +117,26 @@ class RecordingBackend(CaptureBackend):
             raise FormatRefused(f"{self.path!r} was recorded at {first.sample_rate} Hz, the capture asks for "
                                 f"{self.rate} Hz (no resampling)")
         return reader, first
+
+    def _place(self, chunk: AudioChunk) -> tuple[int, AudioChunk]:
+        """The recorded chunk with its replay position: its frame number within its capture, after the ones before.
+
+        Raises:
+            FormatRefused: for a capture of another rate than the replay's.
+        """
+        restarted = self._last_first is not None and chunk.first_frame <= self._last_first
+        if chunk.sample_rate != self.rate:
+            which = "of its next capture " if restarted else ""
+            raise FormatRefused(f"{self.path!r} goes on from frame {chunk.first_frame} {which}at {chunk.sample_rate} "
+                                f"Hz, the capture plays {self.rate} Hz (no resampling): the replay ends there")
+        if self._last_first is None or restarted:
+            # A new capture (numbered from 1 again): it plays after the last one, the pause between them kept.
+            pause = round((chunk.capture_time - self._end_time) * self.rate) if restarted else 0
+            self._capture_first, self._capture_start = chunk.first_frame, self._end + max(0, pause)
+        position = self._capture_start + chunk.first_frame - self._capture_first
+        self._end, self._end_time = position + len(chunk.frames), chunk.capture_time + len(chunk.frames) / self.rate
+        self._last_first = chunk.first_frame
+        return position, chunk
 
     def _more(self) -> AudioChunk | None:
         """The next recorded chunk (blocking: read off the event loop)."""
@@ -147,19 +178,15 @@ class RecordingBackend(CaptureBackend):
                 if chunk is None:
                     self._ended = True
                 else:
-                    if self._first_frame is None:
-                        self._first_frame = chunk.first_frame
-                    self._pending.append(chunk)
+                    self._pending.append(self._place(chunk))
             if not self._pending:
                 return (out if covered else None), covered
-            chunk = self._pending[0]
-            assert self._first_frame is not None
-            first = chunk.first_frame - self._first_frame  # its replay position
+            first, chunk = self._pending[0]
             last = first + len(chunk.frames)
             if first >= end:
                 return out, covered  # the recording resumes after this replay chunk
             if last <= start:
-                self._pending.pop(0)  # (a recorded chunk before the replay's: cannot happen in order)
+                self._pending.pop(0)  # frames played already (a recording that repeats them): once is enough
                 continue
             lo, hi = max(first, start), min(last, end)
             out[lo - start:hi - start] = chunk.frames[lo - first:hi - first]

@@ -55,8 +55,9 @@ class KemarSceneRenderer:
 
     Every source goes through the HRIRs interpolated at its direction relative to the
     head (:class:`~aiogenomix.components.binaural.BinauralRenderer`, resampled to any
-    rate); the scene's diffuse field joins at ``diffuse_level`` below the sources' total
-    power, and its ``noise_floor`` as independent noise at each ear.
+    rate); the scene's diffuse field joins at ``diffuse_level`` relative to the sources'
+    total dry power (its power at the ears against theirs before the HRIRs), and its
+    ``noise_floor`` as independent noise at each ear.
 
     Args:
         scene: The sources and the noise.

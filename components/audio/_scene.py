@@ -5,7 +5,7 @@ A scene file is JSON (every key optional)::
     {
       "seed": 7,                       # base seed; source i defaults to seed + i
       "head": "kemar",                 # "kemar" (measured HRIRs, the default) or "spherical"
-      "diffuse_level": -20,            # dB of a diffuse noise field re the sources' total power, or null
+      "diffuse_level": -20,            # dB of a diffuse noise field re the sources' total dry power, or null
       "noise_floor": -80,              # dBFS of uncorrelated noise per ear, or null
       "head_radius": 0.0875,           # metres (the spherical head only)
       "speed_of_sound": 343.0,         # metres per second (the spherical head only)
@@ -30,7 +30,11 @@ KEMAR HRIRs (Gardner & Martin 1995), interpolated between measured directions
 Brown & Duda (1998), kept for comparison: it is symmetric front to back.  The
 diffuse field (``kemar`` only) is uncorrelated noise from every measured
 horizontal direction through the HRIRs; ``diffuse_level`` is its power at the
-ears relative to the sources' total power (−20: the sources are 20 dB above it).
+ears relative to the sources' total dry power (−20: 20 dB below it).  Dry, not at
+the ears: a source's power at the ears depends on its direction (KEMAR's frontal
+responses have unit energy, so a source straight ahead is as loud at the ears as
+dry; a lateral one is louder at the near ear and softer at the far one), while the
+field's level should not move with the sources' directions.
 """
 
 from __future__ import annotations
@@ -98,7 +102,7 @@ class Scene:
         seed: Base seed of the noise sources, the diffuse field and the sensor noise.
         head: The renderer: ``kemar`` (measured HRIRs) or ``spherical`` (a rigid sphere).
         diffuse_level: Power of a diffuse noise field at the ears in dB relative to the sources'
-            total power, or None for none (``kemar`` only).
+            total dry power (their power at the ears straight ahead), or None for none (``kemar`` only).
         noise_floor: dBFS RMS of independent noise added at each ear, or None.
         head_radius: Sphere radius in metres (``spherical`` only).
         speed_of_sound: In metres per second (``spherical`` only).

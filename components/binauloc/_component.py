@@ -9,11 +9,10 @@ import math
 from collections.abc import AsyncIterator
 from typing import Annotated, Any
 
-import numpy as np
-
 from ..bass import AudioPortData
 from ..binaural import (
-    AzimuthEstimate, BinauralError, BinauralLocaliser, FrontBackPolicy, HeadTurnFailed, LocaliserSetup, TurnableHead,
+    AzimuthEstimate, BinauralError, BinauralLocaliser, FrontBackPolicy, HeadTurnFailed, LocaliserSetup, NoiseLearner,
+    TurnableHead, radians,
 )
 from ..binaural import Window as WindowName
 from ..capture import PortData
@@ -21,6 +20,7 @@ from ..core import (
     Component, Double, InPortRuntime, InPort, Out, OutPort, Task, ULong, activity, function, redeclare,
 )
 from ..kemarcapture import KemarPortData
+from ..recording import AUDIO_TYPES
 from ._feed import AudioBlock, NotStreaming, PortFeed
 from ._types import AzimuthsData, SourceData, Window, e_head, e_noData, e_noHead, e_rate, e_setup
 
@@ -28,8 +28,8 @@ __all__ = ["Binauloc", "AUDIO_PORTS"]
 
 log = logging.getLogger(__name__)
 
-#: The audio in ports, each reading one kind of port, and what its port numbers.
-AUDIO_PORTS = {"Audio": "frames", "CapturePort": "chunks", "KemarPort": "chunks"}
+#: The audio in ports, each reading one kind of port (what its port numbers, frames or chunks, its type says).
+AUDIO_PORTS = ("Audio", "CapturePort", "KemarPort")
 #: The services that analyse the audio; each interrupts the others (one localiser, one stream).
 ANALYSES = ("LearnNoise", "LocalizeSources", "FaceSource")
 #: Bounds of Setup: an analysis a client may ask for holds at most this much memory and time per estimate.
@@ -42,10 +42,7 @@ _WINDOWS: dict[Window, WindowName] = {Window.HANNING: "hanning", Window.HAMMING:
 
 def _radians(degrees: float | None) -> float:
     """Degrees to radians in (-pi, pi]; None (unknown) to NaN, which travels as null."""
-    if degrees is None or not math.isfinite(degrees):
-        return math.nan
-    value = math.remainder(math.radians(degrees), 2 * math.pi)
-    return math.pi if value == -math.pi else value
+    return math.nan if degrees is None or not math.isfinite(degrees) else radians(degrees)
 
 
 class Binauloc(Component, name="binauloc", version="1.0"):
@@ -97,7 +94,7 @@ class Binauloc(Component, name="binauloc", version="1.0"):
         assert isinstance(port, InPortRuntime)
         # kemarcapture carries the head's azimuth with each chunk; otherwise it is read as the audio arrives.
         position = None if name == "KemarPort" or head is None else head.position
-        return PortFeed(port, "frames" if AUDIO_PORTS[name] == "frames" else "chunks", position)
+        return PortFeed(port, AUDIO_TYPES[port.type.name], position)
 
     async def _localiser_for(self, rate: int) -> BinauralLocaliser:
         """The localiser of the current setup at the port's *rate* (built on first use, off the event loop)."""
@@ -198,20 +195,28 @@ class Binauloc(Component, name="binauloc", version="1.0"):
         The localiser subtracts it from each estimate's covariance. It waits for the audio
         (an acquisition started after it is fine).
         """
-        pieces, wanted, rate = [], 0, 0
+        # Learnt as the audio arrives: what is held is the covariance's sums, never the seconds of audio.
+        learner: NoiseLearner | None = None
+        heard = wanted = 0
         async for block in self._blocks(self._feed(None)):
-            rate = block.rate
-            wanted = wanted or round(seconds * rate)
-            pieces.append(block.samples)
-            if sum(len(p) for p in pieces) >= wanted:
+            localiser = await self._localiser_for(block.rate)
+            if learner is None or learner.localiser is not localiser:
+                learner, heard, wanted = localiser.noise_learner(), 0, round(seconds * block.rate)
+            elif block.lost or block.restarted:
+                learner.gap()  # no frame spans frames the port no longer held
+            try:
+                learner.feed(block.samples[:wanted - heard])
+            except BinauralError as exc:
+                raise e_setup(what=str(exc)) from exc
+            heard += min(len(block.samples), wanted - heard)
+            if heard >= wanted:
                 break
-        localiser = await self._localiser_for(rate)
-        audio = np.concatenate(pieces)[:wanted]
+        assert learner is not None
         try:
-            localiser.learn_noise(audio)
+            learner.learnt()
         except BinauralError as exc:
             raise e_setup(what=str(exc)) from exc
-        return max(0, (len(audio) - localiser.setup.frame) // localiser.setup.hop + 1)
+        return learner.frames
 
     @activity(task=localize, interrupts=ANALYSES, throws=(e_setup, e_noData, e_rate))
     async def LocalizeSources(

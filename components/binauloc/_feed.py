@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..core import Incremental, InPortRuntime
+from ..recording import frames_per_chunk
 
 __all__ = ["AudioBlock", "PortFeed", "NotStreaming"]
 
@@ -111,7 +112,7 @@ class PortFeed:
             positions = None
         else:
             chunks = max(1, newest - since - lost)
-            size = len(left) // chunks
+            size = frames_per_chunk(len(left), chunks)
             rate, lost_frames, first = int(data.transfer_rate), lost * size, (newest - chunks) * size + 1
             positions = getattr(data, "positions", None)
             positions = np.asarray(positions, dtype=np.float64)[-chunks:] if positions is not None else None

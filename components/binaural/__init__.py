@@ -18,8 +18,11 @@ from ._filters import AzimuthFilters, DiffuseFilters, azimuth_filters, diffuse_f
 from ._hrir_set import HrirSet, wrap_degrees
 from ._interpolation import HorizontalInterpolator
 from ._kemar import KEMAR_RATE, kemar_cache_path, load_kemar
-from ._likelihood import GRID_DEGREES, AzimuthLikelihood, combine_in_room
-from ._localiser import MOTION_TOLERANCE, WINDOWS, AzimuthEstimate, BinauralLocaliser, LocaliserSetup, Window
+from ._likelihood import GRID_DEGREES, AzimuthLikelihood, combine_in_room, radians
+from ._localiser import (
+    BATCH_SAMPLES, MOTION_TOLERANCE, WINDOWS, AzimuthEstimate, BinauralLocaliser, LocaliserSetup, NoiseLearner,
+    Window,
+)
 from ._renderer import BinauralRenderer
 from ._signals import SIGNALS, speech_like, tone_complex, white_noise
 
@@ -30,7 +33,7 @@ __all__ = [
     "BinauralRenderer", "AzimuthFilters", "azimuth_filters", "DiffuseFilters", "diffuse_filters",
     # Localisation
     "BinauralLocaliser", "LocaliserSetup", "AzimuthEstimate", "AzimuthLikelihood", "combine_in_room", "GRID_DEGREES",
-    "Window", "WINDOWS", "MOTION_TOLERANCE",
+    "NoiseLearner", "Window", "WINDOWS", "MOTION_TOLERANCE", "BATCH_SAMPLES", "radians",
     # Active listening
     "TurnableHead", "FrontBackPolicy", "HeadTurnFailed",
     # Cues

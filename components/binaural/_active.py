@@ -185,19 +185,21 @@ class FrontBackPolicy:
     def next_look(self) -> float | None:
         """The head azimuth to look from next (degrees), or None when settled.
 
-        Looks alternate either side of the start, ``turn`` degrees away, the source's side first;
-        a look the limits forbid is taken on the other side.
+        Looks alternate either side of the start, ``turn`` degrees away, then twice as far, and
+        so on, the source's side first; those the limits forbid are left out, so that no two
+        looks ask for the same azimuth. When none is left within the limits, the head turns as
+        far as they allow, alternately either way.
         """
         if self.settled or self._start is None:
             return None
         turns = max(0, len(self.looks) - 1)
-        side = self._side if turns % 2 == 0 else -self._side
         low, high = self.limits
-        for direction in (side, -side):
-            target = self._start + direction * self.turn * (1 + turns // 2)
-            if low <= target <= high:
-                return target
-        return min(high, max(low, self._start - side * self.turn))
+        allowed = [target for step in range(1, self.max_turns + 1) for direction in (self._side, -self._side)
+                   if low <= (target := self._start + direction * self.turn * step) <= high]
+        if turns < len(allowed):
+            return allowed[turns]
+        side = self._side if (turns - len(allowed)) % 2 == 0 else -self._side
+        return min(high, max(low, self._start + side * self.turn))
 
     def found(self) -> tuple[float, float]:
         """The source's room azimuth (degrees) and the posterior mass within ±10° of it.

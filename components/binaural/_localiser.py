@@ -32,6 +32,11 @@ audio). The frames of an estimate are split into runs within which the head
 moves less than :data:`MOTION_TOLERANCE`; each run is matched in its own head
 frame, turned into the room frame with its head azimuth, and the runs add there.
 The estimate is then seen from the head at its last frame. A still head is one run.
+
+Memory stays bounded whatever the setup and however the audio comes: frames are
+transformed a batch at a time (:data:`BATCH_SAMPLES`) and summed into their
+run's covariance as they come; a run that ends is kept only as its likelihood.
+Learning the noise streams the same way (:class:`NoiseLearner`).
 """
 
 from __future__ import annotations
@@ -48,7 +53,8 @@ from ._hrir_set import HrirSet
 from ._kemar import load_kemar
 from ._likelihood import GRID_DEGREES, AzimuthLikelihood, combine_in_room, radians
 
-__all__ = ["LocaliserSetup", "BinauralLocaliser", "AzimuthEstimate", "Window", "WINDOWS", "MOTION_TOLERANCE"]
+__all__ = ["LocaliserSetup", "BinauralLocaliser", "AzimuthEstimate", "NoiseLearner", "Window", "WINDOWS",
+           "MOTION_TOLERANCE", "BATCH_SAMPLES"]
 
 #: How sharp the log-likelihood is for each frame and unit of weighted match: chosen so that the
 #: confidence (posterior within ±10° of the peak) follows how often estimates are that close.
@@ -58,6 +64,9 @@ Window = Literal["hanning", "hamming", "blackman", "rectangular"]
 WINDOWS: tuple[Window, ...] = ("hanning", "hamming", "blackman", "rectangular")
 #: Degrees the head may turn within the frames matched in one head frame (a fifth of the templates' spacing).
 MOTION_TOLERANCE = 1.0
+#: Samples of the frames transformed at once: their spectra (about 4 MB, whatever the frame size) and the
+#: sums they add to are all the localiser holds of them, whatever the smoothing and the size of a block.
+BATCH_SAMPLES = 1 << 18
 
 
 def _window(name: str, frame: int) -> npt.NDArray[np.float64]:
@@ -162,6 +171,96 @@ class _Covariance:
         self.r12 += np.sum(left * np.conj(right), axis=0)
         self.frames += spectra.shape[0]
 
+    def merge(self, other: _Covariance) -> None:
+        """Add the sums of *other*."""
+        self.r11 += other.r11
+        self.r22 += other.r22
+        self.r12 += other.r12
+        self.frames += other.frames
+
+
+class _Framer:
+    """Samples cut into the analysis frames as they arrive; what a frame does not use yet waits for more.
+
+    Args:
+        frame: Samples per frame.
+        hop: Samples between frame starts.
+    """
+
+    def __init__(self, frame: int, hop: int) -> None:
+        self.frame, self.hop = frame, hop
+        self.pending = np.zeros((0, 2))
+        #: The head azimuth of each pending sample (None when unknown).
+        self.heads: npt.NDArray[np.float64] | None = None
+
+    def add(self, samples: npt.NDArray[np.float64], heads: npt.ArrayLike | None = None) -> None:
+        """Append samples (and the head azimuth of each, when known)."""
+        if heads is None:
+            self.heads = None
+        else:
+            given = np.asarray(heads, dtype=np.float64).reshape(len(samples))
+            if self.heads is None or len(self.heads) != len(self.pending):
+                # Azimuths unknown so far: the earlier samples take the first one given.
+                self.heads = np.full(len(self.pending), given[0] if len(given) else 0.0)
+            self.heads = np.concatenate([self.heads, given])
+        self.pending = np.concatenate([self.pending, samples])
+
+    def ready(self) -> int:
+        """Whole frames the pending samples hold."""
+        return 0 if len(self.pending) < self.frame else (len(self.pending) - self.frame) // self.hop + 1
+
+    def take(self, count: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64] | None]:
+        """The samples of the next *count* frames, and the head azimuth at each frame's centre (None: unknown)."""
+        samples = self.pending[:(count - 1) * self.hop + self.frame]
+        heads = None
+        if self.heads is not None:
+            heads = self.heads[np.arange(count) * self.hop + self.frame // 2]
+            self.heads = self.heads[count * self.hop:]
+        self.pending = self.pending[count * self.hop:]
+        return samples, heads
+
+
+class NoiseLearner:
+    """The noise's spatial covariance learnt from audio fed piece by piece, as it arrives (``LearnNoise``).
+
+    Args:
+        localiser: The localiser whose analysis (frames, window, bins) it uses.
+
+    Only the covariance's sums and less than a frame of samples are held, however long the noise.
+    """
+
+    def __init__(self, localiser: BinauralLocaliser) -> None:
+        #: The localiser it learns for.
+        self.localiser = localiser
+        self._framer = _Framer(localiser.setup.frame, localiser.setup.hop)
+        self._covariance = _Covariance(len(localiser._bins))
+
+    @property
+    def frames(self) -> int:
+        """Analysis frames learnt so far."""
+        return self._covariance.frames
+
+    def feed(self, audio: npt.ArrayLike) -> None:
+        """Learn from the next ``(frames, 2)`` samples of noise alone (following those fed before)."""
+        self._framer.add(self.localiser._checked(audio))
+        while count := min(self._framer.ready(), self.localiser.batch):
+            samples, _ = self._framer.take(count)
+            self._covariance.add(self.localiser._spectra(samples))
+
+    def gap(self) -> None:
+        """The next samples do not follow those fed before (frames lost): no frame spans the gap."""
+        self._framer = _Framer(self._framer.frame, self._framer.hop)
+
+    def learnt(self) -> None:
+        """Make what was learnt the localiser's noise.
+
+        Raises:
+            LocalisationError: when not a single frame was learnt.
+        """
+        if self._covariance.frames == 0:
+            raise LocalisationError(f"learning the noise needs at least one frame of {self._framer.frame} samples")
+        self.localiser._noise = self._covariance
+
 
 class BinauralLocaliser:
     """Estimates the azimuth of the dominant source from two ear signals.
@@ -201,6 +300,8 @@ class BinauralLocaliser:
         self._steering_conj = np.conj(steering)
         self._window = _window(self.setup.window, frame)
         self._spline = self._spline_matrix()
+        #: Frames transformed at once.
+        self.batch = max(1, BATCH_SAMPLES // frame)
         self._noise: _Covariance | None = None
         self.reset_stream()
 
@@ -210,13 +311,16 @@ class BinauralLocaliser:
         """Learn the noise's spatial covariance from audio without the sources (``binauloc``'s LearnNoise).
 
         Args:
-            audio: ``(frames, 2)`` samples of the noise alone.
+            audio: ``(frames, 2)`` samples of the noise alone (to learn from audio as it arrives:
+                :meth:`noise_learner`).
         """
-        covariance = _Covariance(len(self._bins))
-        covariance.add(self._spectra(np.asarray(audio, dtype=np.float64)))
-        if covariance.frames == 0:
-            raise LocalisationError(f"learning the noise needs at least one frame of {self.setup.frame} samples")
-        self._noise = covariance
+        learner = self.noise_learner()
+        learner.feed(audio)
+        learner.learnt()
+
+    def noise_learner(self) -> NoiseLearner:
+        """A learner of the noise fed piece by piece; its :meth:`NoiseLearner.learnt` makes it this localiser's."""
+        return NoiseLearner(self)
 
     def forget_noise(self) -> None:
         """Localise without a noise estimate again."""
@@ -224,11 +328,23 @@ class BinauralLocaliser:
 
     def reset_stream(self) -> None:
         """Start a new stream: forget the samples and frames fed since the last estimate (after a gap)."""
-        self._pending = np.zeros((0, 2))
-        self._pending_heads: npt.NDArray[np.float64] | None = None
-        self._frames: list[npt.NDArray[np.complex128]] = []
-        self._frame_heads: list[float] = []
+        self._framer = _Framer(self.setup.frame, self.setup.hop)
         self._consumed = 0
+        self._new_estimate()
+
+    def _new_estimate(self) -> None:
+        """Forget the frames of the estimate being made (it was made, or the stream starts again)."""
+        bins = len(self._bins)
+        #: The frames of the estimate, in runs of a nearly still head: those ended (as their sums and their
+        #: likelihood with their mean head azimuth) and the one going on.
+        self._ended = _Covariance(bins)
+        self._runs: list[tuple[AzimuthLikelihood, float]] = []
+        self._run = _Covariance(bins)
+        self._run_heads = 0.0            # the sum of the run's head azimuths
+        self._run_first = 0.0            # the head azimuth at its first frame
+        self._first_head: float | None = None
+        self._last_head = 0.0
+        self._headless = False           # a frame of the estimate came without the head's azimuth
 
     # -- estimates -----------------------------------------------------------------------------
 
@@ -241,9 +357,10 @@ class BinauralLocaliser:
         Raises:
             LocalisationError: when the block holds no full frame.
         """
-        samples = np.asarray(audio, dtype=np.float64)
+        samples = self._checked(audio)
         covariance = _Covariance(len(self._bins))
-        covariance.add(self._spectra(samples))
+        for start in range(0, max(0, len(samples) - self.setup.frame) + 1, self.batch * self.setup.hop):
+            covariance.add(self._spectra(samples[start:start + (self.batch - 1) * self.setup.hop + self.setup.frame]))
         if covariance.frames == 0:
             raise LocalisationError(f"an estimate needs at least one frame of {self.setup.frame} samples")
         end = (covariance.frames - 1) * self.setup.hop + self.setup.frame
@@ -262,61 +379,70 @@ class BinauralLocaliser:
             The estimates completed by this audio, oldest first.
         """
         frame, hop, smoothing = self.setup.frame, self.setup.hop, self.setup.smoothing
-        samples = np.asarray(audio, dtype=np.float64).reshape(-1, 2)
-        if heads is None:
-            self._pending_heads = None
-        else:
-            given = np.asarray(heads, dtype=np.float64).reshape(len(samples))
-            if self._pending_heads is None or len(self._pending_heads) != len(self._pending):
-                # Azimuths unknown so far: the earlier samples take the first one given.
-                earlier = np.full(len(self._pending), given[0] if len(given) else 0.0)
-                self._pending_heads = earlier
-            self._pending_heads = np.concatenate([self._pending_heads, given])
-        self._pending = np.concatenate([self._pending, samples])
+        self._framer.add(self._checked(np.asarray(audio, dtype=np.float64).reshape(-1, 2)), heads)
         estimates = []
-        while len(self._pending) >= frame:
-            take = min(smoothing - len(self._frames), (len(self._pending) - frame) // hop + 1)
-            spectra = self._spectra(self._pending[:(take - 1) * hop + frame])
-            self._frames.extend(spectra)
-            if self._pending_heads is not None:
-                centres = np.arange(take) * hop + frame // 2
-                self._frame_heads.extend(float(h) for h in self._pending_heads[centres])
-                self._pending_heads = self._pending_heads[take * hop:]
-            self._pending = self._pending[take * hop:]
+        while take := min(smoothing - self._frames_so_far(), self._framer.ready(), self.batch):
+            samples, frame_heads = self._framer.take(take)
+            self._add_frames(self._spectra(samples), frame_heads)
             self._consumed += take * hop
-            if len(self._frames) == smoothing:
-                end = self._consumed - hop + frame
-                known = len(self._frame_heads) == smoothing
-                estimates.append(self._streamed_estimate(end, self._frame_heads if known else None))
-                self._frames, self._frame_heads = [], []
+            if self._frames_so_far() == smoothing:
+                estimates.append(self._streamed_estimate(self._consumed - hop + frame))
+                self._new_estimate()
         return estimates
 
-    def _streamed_estimate(self, end: int, heads: list[float] | None) -> AzimuthEstimate:
-        """The estimate of the frames kept, the head turning through *heads* (one per frame) or unknown."""
-        spectra = np.stack(self._frames)
-        if heads is None:
-            covariance = _Covariance(len(self._bins))
-            covariance.add(spectra)
-            return self._estimate(covariance, end)
-        runs: list[tuple[int, int]] = []
-        first = 0
-        for index in range(1, len(heads) + 1):
-            if index == len(heads) or abs(heads[index] - heads[first]) > MOTION_TOLERANCE:
-                runs.append((first, index))
-                first = index
-        last = heads[-1]
-        if len(runs) == 1 and heads[0] == last:
-            covariance = _Covariance(len(self._bins))
-            covariance.add(spectra)
-            return dataclasses.replace(self._estimate(covariance, end), head_azimuth=last)
-        observations = []
-        for lo, hi in runs:
-            covariance = _Covariance(len(self._bins))
-            covariance.add(spectra[lo:hi])
-            observations.append((self._log_likelihood(covariance), float(np.mean(heads[lo:hi]))))
-        likelihood = combine_in_room(observations).relative_to(last)
+    def _frames_so_far(self) -> int:
+        return self._ended.frames + self._run.frames
+
+    def _add_frames(self, spectra: npt.NDArray[np.complex128], heads: npt.NDArray[np.float64] | None) -> None:
+        """Sum frames into the estimate, each into its run of a nearly still head (one run when heads are unknown)."""
+        if heads is None or self._headless:
+            self._headless = True  # the estimate cannot be turned into the room: one sum of every frame
+            self._run.add(spectra)
+            return
+        if self._first_head is None:
+            self._first_head = self._run_first = float(heads[0])
+        start = 0
+        for index, head in enumerate(heads.tolist()):
+            if self._run.frames + index - start and abs(head - self._run_first) > MOTION_TOLERANCE:
+                self._run.add(spectra[start:index])
+                self._run_heads += float(np.sum(heads[start:index]))
+                self._end_run()
+                self._run_first, start = head, index
+        self._run.add(spectra[start:])
+        self._run_heads += float(np.sum(heads[start:]))
+        self._last_head = float(heads[-1])
+
+    def _end_run(self) -> None:
+        """Keep the run that ended as its likelihood in its mean head frame; start the next."""
+        self._runs.append((self._log_likelihood(self._run), self._run_heads / self._run.frames))
+        self._ended.merge(self._run)
+        self._run, self._run_heads = _Covariance(len(self._bins)), 0.0
+
+    def _streamed_estimate(self, end: int) -> AzimuthEstimate:
+        """The estimate of the frames summed, the head turning through their runs, or unknown."""
+        if self._headless or self._first_head is None:
+            self._ended.merge(self._run)
+            return self._estimate(self._ended, end)
+        last = self._last_head
+        if not self._runs and self._first_head == last:
+            return dataclasses.replace(self._estimate(self._run, end), head_azimuth=last)
+        frames = self._frames_so_far()
+        self._end_run()
+        likelihood = combine_in_room(self._runs).relative_to(last)
         peak = likelihood.peak()
-        return AzimuthEstimate(radians(peak), likelihood.mass_near(peak), likelihood, len(heads), end, last)
+        return AzimuthEstimate(radians(peak), likelihood.mass_near(peak), likelihood, frames, end, last)
+
+    @staticmethod
+    def _checked(audio: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """``(frames, 2)`` float samples.
+
+        Raises:
+            LocalisationError: for another shape.
+        """
+        samples = np.asarray(audio, dtype=np.float64)
+        if samples.ndim != 2 or samples.shape[1] != 2:
+            raise LocalisationError(f"audio must be (frames, 2), not {samples.shape}")
+        return samples
 
     def _spectra(self, samples: npt.NDArray[np.float64]) -> npt.NDArray[np.complex128]:
         """``(frames, bins, 2)`` windowed spectra of every full frame, at the analysed bins."""

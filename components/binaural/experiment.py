@@ -253,6 +253,9 @@ def _sweep(dry: npt.NDArray[np.float64], azimuth: float, head: float, snr: float
     chunk = 4096
     started = time.process_time()
     source = BinauralRenderer(rate, 1, hrirs=hrirs)
+    # No frame: the head where the turn starts, so that the first block turns from there as the azimuths
+    # the localiser gets say (heads[k] is the azimuth at the end of sample k).
+    source.render(dry[np.newaxis, :0], head - config.turn, [azimuth])
     ears = np.concatenate([source.render(dry[np.newaxis, at:at + chunk], float(heads[min(at + chunk, total) - 1]),
                                          [azimuth]) for at in range(0, total, chunk)])
     field = BinauralRenderer(rate, 0, hrirs=hrirs, diffuse_level=0.0, seed=seed + 1)

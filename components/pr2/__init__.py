@@ -44,7 +44,7 @@ TORSO_STILL = 0.005
 BASE_TOLERANCE = 0.005
 HEADING_TOLERANCE = math.radians(0.25)
 BASE_STILL = 0.02
-#: Where the head pans, ahead of the base's centre in its frame (m): the torso lift link at -0.05 m
+#: Where the head pans, behind the base's centre in its frame (m): the torso lift link at -0.05 m
 #: and the head pan link 0.017 m behind it, as in the world's model.
 HEAD_PAN_X = -0.067
 

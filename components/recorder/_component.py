@@ -24,6 +24,8 @@ log = logging.getLogger(__name__)
 
 #: Runtime seconds between two publications of the Status port while recording.
 STATUS_PERIOD = 0.5
+#: What a read gives while the component has withdrawn the port's data.
+_WITHDRAWN = object()
 
 
 class Recorder(Component, name="recorder", version="1.0"):
@@ -46,6 +48,7 @@ class Recorder(Component, name="recorder", version="1.0"):
         self._began = 0.0
         self._ended = ""
         self._final = RecorderStatus()
+        #: Set by Stop while a recording runs (from the moment Start is sent); cleared when it has ended.
         self._stop = asyncio.Event()
 
     async def on_start(self) -> None:
@@ -112,6 +115,13 @@ class Recorder(Component, name="recorder", version="1.0"):
         Ends done with what was recorded; a disk that fills up ends it in WRITE_FAILED, and the
         file keeps what was written before, readable.
         """
+        try:
+            return await self._record(path, ports, duration)
+        finally:
+            # A Stop sent at any time while this Start ran (before its file was open too) was for it.
+            self._stop.clear()
+
+    async def _record(self, path: str, ports: list[str], duration: float) -> RecorderStatus:
         followed = [(name, *await self._port(name)) for name in dict.fromkeys(ports)]
         try:
             # The disk is part of the rig: a simulated clock waits for it (as for a device opening).
@@ -125,7 +135,6 @@ class Recorder(Component, name="recorder", version="1.0"):
             "recorder": f"{self.instance} (aiogenomix recorder component)", "ports": ",".join(n for n, *_ in followed),
             "clock": f"{type(self.clock).__name__} x{self.clock.scale:g}"})
         self._recording, self._path, self._began, self._ended = recording, real, self.clock.now(), ""
-        self._stop.clear()
         log.info("%s: recording %s into %s", self.instance, ", ".join(n for n, *_ in followed), real)
         tasks = [asyncio.create_task(self._follow(port, recording.add_port(name, described)),
                                      name=f"{self.instance} records {name}")
@@ -187,7 +196,8 @@ class Recorder(Component, name="recorder", version="1.0"):
     async def Stop(self) -> None:
         """Stop the recording and end its file (done when the file is complete; nothing to do when none runs)."""
         running = [r for r in self.requests.running() if r.service.name == "Start"]
-        self._stop.set()
+        if running:
+            self._stop.set()  # (none running: nothing to stop, and no later recording is stopped by it)
         for request in running:
             if request.task is not None:
                 await asyncio.shield(asyncio.wait({request.task}))
@@ -207,7 +217,7 @@ class Recorder(Component, name="recorder", version="1.0"):
         return RecorderStatus(
             recording=active, path=self._path, elapsed=self.clock.now() - self._began, bytes=counts.bytes,
             messages=counts.messages, queued=counts.queued, lost_frames=counts.lost_frames,
-            coalesced=counts.coalesced, ended="" if active else self._ended,
+            coalesced=counts.coalesced, unavailable=counts.unavailable, ended="" if active else self._ended,
             ports=[PortCounts(port=name, **values) for name, values in counts.ports.items()])
 
     async def _publish_status(self) -> None:
@@ -224,6 +234,14 @@ class Recorder(Component, name="recorder", version="1.0"):
             with self.clock.holding():
                 await writer.wait_room()
 
+    @staticmethod
+    def _current(port: OutPortRuntime[Any], recorder: AudioRecorder | ImageRecorder | JsonRecorder) -> Any:
+        """The port's data, or ``_WITHDRAWN`` while its component has withdrawn it (a sensor down): counted."""
+        if port.withdrawn is not None:
+            recorder.unavailable += 1
+            return _WITHDRAWN
+        return port.read()
+
     async def _follow(self, port: OutPortRuntime[Any], recorder: AudioRecorder | ImageRecorder | JsonRecorder) -> None:
         recording = self._recording
         assert recording is not None
@@ -238,16 +256,24 @@ class Recorder(Component, name="recorder", version="1.0"):
             version = port.version
             coalesced = version - delivered - 1 if delivered else 0
             delivered = version
-            recorder.write(port.type.encode(port.read()), coalesced=coalesced, rig_time=self.clock.wall())
+            value = self._current(port, recorder)
+            if value is not _WITHDRAWN:  # (else the next publication is current again)
+                recorder.write(port.type.encode(value), coalesced=coalesced, rig_time=self.clock.wall())
 
     async def _follow_audio(self, port: OutPortRuntime[Any], recorder: AudioRecorder, recording: Recording) -> None:
         """Every frame once: the items after the last one recorded, at each publication."""
-        current = port.read()
-        recorder.start_at(current.index if isinstance(current, Incremental) else 0)
+        current = self._current(port, recorder)
+        if isinstance(current, Incremental):
+            recorder.start_at(current.index)
+        started = current is not _WITHDRAWN
         while True:
             await self._room(recording)
-            value = port.read()
+            value = self._current(port, recorder)
             if isinstance(value, Incremental):
+                if not started:
+                    # Not current when the recording started: recorded from the publication that ends that.
+                    recorder.start_at(value.index - int(getattr(value, "items_per_publication", 1)))
+                    started = True
                 recorder.restarted(value.index)
                 if value.index > recorder.since:
                     since = recorder.since

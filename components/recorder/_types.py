@@ -22,6 +22,8 @@ class PortCounts:
     messages: Annotated[ULongLong, "Messages written for it (audio: two per chunk)"] = 0
     lost_frames: Annotated[ULongLong, "Audio frames missed: the window turned over before they were read"] = 0
     coalesced: Annotated[ULongLong, "Publications replaced before they were read (other ports)"] = 0
+    unavailable: Annotated[ULongLong, "Reads that found the data withdrawn by its component (a sensor down): the "
+                                      "next publication was waited for"] = 0
     index: Annotated[ULongLong, "Audio: the newest chunk (capture) or frame (bass) recorded"] = 0
 
 
@@ -38,6 +40,8 @@ class RecorderStatus:
                                  "time)"] = 0
     lost_frames: Annotated[ULongLong, "Audio frames missed, over every audio port"] = 0
     coalesced: Annotated[ULongLong, "Publications of other ports replaced before they were read"] = 0
+    unavailable: Annotated[ULongLong, "Reads that found a port's data withdrawn by its component, over every "
+                                      "port"] = 0
     ports: Annotated[list[PortCounts], "What was recorded of each port"] = dataclasses.field(default_factory=list)
     ended: Annotated[String, "How the last recording ended (stopped, duration, or the error)"] = ""
 

@@ -7,6 +7,8 @@ The ``recorder`` component, the ``replay`` component, captures that replay a rec
   and out), the standard ones and our ``aiogenomix_msgs/msg/AudioFrames``.
 * **The file** (:class:`McapFile`), written chunk by chunk so that a full disk leaves a readable
   recording, by a thread of its own (:class:`RecordingWriter`) fed through a bounded queue.
+* **What port data says** (its capture time, the head in radians, odometry in the robot's frame,
+  audio chunks), read once for the recording and the live view alike.
 * **Port recorders** (:class:`AudioRecorder`, :class:`ImageRecorder`, :class:`JsonRecorder`) and
   the :class:`Recording` that holds them; **paths** confined to the operator's directories.
 * **Reading and exporting**: :class:`RecordingReader`, :func:`export_recording` (WAV and CSV).
@@ -15,14 +17,17 @@ Decision 0031 records the formats and why.
 """
 
 from ._cdr import CdrError, Field, MessageType
+from ._conversions import (
+    AUDIO_TYPES, HeadState, PlanarOdometry, frames_per_chunk, head_state, number, planar_odometry, seconds_of, stamp_of,
+)
 from ._errors import NotARecording, PathRefused, RecordingError
 from ._export import AUDIO_COLUMNS, HEAD_COLUMNS, ExportedFile, export_recording
 from ._mcap_file import DEFAULT_CHUNK_SIZE, McapFile, WriteFailed
 from ._messages import (
     AUDIO_DATA_STAMPED, AUDIO_FRAMES, AUDIO_INFO, HEADER, IMAGE, JOINT_STATE, LASER_SCAN, ODOMETRY, POSE_STAMPED,
 )
-from ._paths import SUFFIX, create_recording, open_recording
-from ._ports import AUDIO_TYPES, AudioRecorder, ImageRecorder, JsonRecorder, PortRecorder, RecordedPort, stamp_of
+from ._paths import SUFFIX, create_recording, open_recording, replay_roots
+from ._ports import AudioRecorder, ImageRecorder, JsonRecorder, PortRecorder, RecordedPort
 from ._reader import AudioChunk, PortMessage, RecordingReader, SessionEventRecord
 from ._recording import EVENTS_TYPE, EventRecorder, Recording, RecordingCounts
 from ._writer import DEFAULT_QUEUE_BYTES, RecordingWriter
@@ -30,11 +35,14 @@ from ._writer import DEFAULT_QUEUE_BYTES, RecordingWriter
 __all__ = [
     # Recording
     "Recording", "RecordingCounts", "PortRecorder", "AudioRecorder", "ImageRecorder", "JsonRecorder",
-    "RecordedPort", "EventRecorder", "EVENTS_TYPE", "AUDIO_TYPES", "stamp_of",
+    "RecordedPort", "EventRecorder", "EVENTS_TYPE",
+    # What port data says, for every tool that shows it (the recording, the live view, binauloc)
+    "AUDIO_TYPES", "stamp_of", "seconds_of", "number", "HeadState", "head_state", "PlanarOdometry", "planar_odometry",
+    "frames_per_chunk",
     # The file and its writer
     "McapFile", "RecordingWriter", "WriteFailed", "DEFAULT_CHUNK_SIZE", "DEFAULT_QUEUE_BYTES",
     # Paths
-    "create_recording", "open_recording", "SUFFIX",
+    "create_recording", "open_recording", "replay_roots", "SUFFIX",
     # Reading and exporting
     "RecordingReader", "AudioChunk", "PortMessage", "SessionEventRecord", "export_recording", "ExportedFile",
     "AUDIO_COLUMNS", "HEAD_COLUMNS",

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import soundfile
 
+from ._conversions import number
 from ._errors import NotARecording, RecordingError
 from ._reader import AudioChunk, RecordingReader
 
@@ -99,9 +100,9 @@ def _head_states(reader: RecordingReader, heads: Sequence[str], out: Path, overw
             writer = csv.writer(table)
             writer.writerow(HEAD_COLUMNS)
             for message in reader.publications([port]):
-                position = _number(message.data.get("position"))
+                position = number(message.data.get("position"))
                 writer.writerow((f"{message.capture_time:.9f}", f"{message.receive_time:.9f}", _text(position),
-                                 _text(_number(message.data.get("speed")))))
+                                 _text(number(message.data.get("speed")))))
                 rows += 1
                 if index == 0:
                     times.append(message.capture_time)
@@ -109,10 +110,6 @@ def _head_states(reader: RecordingReader, heads: Sequence[str], out: Path, overw
         written.append(ExportedFile(path, f"head state of {port}", rows))
     order = np.argsort(np.asarray(times), kind="stable")
     return np.asarray(times)[order], np.asarray(positions)[order]
-
-
-def _number(value: object) -> float:
-    return math.nan if value is None else float(value)  # type: ignore[arg-type]
 
 
 def _text(value: float) -> str:

@@ -86,11 +86,6 @@ class McapFile:
         """Messages the file holds (in chunks written whole)."""
         return sum(self._counts.values())
 
-    @property
-    def pending(self) -> int:
-        """Uncompressed bytes of the chunk being gathered."""
-        return self._open.count
-
     # -- writing -----------------------------------------------------------------------------
 
     def _write(self, data: bytes) -> None:

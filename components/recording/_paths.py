@@ -20,7 +20,7 @@ from typing import BinaryIO
 
 from ._errors import PathRefused, RecordingError
 
-__all__ = ["create_recording", "open_recording", "SUFFIX"]
+__all__ = ["create_recording", "open_recording", "replay_roots", "SUFFIX"]
 
 #: The suffix every recording has.
 SUFFIX = ".mcap"
@@ -59,6 +59,28 @@ def _directory(base: str, components: list[str]) -> Iterator[int]:
         os.close(fd)
 
 
+def replay_roots(record_dirs: Sequence[str] | None, audio_files: Sequence[str] | None) -> tuple[str, ...] | None:
+    """Where a recording may be read from to be replayed: the operator's ``--record-dir``, then ``--audio-files``.
+
+    Returns:
+        The directories, or None (anywhere) when either is unrestricted (a host built in code).
+    """
+    if record_dirs is None or audio_files is None:
+        return None
+    return (*record_dirs, *audio_files)
+
+
+def _refuse_control_characters(path: str) -> None:
+    """Refuse a path with a control character (a NUL would end it early for the system: never a file's name).
+
+    Raises:
+        PathRefused: naming the character.
+    """
+    bad = next((c for c in path if ord(c) < 32 or ord(c) == 127), None)
+    if bad is not None:
+        raise PathRefused(f"{path!r} holds a control character ({bad!r}): a recording's path has none")
+
+
 def _refusal(path: str, roots: Sequence[str] | None) -> PathRefused:
     if roots is not None and not roots:
         return PathRefused("recordings are disabled on this host (its operator can allow a directory with "
@@ -75,9 +97,10 @@ def create_recording(path: str, roots: Sequence[str] | None) -> tuple[BinaryIO, 
 
     Raises:
         PathRefused: when recordings are disabled, the path leads outside every allowed directory,
-            or through a symbolic link.
+            through a symbolic link, or holds a control character.
         RecordingError: when the file exists already, a directory on its way is missing, or it cannot be created.
     """
+    _refuse_control_characters(path)
     if not path.endswith(SUFFIX) or os.path.basename(path) == SUFFIX:
         raise RecordingError(f"a recording's name ends in {SUFFIX}: {path!r} does not")
     if roots is None:
@@ -112,7 +135,8 @@ def _why(exc: OSError, path: str, doing: str) -> RecordingError:
         return PathRefused(f"{path!r} leads through a symbolic link or a file: recordings are reached only "
                            "through directories")
     if exc.errno == errno.ENOENT:
-        return RecordingError(f"cannot {doing} {path!r}: a directory on its way does not exist")
+        what = "a directory on its way does not exist" if doing == "create" else "there is no such recording"
+        return RecordingError(f"cannot {doing} {path!r}: {what}")
     return RecordingError(f"cannot {doing} {path!r}: {exc.strerror or exc}")
 
 
@@ -121,9 +145,11 @@ def open_recording(path: str, roots: Sequence[str] | None) -> tuple[BinaryIO, st
 
     Raises:
         PathRefused: when reading recordings is disabled, or the path leads outside every allowed
-            directory or through a symbolic link (never saying whether the path exists there).
+            directory, through a symbolic link (never saying whether the path exists there), or holds a
+            control character.
         RecordingError: when it is missing or not a regular file.
     """
+    _refuse_control_characters(path)
     if roots is None:
         places = [(os.path.dirname(os.path.abspath(path)), [os.path.basename(path)])]
     else:

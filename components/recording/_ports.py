@@ -34,20 +34,20 @@ import orjson
 
 from ..core import json_schema
 from ._cdr import MessageType
+from ._conversions import AUDIO_TYPES, frames_per_chunk, head_state, number, planar_odometry, seconds_of, stamp_of
+from ._errors import RecordingError
 from ._messages import (
     AUDIO_DATA_STAMPED, AUDIO_FRAMES, AUDIO_INFO, IMAGE, JOINT_STATE, LASER_SCAN, ODOMETRY, POSE_STAMPED,
 )
 from ._writer import RecordingWriter
 
 __all__ = [
-    "PortRecorder", "AudioRecorder", "ImageRecorder", "JsonRecorder", "recorder_for", "AUDIO_TYPES", "stamp_of",
+    "PortRecorder", "AudioRecorder", "ImageRecorder", "JsonRecorder", "recorder_for",
     "RecordedPort", "SCHEMA_KEY",
 ]
 
 Json = Mapping[str, Any]
 
-#: The audio ports: their IDL type and whether their index counts chunks (capture) or frames (bass).
-AUDIO_TYPES = {"::capture::port_t": "chunks", "::kemarcapture::port_t": "chunks", "::binaudio::portStruct": "frames"}
 IMAGE_TYPES = ("::subscriber::sensor_msgs__Image",)
 #: The channel metadata keys a recording sets (what a replay needs to publish a port again).
 PORT_KEY, TYPE_KEY, DOC_KEY, ROLE_KEY = "aiogenomix.port", "aiogenomix.type", "aiogenomix.doc", "aiogenomix.role"
@@ -67,28 +67,6 @@ def _time(seconds: float) -> dict[str, int]:
     return {"sec": int(whole), "nanosec": min(999_999_999, int(round((seconds - whole) * 1e9)))}
 
 
-def _seconds(stamp: Any) -> float | None:
-    """POSIX seconds of a port's timestamp struct (``{tv_sec, tv_nsec}``), or None when it is not one."""
-    if isinstance(stamp, Mapping) and "tv_sec" in stamp and "tv_nsec" in stamp:
-        seconds = float(stamp["tv_sec"]) + float(stamp["tv_nsec"]) * 1e-9
-        return seconds if seconds > 0 else None
-    return None
-
-
-def stamp_of(data: Any) -> float | None:
-    """The capture time a port's data carries: a ``timestamp``, ``stamp`` or ``ts`` member, or its header's stamp."""
-    if not isinstance(data, Mapping):
-        return None
-    for key in ("timestamp", "stamp", "ts"):
-        seconds = _seconds(data.get(key))
-        if seconds is not None:
-            return seconds
-    header = data.get("header")
-    if isinstance(header, Mapping):
-        return _seconds(header.get("stamp"))
-    return None
-
-
 class RecordedPort:
     """What a port recorder keeps count of.
 
@@ -98,6 +76,8 @@ class RecordedPort:
         publications: Publications recorded.
         coalesced: Publications a watch skipped (their data was replaced before the recorder read it).
         lost_frames: Audio frames the recording missed (the window turned over before they were read).
+        unavailable: Reads that found the data withdrawn by its component (a sensor down): the
+            recorder waited for the next publication.
     """
 
     def __init__(self, name: str) -> None:
@@ -106,6 +86,7 @@ class RecordedPort:
         self.publications = 0
         self.coalesced = 0
         self.lost_frames = 0
+        self.unavailable = 0
 
     @property
     def index(self) -> int:
@@ -187,13 +168,9 @@ def _header(stamp: float, frame: str) -> dict[str, Any]:
 
 def _head_joint_state(data: Json, stamp: float, name: str) -> Json:
     # The port says degrees and degrees per second; ROS says radians.
-    return {"header": _header(stamp, name.split("/")[0]), "name": ["head_yaw"],
-            "position": [math.radians(float(_number(data.get("position"))))],
-            "velocity": [math.radians(float(_number(data.get("speed"))))]}
-
-
-def _number(value: Any) -> float:
-    return math.nan if value is None else float(value)
+    head = head_state(data)
+    return {"header": _header(stamp, name.split("/")[0]), "name": ["head_yaw"], "position": [head.position],
+            "velocity": [head.velocity]}
 
 
 def _floats(values: Any, dtype: type[np.floating[Any]]) -> np.ndarray[Any, Any]:
@@ -211,21 +188,19 @@ def _joint_state(data: Json, stamp: float, name: str) -> Json:
 
 
 def _odometry(data: Json, stamp: float, name: str) -> Json:
-    yaw = _number(data.get("w"))
-    cos, sin = math.cos(yaw), math.sin(yaw)
-    vx, vy = _number(data.get("vx")), _number(data.get("vy"))
-    # nav_msgs/Odometry carries the twist in the robot's frame; the port gives the room's.
+    # nav_msgs/Odometry carries the twist in the robot's frame (child_frame_id); the port gives the room's.
+    odometry = planar_odometry(data)
+    orientation = dict(zip("xyzw", odometry.orientation, strict=True))
     return {"header": _header(stamp, "map"), "child_frame_id": "base_footprint",
-            "pose": {"pose": {"position": {"x": _number(data.get("x")), "y": _number(data.get("y")), "z": 0.0},
-                              "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}},
-            "twist": {"twist": {"linear": {"x": cos * vx + sin * vy, "y": -sin * vx + cos * vy, "z": 0.0},
-                                "angular": {"x": 0.0, "y": 0.0, "z": _number(data.get("vw"))}}}}
+            "pose": {"pose": {"position": {"x": odometry.x, "y": odometry.y, "z": 0.0}, "orientation": orientation}},
+            "twist": {"twist": {"linear": {"x": odometry.forward, "y": odometry.leftward, "z": 0.0},
+                                "angular": {"x": 0.0, "y": 0.0, "z": odometry.turn}}}}
 
 
 def _laser_scan(data: Json, stamp: float, name: str) -> Json:
     header = data.get("header") or {}
     return {"header": _header(stamp, str(header.get("frame_id", ""))),
-            **{key: _number(data.get(key)) for key in ("angle_min", "angle_max", "angle_increment", "range_min",
+            **{key: number(data.get(key)) for key in ("angle_min", "angle_max", "angle_increment", "range_min",
                                                         "range_max")},
             "ranges": _floats(data.get("ranges", ()), np.float32)}
 
@@ -291,6 +266,7 @@ class AudioRecorder(PortRecorder):
         self.since = 0
         self._format: tuple[int, int] | None = None
         self._lost_before = 0
+        self._chunk_frames = 0  # a capture's frames per chunk, once a read has said it
 
     @property
     def index(self) -> int:
@@ -314,54 +290,62 @@ class AudioRecorder(PortRecorder):
         """Whether a port whose newest item is *newest* holds a new capture (its index went back): record it all."""
         if newest < self.since:
             self.since = 0
+            self._chunk_frames = 0  # a new capture may have another chunk size
             return True
         return False
 
     def write(self, data: Json, *, since: int, lost: int, rig_time: float) -> None:
-        """Write the items after *since* that *data* holds (a ``since=`` read), *lost* of them missing before.
+        """Write the items of a ``since=`` read that were not recorded yet.
+
+        Which items the read holds is read from the data itself (they end at its newest index),
+        not taken on trust from *since*: items recorded already are skipped, and those between
+        the last one recorded and the first one held are counted as lost.
 
         Args:
             data: The port struct of the read (its arrays hold only the new items).
             since: The index the read asked after.
             lost: Items between *since* and the first one returned that the port no longer held.
             rig_time: The rig's clock when the read was made.
+
+        Raises:
+            RecordingError: when a capture's read is not whole chunks (it is not the read asked for).
         """
         left = np.asarray(data.get("left", ()), dtype=np.int32).reshape(-1)
         right = np.asarray(data.get("right", ()), dtype=np.int32).reshape(-1)
         newest = self.index_of(data)
-        # The read answered every item up to the newest: written below, or lost.
-        self.since = max(self.since, newest)
+        recorded, self.since = self.since, max(self.since, newest)
+        if left.size == 0:
+            return
         if self.numbering == "chunks":
             rate = int(data.get("transfer_rate", 0))
-            count = newest - since - lost
-            if count <= 0 or left.size == 0:
-                return
-            per_chunk = left.size // count
-            first_chunk = newest - count + 1
-            lost_frames = lost * per_chunk
-            start = _seconds(data.get("ts")) or rig_time
+            held, per_chunk = self._chunks_held(left.size, newest, since, lost, data.get("positions"))
+            first_chunk = max(newest - held + 1, recorded + 1)  # the chunks recorded already are skipped
+            skipped = first_chunk - (newest - held + 1)
+            lost_frames = (first_chunk - recorded - 1) * per_chunk
+            start = seconds_of(data.get("ts")) or rig_time
             positions = data.get("positions")
-            azimuths = np.full(count, math.nan) if positions is None else _floats(positions, np.float64)
-            chunks = [_Piece(chunk=first_chunk + k, first_frame=(first_chunk + k - 1) * per_chunk + 1,
-                             offset=k * per_chunk, frames=per_chunk,
-                             stamp=(start + (first_chunk + k - 1) * per_chunk / rate) if rate else rig_time,
-                             azimuth=float(azimuths[k]) if k < azimuths.size else math.nan) for k in range(count)]
+            azimuths = np.full(held, math.nan) if positions is None else _floats(positions, np.float64)
+            chunks = [_Piece(chunk=chunk, first_frame=(chunk - 1) * per_chunk + 1, offset=(k + skipped) * per_chunk,
+                             frames=per_chunk,
+                             stamp=(start + (chunk - 1) * per_chunk / rate) if rate else rig_time,
+                             azimuth=float(azimuths[k + skipped]) if k + skipped < azimuths.size else math.nan)
+                      for k, chunk in enumerate(range(first_chunk, newest + 1))]
         else:
             rate = int(data.get("sampleRate", 0))
             per_chunk = int(data.get("nFramesPerChunk", 0)) or max(1, left.size)
-            first = since + 1 + lost
-            lost_frames = lost
-            if left.size == 0:
-                return
+            first = max(newest - left.size + 1, recorded + 1)  # the frames recorded already are skipped
+            lost_frames = first - recorded - 1
             # bass's port carries no time: the newest frame is taken as captured when it was read.
             chunks = []
-            done = 0
+            done = first - (newest - left.size + 1)
             while done < left.size:
-                frame = first + done
+                frame = newest - left.size + 1 + done
                 size = min(per_chunk - (frame - 1) % per_chunk, left.size - done)
                 stamp = rig_time - (newest - frame + 1) / rate if rate else rig_time
                 chunks.append(_Piece((frame - 1) // per_chunk + 1, frame, done, size, stamp, math.nan))
                 done += size
+        if not chunks:
+            return
         self._lost_before += lost_frames
         self.lost_frames += lost_frames
         self._announce_format(rate, rig_time)
@@ -380,6 +364,26 @@ class AudioRecorder(PortRecorder):
                 {"header": header, "first_frame": piece.first_frame, "frames": piece.frames, "chunk": piece.chunk,
                  "lost_frames": self._lost_before, "head_azimuth": piece.azimuth, "sample_rate": rate}))
             self._lost_before = 0
+
+    def _chunks_held(self, frames: int, newest: int, since: int, lost: int, positions: Any) -> tuple[int, int]:
+        """How many chunks a capture's read of *frames* frames holds, and the frames of each.
+
+        The capture's chunk size, once known, says it; the first read learns it from the chunks
+        it asked for (``newest - since - lost``).  A ``kemarcapture`` read carries a position per chunk.
+        """
+        if positions is not None and len(positions):
+            chunks = len(positions)
+        elif self._chunk_frames and frames % self._chunk_frames == 0:
+            chunks = frames // self._chunk_frames
+        else:
+            chunks = newest - since - lost
+        try:
+            per_chunk = frames_per_chunk(frames, chunks)
+        except ValueError as exc:
+            raise RecordingError(f"{self.name}: a read after chunk {since} up to chunk {newest} holds {frames} "
+                                 f"frames: {exc}") from None
+        self._chunk_frames = per_chunk
+        return frames // per_chunk, per_chunk
 
     def _announce_format(self, rate: int, stamp: float) -> None:
         if self._format == (rate, 2):

@@ -194,12 +194,6 @@ class RecordingReader:
                           sample_rate=int(index["sample_rate"]), capture_time=_stamp(index["header"]),
                           receive_time=log_time * 1e-9)
 
-    def sample_rate(self, port: str | None = None) -> int:
-        """The sample rate of an audio port (that of its first chunk; 0 when it has none)."""
-        for chunk in self.audio(port):
-            return chunk.sample_rate
-        return 0
-
     # -- other ports and sessions -------------------------------------------------------------------
 
     def sessions(self) -> list[str]:

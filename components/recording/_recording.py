@@ -41,8 +41,9 @@ class RecordingCounts:
         queued: Messages of those not in the file yet (waiting for the thread, or in the chunk being gathered).
         lost_frames: Audio frames missed (the window turned over before the recorder read them).
         coalesced: Publications of other ports that a watch replaced before the recorder read them.
+        unavailable: Reads that found a port's data withdrawn by its component (a sensor down), over every port.
         ports: The counts of each port, by ``instance/port``: ``publications``, ``messages``, ``lost_frames``,
-            ``coalesced`` and ``index`` (audio: the newest item recorded).
+            ``coalesced``, ``unavailable`` and ``index`` (audio: the newest item recorded).
     """
 
     bytes: int
@@ -50,6 +51,7 @@ class RecordingCounts:
     queued: int
     lost_frames: int
     coalesced: int
+    unavailable: int
     ports: dict[str, dict[str, int]]
 
 
@@ -93,7 +95,6 @@ class Recording:
         self.ports: dict[str, PortRecorder] = {}
         self.events: list[EventRecorder] = []
         self._last_log = 0
-        self.started = time.monotonic()
         writer.metadata("aiogenomix", {"started": _utc(), **description})
 
     @classmethod
@@ -124,11 +125,13 @@ class Recording:
     def counts(self) -> RecordingCounts:
         """How far the recording is."""
         ports = {name: {"messages": p.messages, "publications": p.publications, "lost_frames": p.lost_frames,
-                        "coalesced": p.coalesced, "index": p.index} for name, p in self.ports.items()}
+                        "coalesced": p.coalesced, "unavailable": p.unavailable, "index": p.index}
+                 for name, p in self.ports.items()}
         return RecordingCounts(bytes=self.writer.bytes_written, messages=self.writer.messages_queued,
                                queued=self.writer.messages_queued - self.writer.messages_written,
                                lost_frames=sum(p.lost_frames for p in self.ports.values()),
-                               coalesced=sum(p.coalesced for p in self.ports.values()), ports=ports)
+                               coalesced=sum(p.coalesced for p in self.ports.values()),
+                               unavailable=sum(p.unavailable for p in self.ports.values()), ports=ports)
 
     async def close(self, ended: str) -> RecordingCounts:
         """Say how the recording ended (metadata), write what is queued, end the file.
@@ -143,7 +146,7 @@ class Recording:
         if self.writer.failure is None:
             self.writer.metadata("aiogenomix.end", {
                 "ended": ended, "at": _utc(), "lost_frames": str(counts.lost_frames),
-                "coalesced": str(counts.coalesced),
+                "coalesced": str(counts.coalesced), "unavailable": str(counts.unavailable),
                 "ports": orjson.dumps(counts.ports).decode()})
         await self.writer.close()
         return self.counts()

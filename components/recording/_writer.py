@@ -54,7 +54,7 @@ class RecordingWriter:
         self._schemas = 0
         self._channels = 0
         self._room = asyncio.Event()
-        self._room.set()
+        self._waiting = False  # whether the loop waits for room (then the thread sets _room when it makes some)
         #: Set (on the loop) when the file failed: the recording must stop.
         self.failed = asyncio.Event()
         #: Messages handed over so far.
@@ -79,20 +79,21 @@ class RecordingWriter:
         """Messages in the chunks written so far."""
         return self._file.messages if self._file is not None else 0
 
-    @property
-    def pending_bytes(self) -> int:
-        """Message bytes handed over and not yet written."""
-        return self._pending
-
     def has_room(self) -> bool:
         """Whether the queue takes more messages now."""
         return self._pending < self._limit
 
     async def wait_room(self) -> None:
         """Wait until the queue takes more messages (at once when it does)."""
-        while not self.has_room() and not self.failed.is_set():
+        while not self.failed.is_set():
+            # Said before looking, so that the thread, which makes room before it reads this, wakes
+            # the loop whenever it makes room after the look: never between the look and the wait.
             self._room.clear()
+            self._waiting = True
+            if self.has_room():
+                break
             await self._room.wait()
+        self._waiting = False
 
     def _put(self, op: _Op) -> None:
         if self._closing:
@@ -183,5 +184,7 @@ class RecordingWriter:
                 with self._ready:
                     self._pending -= op.size
                     room = self._pending < self._limit // 2 or not self._ops
-                if room and not self._room.is_set():
+                # Read after the room is made (wait_room says it waits before it looks): a waiting
+                # loop is always woken. asyncio's Event is the loop's: it is set there, not here.
+                if room and self._waiting:
                     self._loop.call_soon_threadsafe(self._room.set)

@@ -13,7 +13,7 @@ from ..core import (
     ULongLong,
     activity, function, idl_struct,
 )
-from ..recording import PortMessage, RecordingError, RecordingReader, open_recording
+from ..recording import PortMessage, RecordingError, RecordingReader, open_recording, replay_roots
 
 __all__ = ["Replay", "ReplayStatus", "RecordedType", "NOT_PLAYING"]
 
@@ -114,16 +114,24 @@ class Replay(Component, name="replay", version="1.0"):
                                     "doc": spec.doc})
         self.Status.publish(self._status(0, 0.0, playing=False))
 
-    def _roots(self) -> tuple[str, ...] | None:
+    def _reader(self) -> tuple[RecordingReader, str]:
+        """The recording open for reading, and its full path (blocking: off the event loop).
+
+        Raises:
+            RecordingError: when it is outside the allowed directories, missing, or not a recording.
+        """
         settings = self.host.settings
-        if settings.record_dirs is None or settings.audio_files is None:
-            return None
-        return (*settings.record_dirs, *settings.audio_files)
+        stream, path = open_recording(self.file, replay_roots(settings.record_dirs, settings.audio_files))
+        try:
+            return RecordingReader(stream, repr(self.file)), path
+        except BaseException:
+            stream.close()
+            raise
 
     def _read_summary(self) -> tuple[str, list[tuple[str, tuple[dict[str, Any], str]]], tuple[float, float]]:
         """The recording's full path, its non-audio ports with their types and docs, and its time span."""
-        stream, path = open_recording(self.file, self._roots())
-        with RecordingReader(stream, repr(self.file)) as reader:
+        opened, path = self._reader()
+        with opened as reader:
             ports = []
             for channel in reader.channels("port"):
                 recorded = channel.metadata["aiogenomix.port"]
@@ -158,9 +166,11 @@ class Replay(Component, name="replay", version="1.0"):
         """Publish the recorded ports again at their recorded timing, from the start to the end of the recording."""
         if not speed > 0:
             raise NOT_PLAYING(what=f"speed must be a positive number, not {speed}")
-        with self.clock.holding():  # a simulated clock waits for the disk: publications keep their timing
-            stream, _ = await asyncio.to_thread(open_recording, self.file, self._roots())
-        reader = RecordingReader(stream, repr(self.file))
+        try:
+            with self.clock.holding():  # a simulated clock waits for the disk: publications keep their timing
+                reader, _ = await asyncio.to_thread(self._reader)
+        except RecordingError as exc:  # changed or removed since the load
+            raise NOT_PLAYING(what=str(exc)) from exc
         messages = reader.publications()
         published, first_time, origin = 0, None, self.clock.now()
         try:

@@ -8,6 +8,8 @@ on the real command in a process of its own.
 from __future__ import annotations
 
 import asyncio
+import csv
+import math
 import os
 import signal
 import sys
@@ -19,9 +21,11 @@ import pytest
 
 from aiogenomix.clients import aconnect
 from aiogenomix.components.core import ComponentHost, HostSettings, ManualClock, ScaledClock
-from aiogenomix.components.recording import RecordingCounts, RecordingReader
+from aiogenomix.components.recording import RecordingCounts, RecordingReader, export_recording
 from aiogenomix.gateway import GatewayConfig, serve
 from aiogenomix.record import PortNotFound, record_over_http
+
+from .._cut_links import cuttable
 
 FPC = 2205
 
@@ -126,3 +130,90 @@ async def test_ctrl_c_ends_the_command_cleanly_with_a_readable_file(tmp_path: Pa
         assert reader.metadata()["aiogenomix.end"]["ended"] == "stopped"
         numbers = [c.chunk for c in reader.audio()]
     assert numbers and numbers == list(range(numbers[0], numbers[0] + len(numbers)))
+
+
+@pytest.mark.parametrize(("instance", "port"), [("bass", "Audio"), ("kemarcapture", "Port")])
+async def test_a_dropped_connection_loses_no_frame_and_repeats_none(
+        stepped: tuple[str, ManualClock], tmp_path: Path, instance: str, port: str) -> None:
+    """The watch stream drops (the network fails) three times: it is opened again where it was."""
+    url, clock = stepped
+    name, output = f"{instance}/{port}", tmp_path / "dropped.mcap"
+    async with cuttable(url) as link, aconnect(url) as lab:
+        module = await lab.load(instance)
+        if instance == "bass":
+            await module.Acquire(device="sim", nFramesPerChunk=FPC, nChunksOnPort=400, ack=True)
+        else:
+            await clock.run_until(module.Homing())
+            await module.StartCapture(device="sim", Port_chunks=400, ack=True)
+        window = getattr(module, port)
+
+        async def newest() -> int:
+            data = (await window(since=2**62))[0]
+            return int(getattr(data, "index", getattr(data, "lastFrameIndex", 0)))
+
+        await clock.advance(0.5)
+        stop, progress = asyncio.Event(), Progress()
+        recording = asyncio.create_task(record_over_http(link.url, [name], str(output), stop=stop,
+                                                         progress=progress, progress_period=0.02))
+        await progress.until(name, 1)
+        for connections in (3, 4, 5):
+            await clock.advance(1.0)
+            await progress.until(name, await newest())
+            assert link.cut() >= 1  # the watch's connection, at least
+            await clock.advance(0.5)  # published while the recorder is cut off
+            await link.connected(connections)
+        await clock.advance(1.0)
+        await (module.Stop() if instance == "bass" else module.StopCapture())
+        await progress.until(name, await newest())
+        stop.set()
+        _, counts, ended = await recording
+        held, _ = await window(since=0)
+    assert ended == "stopped" and counts.lost_frames == 0
+    with open(output, "rb") as stream, RecordingReader(stream) as reader:
+        chunks = list(reader.audio(name))
+    firsts = [c.first_frame for c in chunks]
+    ends = [c.first_frame + len(c.frames) for c in chunks]
+    assert firsts[1:] == ends[:-1] and ends[-1] - 1 == newest_frame(held)  # every frame once, in order
+    assert ends[-1] - firsts[0] > 4 * 44100
+    frames = np.concatenate([c.frames for c in chunks])
+    np.testing.assert_array_equal(frames[:, 0], np.asarray(held.left)[firsts[0] - 1:ends[-1] - 1])
+    np.testing.assert_array_equal(frames[:, 1], np.asarray(held.right)[firsts[0] - 1:ends[-1] - 1])
+
+
+def newest_frame(data: object) -> int:
+    """The newest frame of a port's data (bass counts frames; a capture counts chunks of FPC frames)."""
+    if hasattr(data, "lastFrameIndex"):
+        return int(data.lastFrameIndex)
+    return int(data.index) * FPC  # type: ignore[attr-defined]
+
+
+async def test_bass_audio_over_http_is_stamped_on_the_rigs_clock(tmp_path: Path) -> None:
+    """A rig whose clock runs 20 times faster than real time: bass's audio (no time of its own) and the head's
+    azimuths (stamped by the rig) are recorded on one clock, so the export finds each chunk's azimuth."""
+    output = tmp_path / "scaled.mcap"
+    settings = HostSettings(can_timeout=10.0, audio_socket_port=0)
+    async with ComponentHost(clock=ScaledClock(20.0), settings=settings) as host, \
+            serve(GatewayConfig(port=0), host) as url, aconnect(url) as lab:
+        kemar, bass = await lab.load("kemar"), await lab.load("bass")
+        await kemar.Homing()
+        await bass.Acquire(device="sim", nChunksOnPort=400, ack=True)
+        stop, progress = asyncio.Event(), Progress()
+        recording = asyncio.create_task(record_over_http(url, ["bass/Audio", "kemar/currentState"], str(output),
+                                                         stop=stop, progress=progress, progress_period=0.02))
+        await progress.until("bass/Audio", 1)
+        await kemar.MoveAbsolutePosition(target=40)
+        await progress.until("bass/Audio", (await bass.Audio(since=2**62))[0].lastFrameIndex)
+        stop.set()
+        await recording
+        await bass.Stop()
+    export_recording(output, tmp_path / "export")
+    with open(tmp_path / "export" / "bass_Audio.csv", newline="") as table:
+        rows = list(csv.DictReader(table))
+    with open(tmp_path / "export" / "kemar_currentState.csv", newline="") as table:
+        heads = list(csv.DictReader(table))
+    audio_end = float(rows[-1]["capture_time_s"]) + int(rows[-1]["frames"]) / 44100
+    head_end = float(heads[-1]["capture_time_s"])
+    assert abs(audio_end - head_end) < 1.0, (audio_end, head_end)  # rig seconds (50 ms of real time)
+    azimuths = [float(row["azimuth_deg"]) for row in rows]
+    assert all(math.isfinite(a) for a in azimuths[1:])
+    assert azimuths[-1] == pytest.approx(40.0, abs=0.5) and min(azimuths[1:]) < 10.0  # it turned while recorded

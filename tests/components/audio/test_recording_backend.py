@@ -18,11 +18,11 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from aiogenomix.components.audio import open_backend
+from aiogenomix.components.audio import FormatRefused, open_backend
 from aiogenomix.components.bass import Bass
 from aiogenomix.components.core import ComponentHost, HostSettings, ManualClock, VirtualClock
 from aiogenomix.components.recorder import Recorder
-from aiogenomix.components.recording import Recording, create_recording
+from aiogenomix.components.recording import AudioRecorder, Recording, create_recording
 
 RATE, FPC = 44100, 2205
 
@@ -141,3 +141,52 @@ async def test_a_gap_in_the_recording_stays_a_gap(tmp_path: Path) -> None:
     assert [round(t, 6) for _, t in delivered] == [0.05, 0.1, 0.3, 0.35, 0.4]
     starts = np.array([c.time for c, _ in delivered]) - delivered[0][0].time
     np.testing.assert_allclose(starts, [0, 0.05, 0.25, 0.3, 0.35], atol=1e-6)  # POSIX seconds in a double: microseconds
+
+
+async def bass_recording(path: Path, captures: list[tuple[int, int, float]], seed: int = 4) -> list[np.ndarray]:
+    """A recording of bass's port over captures ``(chunks, rate, rig time of the last read)``; their chunks."""
+    stream, real = create_recording(str(path), None)
+    recording = Recording.open(stream, real, {})
+    audio = recording.add_port("bass/Audio", {"name": "Audio", "doc": "", "type": {
+        "name": "::binaudio::portStruct", "kind": "struct", "members": []}})
+    assert isinstance(audio, AudioRecorder)
+    rng = np.random.default_rng(seed)
+    made = []
+    for count, rate, read_at in captures:
+        chunks = [rng.integers(-2**31, 2**31, (FPC, 2), dtype=np.int32) for _ in range(count)]
+        both = np.concatenate(chunks)
+        audio.restarted(count * FPC)  # a new capture numbers its frames from 1 again
+        audio.write({"sampleRate": rate, "nChunksOnPort": 20, "nFramesPerChunk": FPC, "lastFrameIndex": count * FPC,
+                     "left": both[:, 0], "right": both[:, 1]}, since=0, lost=0, rig_time=read_at)
+        made += chunks
+    await recording.close("test")
+    return made
+
+
+async def test_a_capture_that_started_again_is_played_after_the_first_with_the_pause_between(tmp_path: Path) -> None:
+    now = time.time()
+    # Three chunks read at `now`, then a new capture whose two chunks were read 0.3 s later: 0.2 s of pause.
+    made = await bass_recording(tmp_path / "restart.mcap", [(3, RATE, now), (2, RATE, now + 0.3)])
+    clock = ManualClock()
+    backend = open_backend(f"mcap:{tmp_path / 'restart.mcap'}", RATE, FPC, clock, roots=None)
+    delivered = []
+    async with backend:
+        while (chunk := await clock.run_until(backend.read())) is not None:
+            delivered.append((chunk, clock.now()))
+    assert len(delivered) == 5
+    for (chunk, _), expected in zip(delivered, made, strict=True):
+        np.testing.assert_array_equal(chunk.frames, expected)
+    assert [c.lost_frames for c, _ in delivered] == [0, 0, 0, 4 * FPC, 0]  # the pause: four chunks' time
+    assert [round(t, 6) for _, t in delivered] == [0.05, 0.1, 0.15, 0.4, 0.45]
+
+
+async def test_a_capture_that_started_again_at_another_rate_ends_the_replay_saying_so(tmp_path: Path) -> None:
+    now = time.time()
+    await bass_recording(tmp_path / "rates.mcap", [(3, RATE, now), (2, 48000, now + 1.0)])
+    clock = ManualClock()
+    backend = open_backend(f"mcap:{tmp_path / 'rates.mcap'}", RATE, FPC, clock, roots=None)
+    async with backend:
+        for _ in range(3):
+            assert await clock.run_until(backend.read()) is not None
+        with pytest.raises(FormatRefused, match="from frame 1 of its next capture at 48000 Hz"):
+            await clock.run_until(backend.read())

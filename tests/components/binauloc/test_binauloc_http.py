@@ -2,8 +2,9 @@
 
 ``binauloc.connect_port('Audio', 'bass/Audio'); binauloc.Setup(24414, 5000, 1024, 512, HANNING, 10);
 binauloc.LearnNoise(2); binauloc.LocalizeSources(...)``, then ``binauloc.Azimuths()`` read while it
-runs: every step an HTTP GET to a real gateway. The host's clock is a ``ManualClock`` that the test
-steps between the reads, so the source, the noise and the estimates meet where the test says.
+runs: every step an HTTP GET to a real gateway, the estimates as a watch of ``Azimuths`` gives them.
+The host's clock is a ``ManualClock`` that the test runs until what it waits for has come (the end of
+LearnNoise, the next estimate), so the source, the noise and the estimates meet where the test says.
 """
 
 from __future__ import annotations
@@ -58,17 +59,19 @@ async def test_binauloc_on_bass_over_http_reports_62_5_degrees(gateway: tuple[ai
     learning = await get(http, "/module/binauloc/send/LearnNoise", {"seconds": 2})
     await get(http, "/module/bass/send/Acquire", {"device": device, "sampleRate": 24414, "nFramesPerChunk": 4096,
                                                    "nChunksOnPort": 20})
-    await clock.advance(2.6)
-    learnt = await get(http, f"/module/binauloc/status/{learning['id']}")
+    # Simulated time runs, deadline after deadline, until the request has ended (the reply of wait).
+    learnt = await clock.run_until(get(http, f"/module/binauloc/wait/{learning['id']}"))
     assert learnt["status"] == "done" and learnt["output"]["nFrames"] >= 90
-    localizing = await get(http, "/module/binauloc/send/LocalizeSources", {"nEstimates": 20})
     estimates: list[dict[str, Any]] = []
-    while not estimates or estimates[-1]["estimate"] < 20:
-        # Less than a chunk of bass (168 ms) a step, so that no step brings two estimates (one per 210 ms).
-        await clock.advance(0.1)
-        estimate = (await get(http, "/module/binauloc/read/Azimuths"))["Azimuths"]
-        if estimate["estimate"] and (not estimates or estimate["estimate"] != estimates[-1]["estimate"]):
-            estimates.append(estimate)
+    async with http.get("/module/binauloc/watch/Azimuths") as watching:
+        events = _events(watching)
+        assert (await anext(events))["Azimuths"]["estimate"] == 0  # the current data comes first
+        localizing = await get(http, "/module/binauloc/send/LocalizeSources", {"nEstimates": 20})
+        while len(estimates) < 20:
+            # Each estimate as it is published (one a bass chunk at most: never two before the watch sends one).
+            event = await clock.run_until(anext(events))
+            assert event["lost"] == 0
+            estimates.append(event["Azimuths"])
     assert [e["estimate"] for e in estimates] == list(range(1, 21))
     ended = await get(http, f"/module/binauloc/wait/{localizing['id']}")
     assert ended["status"] == "done" and ended["output"] == {"nEstimates": 20}
@@ -78,6 +81,13 @@ async def test_binauloc_on_bass_over_http_reports_62_5_degrees(gateway: tuple[ai
     assert sure and all(abs(value - 62.5) <= 5.0 for value in sure), laterals
     assert all(e["headAzimuth"] is None for e in estimates)          # no head: NaN travels as null
     assert len(estimates[-1]["logLikelihood"]) == 360
+
+
+async def _events(reply: aiohttp.ClientResponse) -> AsyncIterator[dict[str, Any]]:
+    """The ``port`` events of a watch stream (genomix's form: close-delimited, ``data:`` lines)."""
+    async for line in reply.content:
+        if line.startswith(b"data: "):
+            yield json.loads(line[6:])
 
 
 def lateral(radians: float) -> float:

@@ -19,7 +19,10 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 def test_active_listening_notebook(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
     nbformat = pytest.importorskip("nbformat")
     nbclient = pytest.importorskip("nbclient")
-    # The kernel inherits these: a fast in-process simulation, the figure and the scene under tmp_path.
+    # The kernel inherits these: an in-process gateway on simulated time (examples/local_gateway.py: a VirtualClock
+    # paced at most 50 times real time, which a busy machine slows down but never makes late: the loop asks for
+    # its estimates from the audio after each request, so where the head looks and what it hears hold however
+    # slow the kernel is), the figure and the scene under tmp_path.
     monkeypatch.setenv("AIOGENOMIX_TIME_SCALE", "50")
     monkeypatch.setenv("AIOGENOMIX_PLOT_DIR", str(tmp_path))
     monkeypatch.setenv("AIOGENOMIX_SCENE_DIR", str(tmp_path))

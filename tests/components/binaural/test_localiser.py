@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+import tracemalloc
 
 import numpy as np
 import pytest
 
 from aiogenomix.components.binaural import (
-    GRID_DEGREES, AzimuthLikelihood, BinauralLocaliser, BinauralRenderer, HrirSet, LocalisationError,
-    LocaliserSetup, combine_in_room, speech_like, white_noise,
+    GRID_DEGREES, AzimuthEstimate, AzimuthLikelihood, BinauralLocaliser, BinauralRenderer, FrontBackPolicy, HrirSet,
+    LocalisationError, LocaliserSetup, combine_in_room, speech_like, white_noise,
 )
 
 RATE = 24_414.0
@@ -145,3 +146,43 @@ def test_every_window_localises(kemar, window) -> None:
     assert localiser.localise(ears).degrees == pytest.approx(-62.5, abs=3.0)
     with pytest.raises(LocalisationError, match="window"):
         BinauralLocaliser(LocaliserSetup(rate=RATE, window="kaiser"), hrirs=kemar)  # type: ignore[arg-type]
+
+
+def test_long_estimates_of_large_frames_hold_a_few_megabytes(kemar) -> None:
+    # A large analysis a client may ask binauloc for: 200 frames' spectra of 8158 bins an estimate, 52 MB
+    # if kept until the estimate, as much again to stack them. As they arrive, they are summed instead.
+    setup = LocaliserSetup(rate=48_000.0, max_frequency=24_000.0, frame=16_384, hop=16_384, smoothing=200)
+    localiser = BinauralLocaliser(setup, hrirs=kemar)
+    rng = np.random.default_rng(11)
+    block = 48_000
+    blocks = -(-setup.frame * setup.smoothing // block)
+    heads = np.linspace(0.0, 100.0, blocks * block)  # a turning head: a run of frames per degree
+    tracemalloc.start()
+    try:
+        learner = localiser.noise_learner()
+        for _ in range(30):  # half a minute of noise: held as sums, not as audio
+            learner.feed(0.01 * rng.standard_normal((block, 2)))
+        learner.learnt()
+        estimates = []
+        for k in range(blocks):
+            estimates += localiser.feed(0.1 * rng.standard_normal((block, 2)), heads[k * block:(k + 1) * block])
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert learner.frames == 30 * block // setup.hop
+    assert len(estimates) == 1 and estimates[0].frames == 200
+    assert peak < 32 << 20, f"{peak / 2**20:.0f} MiB"
+
+
+def test_looks_near_a_limit_never_ask_twice_for_one_azimuth() -> None:
+    # The head starts at 70° (limits ±89.5°), the source on its left: the first look there (100°) is beyond the
+    # limit, so the looks go the other way, each from an azimuth not looked from before.
+    policy = FrontBackPolicy(turn=30.0, limits=(-89.5, 89.5), max_turns=4)
+    flat = AzimuthLikelihood(np.zeros(len(GRID_DEGREES)), "head")  # nothing learnt: never settled by confidence
+    policy.add(AzimuthEstimate(math.radians(30.0), 0.1, flat, 10, 1, head_azimuth=70.0))
+    policy.looked(70.0)
+    looks = []
+    while (target := policy.next_look()) is not None:
+        looks.append(target)
+        policy.looked(target)
+    assert looks == [40.0, 10.0, -20.0, -50.0]

@@ -2,15 +2,18 @@
 
 A path outside ``--record-dir`` (or through a link out of it, or with recordings disabled), an
 unknown port, an existing file, and a disk that fills up: a small tmpfs (as root) and a file
-size limit (``RLIMIT_FSIZE``, anyone).  The rig runs on simulated time (``VirtualClock``).
+size limit (``RLIMIT_FSIZE``, anyone, in a process of its own).  The rig runs on simulated time
+(``VirtualClock``).
 """
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
+import json
 import os
-import resource
 import subprocess
+import sys
 from collections.abc import AsyncIterator, Iterator
 from pathlib import Path
 from typing import Any
@@ -23,6 +26,8 @@ from aiogenomix.components.core import ComponentHost, HostSettings, VirtualClock
 from aiogenomix.components.kemarcapture import KemarCapture
 from aiogenomix.components.recorder import Recorder
 from aiogenomix.components.recording import RecordingReader
+
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def rig(record_dirs: tuple[str, ...] | None) -> ComponentHost:
@@ -58,6 +63,13 @@ async def test_a_path_outside_the_record_directory_is_refused_without_a_file(cap
         assert ended["exception"]["ex"] == "::recorder::PATH_REFUSED"
         assert "--record-dir" in ended["exception"]["detail"]["what"]
     assert not (tmp_path / "elsewhere.mcap").exists()
+
+
+async def test_a_path_with_a_control_character_is_refused(capturing: ComponentHost, tmp_path: Path) -> None:
+    ended = await start(capturing, path="cut\x00short.mcap", ports=["kemarcapture/Port"])
+    assert ended["exception"]["ex"] == "::recorder::PATH_REFUSED"
+    assert "holds a control character ('\\x00')" in ended["exception"]["detail"]["what"]
+    assert list((tmp_path / "records").iterdir()) == []
 
 
 async def test_a_link_out_of_the_record_directory_is_refused(capturing: ComponentHost, tmp_path: Path) -> None:
@@ -149,21 +161,35 @@ async def test_a_full_disk_ends_the_recording_with_its_file_readable(tmp_path: P
         assert _readable_and_contiguous(path) > 10
 
 
-async def test_a_file_size_limit_ends_the_recording_with_its_file_readable(tmp_path: Path) -> None:
-    (tmp_path / "records").mkdir()
-    limit = 3 << 20
-    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
-    async with rig((str(tmp_path / "records"),)) as host:
+#: The recording under a file size limit, in a process of its own: the limit is the whole process's, and
+#: nothing else of the test run must meet it.
+_UNDER_A_SIZE_LIMIT = """
+import asyncio, json, resource, sys
+from tests.components.recorder.test_recorder_refusals import rig, start
+
+async def main(records, limit):
+    async with rig((records,)) as host:
         capture = await host.load("kemarcapture")
         capturing = await capture.send("StartCapture", {"device": "sim"})
         # Python ignores SIGXFSZ: a write past the limit fails with EFBIG instead of ending the process.
-        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, hard))
-        try:
-            ended = await start(host, path="big.mcap", ports=["kemarcapture/Port"], duration=60)
-        finally:
-            resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, resource.getrlimit(resource.RLIMIT_FSIZE)[1]))
+        ended = await start(host, path="big.mcap", ports=["kemarcapture/Port"], duration=60)
         await capture.interrupt(capturing, by="test")
-    failure = ended["exception"]
+    print(json.dumps(ended["exception"]))
+
+asyncio.run(main(sys.argv[1], int(sys.argv[2])))
+"""
+
+
+async def test_a_file_size_limit_ends_the_recording_with_its_file_readable(tmp_path: Path) -> None:
+    (tmp_path / "records").mkdir()
+    limit = 3 << 20
+    process = await asyncio.create_subprocess_exec(
+        sys.executable, "-c", _UNDER_A_SIZE_LIMIT, str(tmp_path / "records"), str(limit),
+        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE, cwd=ROOT)
+    said, errors = await asyncio.wait_for(process.communicate(), 120)
+    assert process.returncode == 0, errors.decode()[-2000:]
+    failure = json.loads(said.decode().strip().splitlines()[-1])
     assert failure["ex"] == "::recorder::WRITE_FAILED" and failure["detail"]["what"] == os.strerror(27)
     path = tmp_path / "records" / "big.mcap"
     assert path.stat().st_size <= limit
