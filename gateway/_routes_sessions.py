@@ -42,18 +42,20 @@ async def stop(request: web.Request) -> web.Response:
 async def listen(request: web.Request) -> web.StreamResponse:
     """Stream the session's events (``request``, ``unload``, ``quit``) until it stops or the client leaves.
 
-    A reconnect after ``quit`` (``Last-Event-ID`` of the final event) gets 204, and the
-    session is not started again: an EventSource stops there.
+    A standard stream opened again with ``Last-Event-ID`` first gets the events after that id
+    that the session still keeps.  A reconnect after ``quit`` (``Last-Event-ID`` of the final
+    event) gets 204, and the session is not started again: an EventSource stops there.
     """
     name = _session_name(request)
-    if request.headers.get("Last-Event-ID") == FINAL_ID:
+    last_id = request.headers.get("Last-Event-ID")
+    if last_id == FINAL_ID:
         return web.Response(status=204, headers=SERVER_HEADER)
     sessions = request.app[SESSIONS]
     session = sessions.get_or_create(name)
     transport = request.transport
     stream = event_stream(request)
     listener = sessions.attach(session, alive=lambda: transport is not None and not transport.is_closing(),
-                               standard=stream.standard)
+                               standard=stream.standard, last_id=last_id if stream.standard else None)
     ping_interval = request.app[CONFIG].ping_interval
     try:
         await stream.prepare(request)

@@ -2,9 +2,12 @@
 
 Each listener has its own bounded buffer, so a slow or stalled reader never
 delays the others: when its buffer overflows, its stream is closed (the client
-reconnects and re-reads the status of its pending requests).  Events for a
-session that has no listener yet are kept in a bounded backlog and delivered
-when one attaches, so a client that listens just after sending loses nothing.
+reconnects and re-reads the status of its pending requests).  A session keeps its
+latest events (a bounded number): a listener that attaches gets those nobody has
+been offered yet, so a client that listens just after sending loses nothing, and
+a standard stream opened again with ``Last-Event-ID`` gets every one after that
+id, including those offered to its previous connection while it was dying
+unnoticed.
 
 Any client may name a session, so what sessions hold is bounded: a session
 nobody listens to is forgotten after an idle time (its requests run on and keep
@@ -122,10 +125,12 @@ class Session:
     def __init__(self, name: str, backlog: int = 1000, listener_limit: int = 10000) -> None:
         self.name = name
         self.listeners: set[Listener] = set()
-        #: Events kept while nobody listens, with their numbers.
-        self.backlog: deque[tuple[bytes, int]] = deque(maxlen=backlog)
+        #: The latest events, with their numbers (the oldest go first).
+        self.recent: deque[tuple[bytes, int]] = deque(maxlen=backlog)
         #: The number of the session's last event (a standard stream's event ids).
         self.events = 0
+        #: The number of the last event offered to a listener: those after it wait for one.
+        self.offered = 0
         self.listener_limit = listener_limit
         #: When a client last used the session (its store's clock), for the expiry of unlistened sessions.
         self.used = 0.0
@@ -134,18 +139,33 @@ class Session:
         """Send a framed event to every live listener (or keep it until one attaches)."""
         self.prune()
         self.events += 1
-        if not self.listeners:
-            self.backlog.append((frame, self.events))
+        self.recent.append((frame, self.events))
+        if self.listeners:
+            self.offered = self.events
         for listener in self.listeners:
             listener.offer(frame, self.events)
 
-    def attach(self, alive: Callable[[], bool] = lambda: True, standard: bool = False) -> Listener:
-        """Open a listener (in the standard form or genomix's); it first receives the backlog."""
+    def attach(self, alive: Callable[[], bool] = lambda: True, standard: bool = False,
+               last_id: str | None = None) -> Listener:
+        """Open a listener (in the standard form or genomix's).
+
+        It first receives the events kept after *last_id* (a standard stream's ``Last-Event-ID``,
+        when it names one of this session's events), else those no listener was offered.
+        """
         listener = Listener(self.listener_limit, alive, standard)
-        while self.backlog:
-            listener.offer(*self.backlog.popleft())
+        after = self._resumed_after(last_id)
+        for frame, number in self.recent:
+            if number > after:
+                listener.offer(frame, number)
+        self.offered = self.events
         self.listeners.add(listener)
         return listener
+
+    def _resumed_after(self, last_id: str | None) -> int:
+        """The number of the last event the attaching client had: *last_id*'s, or the last one offered."""
+        if last_id is not None and last_id.isdigit() and int(last_id) <= self.events:
+            return int(last_id)
+        return self.offered
 
     def detach(self, listener: Listener) -> None:
         """Forget a listener whose stream ended."""
@@ -164,7 +184,7 @@ class Session:
         for listener in self.listeners:
             listener.quit(self.name)
         self.listeners.clear()
-        self.backlog.clear()
+        self.recent.clear()
 
 
 class SessionStore:
@@ -267,9 +287,10 @@ class SessionStore:
             return None
         return session
 
-    def attach(self, session: Session, alive: Callable[[], bool] = lambda: True, standard: bool = False) -> Listener:
+    def attach(self, session: Session, alive: Callable[[], bool] = lambda: True, standard: bool = False,
+               last_id: str | None = None) -> Listener:
         """Open a listener of *session* (see :meth:`Session.attach`); a session listened to never expires."""
-        listener = session.attach(alive, standard)
+        listener = session.attach(alive, standard, last_id)
         self._idle.pop(session.name, None)
         return listener
 

@@ -102,6 +102,14 @@ async def _chunk(reader: asyncio.StreamReader) -> bytes:
             return data[:-2]
 
 
+async def _events(reader: asyncio.StreamReader, count: int) -> list[bytes]:
+    """The next *count* events of a chunked stream (a chunk may hold several)."""
+    data = b""
+    while data.count(b"\n\n") < count:
+        data += await _chunk(reader)
+    return [event + b"\n\n" for event in data.split(b"\n\n")[:count]]
+
+
 async def test_a_standard_client_gets_chunks_ids_and_a_quit_with_data(gateway: str,
                                                                         http: aiohttp.ClientSession) -> None:
     await http.get("/load/demo")
@@ -122,6 +130,34 @@ async def test_a_standard_client_gets_chunks_ids_and_a_quit_with_data(gateway: s
     assert head.startswith(b"HTTP/1.1 204")
     async with http.get("/session/stop", params={"s": "std"}) as reply:
         assert reply.status == 404
+
+
+async def test_a_standard_listen_opened_again_gets_every_event_after_its_last_id(
+        gateway: str, http: aiohttp.ClientSession) -> None:
+    await http.get("/load/demo")
+    reader, writer, _ = await _standard_stream(gateway, "/session/listen?s=again")
+    try:
+        for _ in range(3):
+            await http.get("/module/demo/send/GetSpeed", params={"s": "again"})
+        had = await _events(reader, 3)
+        # The client's connection dropped after event 1, unnoticed by the gateway (this one is still
+        # open): it opens the stream again with the id it had, and gets events 2 and 3, then new ones.
+        again, again_writer, _ = await _standard_stream(gateway, "/session/listen?s=again", "Last-Event-ID: 1")
+        try:
+            assert await _events(again, 2) == had[1:]
+            await http.get("/module/demo/send/GetSpeed", params={"s": "again"})
+            assert (await _chunk(again)).startswith(b"id: 4\nevent: request\n")
+        finally:
+            again_writer.close()
+        # An id the session never gave (from before it expired, say) replays nothing.
+        fresh, fresh_writer, _ = await _standard_stream(gateway, "/session/listen?s=again", "Last-Event-ID: 99")
+        try:
+            await http.get("/module/demo/send/GetSpeed", params={"s": "again"})
+            assert (await _chunk(fresh)).startswith(b"id: 5\nevent: request\n")
+        finally:
+            fresh_writer.close()
+    finally:
+        writer.close()
 
 
 @pytest.mark.parametrize("query", ["", "?since=0"])
