@@ -271,14 +271,21 @@ def _load(r: dict[str, Any]) -> str:
         "bare aiohttp handler returning the same JSON; alternating rounds.", "",
         "| server | requests/s (median of rounds) |", "|---|---|",
         f"| aiogenomix gateway | {r['gateway_requests_per_s']:.0f} |",
-        f"| bare aiohttp | {r['bare_requests_per_s']:.0f} |", "",
+        f"| bare aiohttp | {r['bare_requests_per_s']:.0f} |",
+        *([] if "baseline" not in r else [
+            f"| before: the gateway of {r['baseline']} | {r['baseline_requests_per_s']:.0f} |"]),
+        "",
         f"Ratio {r['ratio']:.3f}, median of alternating rounds (rounds: {', '.join(f'{x:.2f}' for x in r['ratios'])}; "
         f"spread {min(r['ratios']):.2f}–{max(r['ratios']):.2f}; target ≥ "
         f"{r['target_ratio']}), {r['errors']} errors in {r['gateway_requests']} requests: **{r['verdict']}**.",
+        *([] if "baseline" not in r else [
+            "", f"Before ({r['baseline']}), in the same rounds: ratio {r['baseline_ratio']:.3f} (rounds: "
+            f"{', '.join(f'{x:.2f}' for x in r['baseline_ratios'])})."]),
         *([] if "gateway_cpu_us_per_request" not in r else [
             "", f"CPU time per request (from /proc, the server's own, whatever else the machine runs): gateway "
             f"{r['gateway_cpu_us_per_request']:.0f} µs, bare aiohttp {r['bare_cpu_us_per_request']:.0f} µs "
-            f"(ratio {r['bare_cpu_us_per_request'] / r['gateway_cpu_us_per_request']:.2f})."]), ""])
+            f"(ratio {r['bare_cpu_us_per_request'] / r['gateway_cpu_us_per_request']:.2f})"
+            + ("." if "baseline" not in r else f", before {r['baseline_cpu_us_per_request']:.0f} µs.")]), ""])
 
 
 def _soak(r: dict[str, Any]) -> str:

@@ -8,6 +8,8 @@ the median of the per-round ratios.
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import os
 import re
 import shutil
 import statistics
@@ -22,6 +24,8 @@ from ._common import Result, cpu_seconds, server
 CONNECTIONS = 50
 #: The gateway's throughput as a share of bare aiohttp's on the same handler shape.
 TARGET = 0.7
+#: Another checkout's gateway, measured in the same rounds (``AIOGENOMIX_BENCH_BASELINE``).
+BASELINE = os.environ.get("AIOGENOMIX_BENCH_BASELINE")
 
 
 async def _wrk(url: str, seconds: float) -> dict[str, float]:
@@ -44,20 +48,35 @@ async def run(seconds: float = 30.0, rounds: int = 5) -> Result:
     """Throughput of ``send`` of a function (its reply is already ``done``) vs a bare handler."""
     if shutil.which("wrk") is None:
         return {"skipped": "wrk is not installed (./run bench installs it)"}
-    async with server("gateway") as (gateway_port, gateway_pid), server("aiohttp") as (bare_port, bare_pid):
+    async with contextlib.AsyncExitStack() as stack:
+        servers = {"gateway": await stack.enter_async_context(server("gateway")),
+                   "bare": await stack.enter_async_context(server("aiohttp"))}
+        if BASELINE:
+            servers["baseline"] = await stack.enter_async_context(server("gateway", BASELINE))
         async with aiohttp.ClientSession() as http:
-            await http.get(f"http://127.0.0.1:{gateway_port}/load/demo")
-        gateway_runs, bare_runs = [], []
+            for name in ("gateway", "baseline"):
+                if name in servers:
+                    await http.get(f"http://127.0.0.1:{servers[name][0]}/load/demo")
+        runs: dict[str, list[dict[str, float]]] = {name: [] for name in servers}
         for _ in range(rounds):
-            for runs, port, pid in ((gateway_runs, gateway_port, gateway_pid), (bare_runs, bare_port, bare_pid)):
+            for name, (port, pid) in servers.items():
                 used = cpu_seconds(pid)
-                runs.append(await _wrk(f"http://127.0.0.1:{port}/module/demo/send/GetSpeed", seconds / rounds))
+                result = await _wrk(f"http://127.0.0.1:{port}/module/demo/send/GetSpeed", seconds / rounds)
                 # CPU time per request: what the server itself spends, whatever else the machine runs.
-                runs[-1]["cpu_us_per_request"] = 1e6 * (cpu_seconds(pid) - used) / max(1, runs[-1]["requests"])
+                result["cpu_us_per_request"] = 1e6 * (cpu_seconds(pid) - used) / max(1, result["requests"])
+                runs[name].append(result)
+    gateway_runs, bare_runs = runs["gateway"], runs["bare"]
     ratios = [g["requests_per_s"] / b["requests_per_s"] for g, b in zip(gateway_runs, bare_runs, strict=True)]
     errors = sum(run["errors"] for run in gateway_runs)
     ratio = statistics.median(ratios)
-    return {
+    baseline = {}
+    if "baseline" in runs:
+        before = [g["requests_per_s"] / b["requests_per_s"] for g, b in zip(runs["baseline"], bare_runs, strict=True)]
+        baseline = {"baseline": os.environ.get("AIOGENOMIX_BENCH_BASELINE_NAME", BASELINE),
+                    "baseline_requests_per_s": statistics.median(r["requests_per_s"] for r in runs["baseline"]),
+                    "baseline_ratios": before, "baseline_ratio": statistics.median(before),
+                    "baseline_cpu_us_per_request": statistics.median(r["cpu_us_per_request"] for r in runs["baseline"])}
+    return baseline | {
         "gateway_requests_per_s": statistics.median(r["requests_per_s"] for r in gateway_runs),
         "bare_requests_per_s": statistics.median(r["requests_per_s"] for r in bare_runs),
         "gateway_requests": sum(r["requests"] for r in gateway_runs),
