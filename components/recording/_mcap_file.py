@@ -62,7 +62,10 @@ class McapFile:
         self._compressor = zstandard.ZstdCompressor(level=level)
         self._schemas: dict[int, Schema] = {}
         self._channels: dict[int, Channel] = {}
-        self._chunk_indexes: list[ChunkIndex] = []
+        # The summary lists every chunk: their index records are kept encoded (about 130 bytes each
+        # against 600 as objects), since an hour's recording writes some 20,000 chunks.
+        self._chunk_indexes = bytearray()
+        self._chunk_count = 0
         self._metadata_indexes: list[MetadataIndex] = []
         self._counts: dict[int, int] = defaultdict(int)
         self._start_time: int | None = None
@@ -186,10 +189,11 @@ class McapFile:
         index_bytes = _end(builder)
         # One write: the chunk and its indexes are in the file together, or neither is.
         self._write(chunk + index_bytes)
-        self._chunk_indexes.append(ChunkIndex(
+        self._chunk_indexes += _built(ChunkIndex(
             message_start_time=start, message_end_time=end, chunk_start_offset=offset, chunk_length=len(chunk),
             message_index_offsets=offsets, message_index_length=len(index_bytes), compression="zstd",
             compressed_size=len(compressed), uncompressed_size=len(raw)))
+        self._chunk_count += 1
         for channel_id, count in counts.items():
             self._counts[channel_id] += count
         self._start_time = start if self._start_time is None else min(self._start_time, start)
@@ -236,19 +240,22 @@ class McapFile:
         builder = RecordBuilder()
         offsets: list[SummaryOffset] = []
 
-        def group(opcode: int, records: list[Schema] | list[Channel] | list[Statistics] | list[ChunkIndex]
-                  | list[MetadataIndex]) -> None:
+        def group(opcode: int, records: list[Schema] | list[Channel] | list[Statistics] | list[MetadataIndex]
+                  | bytearray) -> None:
             if not records:
                 return
             start = builder.count
-            for record in records:
-                record.write(builder)
+            if isinstance(records, bytearray):
+                builder.write(records)  # records already encoded
+            else:
+                for record in records:
+                    record.write(builder)
             offsets.append(SummaryOffset(group_opcode=opcode, group_start=summary_start + start,
                                          group_length=builder.count - start))
 
         statistics = Statistics(
             message_count=self.messages, schema_count=len(self._schemas), channel_count=len(self._channels),
-            attachment_count=0, metadata_count=self._metadata_count, chunk_count=len(self._chunk_indexes),
+            attachment_count=0, metadata_count=self._metadata_count, chunk_count=self._chunk_count,
             message_start_time=self._start_time or 0, message_end_time=self._end_time,
             channel_message_counts=dict(self._counts))
         group(Opcode.SCHEMA, list(self._schemas.values()))
@@ -264,7 +271,7 @@ class McapFile:
         return head + summary + _built(footer) + MAGIC
 
 
-def _built(record: Header | Schema | Channel | Chunk | Metadata | Footer | DataEnd) -> bytes:
+def _built(record: Header | Schema | Channel | Chunk | ChunkIndex | Metadata | Footer | DataEnd) -> bytes:
     builder = RecordBuilder()
     record.write(builder)
     return _end(builder)
