@@ -211,9 +211,12 @@ async def test_bass_audio_over_http_is_stamped_on_the_rigs_clock(tmp_path: Path)
         rows = list(csv.DictReader(table))
     with open(tmp_path / "export" / "kemar_currentState.csv", newline="") as table:
         heads = list(csv.DictReader(table))
+    audio_start = float(rows[0]["capture_time_s"])
     audio_end = float(rows[-1]["capture_time_s"]) + int(rows[-1]["frames"]) / 44100
     head_end = float(heads[-1]["capture_time_s"])
-    assert abs(audio_end - head_end) < 1.0, (audio_end, head_end)  # rig seconds (50 ms of real time)
+    # The head's last state (the end of the move, its last publication) falls within the audio recorded
+    # around it; audio stamped with real time would span a twentieth of it, elsewhere.
+    assert audio_start <= head_end <= audio_end, (audio_start, head_end, audio_end)
     azimuths = [float(row["azimuth_deg"]) for row in rows]
     assert all(math.isfinite(a) for a in azimuths[1:])
     assert azimuths[-1] == pytest.approx(40.0, abs=0.5) and min(azimuths[1:]) < 10.0  # it turned while recorded
