@@ -21,14 +21,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..components.core import Chunk, ChunkedArray, GenomException, Ledger, OutPortRuntime, OverBudget, Reservation
+from ..components.core import (
+    Chunk, ChunkedArray, DescribedType, GenomException, Ledger, OutPortRuntime, OverBudget, Reservation,
+)
 from ..components.core.runtime import PortSpec
 from ._wire import arrays_of
 
 if TYPE_CHECKING:
     from ._proxy import RemoteInstance
 
-__all__ = ["MirroredOutPort", "MirroredWindow", "MirroredType", "remote_exception"]
+__all__ = ["MirroredOutPort", "MirroredWindow", "remote_exception"]
 
 #: Seconds between two tries of a window that did not fit the ledger (each asks the host for the whole window).
 REFIT_PERIOD = 5.0
@@ -72,39 +74,13 @@ def remote_exception(body: dict[str, Any]) -> GenomException:
     return exc
 
 
-class MirroredType:
-    """The type of a mirrored port: described as the remote port's type, its data already encoded.
-
-    Args:
-        described: The ``type`` object of the port in the remote ``/info``.
-    """
-
-    kind = "mirrored"
-
-    def __init__(self, described: dict[str, Any]) -> None:
-        self.described = described
-        self.name: str = described.get("name", "")
-
-    def describe(self) -> dict[str, Any]:
-        """The remote description of the type."""
-        return self.described
-
-    def encode(self, value: Any) -> Any:
-        """The data itself: it is encoded already."""
-        return value
-
-    def zero(self) -> Any:
-        """Nothing until the first message."""
-        return None
-
-
 class _MirroredSpec(PortSpec):
     """The declaration of a remote out port, rebuilt from its ``/info`` description."""
 
     def __init__(self, described: dict[str, Any]) -> None:
         super().__init__(None, described.get("doc", ""), described.get("kind") == "multiple")
         self.name = described["name"]
-        self._type = MirroredType(described.get("type", {}))  # type: ignore[assignment]
+        self._type = DescribedType(described.get("type", {}), "mirrored")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -24,7 +24,7 @@ from ._exceptions import InputError
 
 __all__ = [
     "IdlType", "Scalar", "StringType", "EnumType", "StructType", "SequenceType", "ArrayType",
-    "OptionalType", "idl_type", "idl_struct", "idl_enum", "sequence", "array", "optional", "string",
+    "OptionalType", "DescribedType", "idl_type", "idl_struct", "idl_enum", "sequence", "array", "optional", "string",
     "Bound", "Length", "Boolean", "Octet", "Char", "Short", "UShort", "Long", "ULong", "LongLong", "ULongLong",
     "Float", "Double", "String",
 ]
@@ -60,6 +60,30 @@ class IdlType:
 
     def __repr__(self) -> str:
         return f"<IDL {self.name}>"
+
+
+class DescribedType(IdlType):
+    """The type of a port known only by its ``/info`` description (another process's port, a recorded one).
+
+    Its data comes JSON-ready already: it is passed on as it is.
+
+    Args:
+        described: The ``type`` object of the port's description.
+        kind: Where the description comes from (``mirrored``, ``recorded``): what ``kind`` says.
+    """
+
+    def __init__(self, described: dict[str, Any], kind: str) -> None:
+        self.described = described
+        self.name = str(described.get("name", ""))
+        self.kind = kind
+
+    def describe(self) -> dict[str, Any]:
+        """The description it was made from."""
+        return self.described
+
+    def zero(self) -> Any:
+        """Nothing until the first publication."""
+        return None
 
 
 #: Index objects of unbounded sequences name indices below this (a bounded one: below its bound),

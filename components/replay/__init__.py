@@ -1,5 +1,5 @@
 """The ``replay`` component: the ports of a recording published again, under their names, at their recorded timing."""
 
-from ._component import NOT_PLAYING, RecordedType, Replay, ReplayStatus
+from ._component import NOT_PLAYING, Replay, ReplayStatus
 
-__all__ = ["Replay", "ReplayStatus", "RecordedType", "NOT_PLAYING"]
+__all__ = ["Replay", "ReplayStatus", "NOT_PLAYING"]

@@ -9,13 +9,13 @@ from collections.abc import Iterator
 from typing import Annotated, Any
 
 from ..core import (
-    Boolean, Component, ComponentHost, Double, GenomException, LoadError, Out, OutPort, OutPortRuntime, String,
-    ULongLong,
+    Boolean, Component, ComponentHost, DescribedType, Double, GenomException, LoadError, Out, OutPort, OutPortRuntime,
+    String, ULongLong,
     activity, function, idl_struct,
 )
 from ..recording import PortMessage, RecordingError, RecordingReader, open_recording, replay_roots
 
-__all__ = ["Replay", "ReplayStatus", "RecordedType", "NOT_PLAYING"]
+__all__ = ["Replay", "ReplayStatus", "NOT_PLAYING"]
 
 log = logging.getLogger(__name__)
 
@@ -37,32 +37,6 @@ class NOT_PLAYING(GenomException):
     """The recording could not be read while it was replayed."""
 
     what: String
-
-
-class RecordedType:
-    """The type of a replayed port: described as the recorded port's, its data as recorded (JSON-ready already).
-
-    Args:
-        described: The ``type`` of the port in the recorded ``/info``.
-    """
-
-    kind = "recorded"
-
-    def __init__(self, described: dict[str, Any]) -> None:
-        self.described = described
-        self.name: str = str(described.get("name", ""))
-
-    def describe(self) -> dict[str, Any]:
-        """The recorded description of the type."""
-        return self.described
-
-    def encode(self, value: Any) -> Any:
-        """The data itself: recorded as JSON-ready data."""
-        return value
-
-    def zero(self) -> Any:
-        """Nothing until the first publication."""
-        return None
 
 
 def _replay_names(ports: list[str]) -> dict[str, str]:
@@ -108,7 +82,7 @@ class Replay(Component, name="replay", version="1.0"):
             name = self._names[recorded]
             spec = OutPort(object, doc=f"{doc} (replayed from {recorded})".strip())
             spec.name = name
-            spec._type = RecordedType(described)  # type: ignore[assignment]  # described, not declared
+            spec._type = DescribedType(described, "recorded")
             self._recorded[name] = OutPortRuntime(spec, self)
             self._described.append({"name": name, "dir": "out", "kind": "simple", "type": described,
                                     "doc": spec.doc})
