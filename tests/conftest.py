@@ -12,6 +12,7 @@ from collections.abc import AsyncIterator, Iterator
 import aiohttp
 import pytest
 
+from aiogenomix.components.core import ComponentHost, HostSettings, ManualClock
 from aiogenomix.gateway import GatewayConfig, serve
 
 #: Tests run the simulated rig this many times faster than real time.
@@ -42,6 +43,15 @@ async def gateway(gateway_config: GatewayConfig) -> AsyncIterator[str]:
     """A gateway serving on a free loopback port; yields its base URL."""
     async with serve(gateway_config) as url:
         yield url
+
+
+@pytest.fixture
+async def stepped() -> AsyncIterator[tuple[str, ManualClock]]:
+    """A gateway whose rig runs on a clock the test steps; yields its base URL and the clock."""
+    clock = ManualClock()
+    async with ComponentHost(clock=clock, settings=HostSettings(can_timeout=10.0, audio_socket_port=0)) as host, \
+            serve(GatewayConfig(port=0), host) as url:
+        yield url, clock
 
 
 @pytest.fixture

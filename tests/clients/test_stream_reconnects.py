@@ -8,26 +8,15 @@ from __future__ import annotations
 
 import asyncio
 import json
-from collections.abc import AsyncIterator
 from typing import Any
 
 import aiohttp
-import pytest
 from aiogenomix.clients import PortEvent, SessionEvent, aconnect
-from aiogenomix.components.core import ComponentHost, HostSettings, ManualClock
-from aiogenomix.gateway import GatewayConfig, serve
+from aiogenomix.components.core import ManualClock
 
 from tests._cut_links import cuttable
 
 FPC = 2205
-
-
-@pytest.fixture
-async def stepped() -> AsyncIterator[tuple[str, ManualClock]]:
-    clock = ManualClock()
-    async with ComponentHost(clock=clock, settings=HostSettings(can_timeout=10.0, audio_socket_port=0)) as host, \
-            serve(GatewayConfig(port=0), host) as url:
-        yield url, clock
 
 
 async def test_a_watch_from_an_index_resumes_after_the_last_chunk_it_had(stepped: tuple[str, ManualClock]) -> None:

@@ -13,7 +13,6 @@ import math
 import os
 import signal
 import sys
-from collections.abc import AsyncIterator
 from pathlib import Path
 
 import numpy as np
@@ -28,14 +27,6 @@ from aiogenomix.record import PortNotFound, record_over_http
 from .._cut_links import cuttable
 
 FPC = 2205
-
-
-@pytest.fixture
-async def stepped() -> AsyncIterator[tuple[str, ManualClock]]:
-    clock = ManualClock()
-    async with ComponentHost(clock=clock, settings=HostSettings(can_timeout=10.0, audio_socket_port=0)) as host, \
-            serve(GatewayConfig(port=0), host) as url:
-        yield url, clock
 
 
 class Progress:
