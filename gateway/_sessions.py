@@ -163,7 +163,9 @@ class Session:
 
     def _resumed_after(self, last_id: str | None) -> int:
         """The number of the last event the attaching client had: *last_id*'s, or the last one offered."""
-        if last_id is not None and last_id.isdigit() and int(last_id) <= self.events:
+        # A header any client writes: only plain decimal digits name an event (not "²", nor 5,000 digits).
+        if last_id is not None and len(last_id) <= 20 and last_id.isascii() and last_id.isdigit() \
+                and int(last_id) <= self.events:
             return int(last_id)
         return self.offered
 

@@ -149,13 +149,18 @@ async def test_a_standard_listen_opened_again_gets_every_event_after_its_last_id
             assert (await _chunk(again)).startswith(b"id: 4\nevent: request\n")
         finally:
             again_writer.close()
-        # An id the session never gave (from before it expired, say) replays nothing.
-        fresh, fresh_writer, _ = await _standard_stream(gateway, "/session/listen?s=again", "Last-Event-ID: 99")
-        try:
-            await http.get("/module/demo/send/GetSpeed", params={"s": "again"})
-            assert (await _chunk(fresh)).startswith(b"id: 5\nevent: request\n")
-        finally:
-            fresh_writer.close()
+        # An id the session never gave (from before it expired, say), or not an id at all, replays nothing.
+        number = 5
+        for unknown in ("99", "\u00b2", "9" * 5000, "-1"):
+            fresh, fresh_writer, head = await _standard_stream(
+                gateway, "/session/listen?s=again", "Last-Event-ID: " + unknown)
+            try:
+                assert head.startswith(b"HTTP/1.1 200")
+                await http.get("/module/demo/send/GetSpeed", params={"s": "again"})
+                assert (await _chunk(fresh)).startswith(b"id: %d\nevent: request\n" % number)
+                number += 1
+            finally:
+                fresh_writer.close()
     finally:
         writer.close()
 
