@@ -118,7 +118,7 @@ class Session:
 
     Args:
         name: The session name.
-        backlog: How many events to keep while no listener is attached.
+        backlog: How many of its latest events it keeps (for listeners that attach or come back).
         listener_limit: The buffer size of each listener.
     """
 
@@ -136,7 +136,7 @@ class Session:
         self.used = 0.0
 
     def deliver(self, frame: bytes) -> None:
-        """Send a framed event to every live listener (or keep it until one attaches)."""
+        """Send a framed event to every live listener, and keep it among the latest (see :meth:`attach`)."""
         self.prune()
         self.events += 1
         self.recent.append((frame, self.events))
@@ -193,7 +193,7 @@ class SessionStore:
     """Every session of the gateway, and the routing of request events to them.
 
     Args:
-        backlog: How many events a session keeps while nobody listens.
+        backlog: How many of its latest events each session keeps.
         listener_limit: The buffer size of each listener.
         idle_timeout: Seconds after which a session with no listener, unused by
             any client, is forgotten.
