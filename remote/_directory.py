@@ -24,7 +24,7 @@ from ..components.core import ComponentHost, LoadError
 from ..components.core.runtime import LoadedInstance, NoSuchModule, RemoteUnreachable
 from ._offers import OfferBook, OfferedBefore, split_name
 from ._proxy import RemoteInstance, RemoteLink, RemoteTimeouts, describe_remote
-from ._session import ZenohSettings, alive, ask, on_zenoh_thread, open_session
+from ._session import Unanswered, ZenohSettings, alive, ask, on_zenoh_thread, open_session
 from ._wire import BEATS, LEGACY_OFFERS, OFFERS, OfferKey, facts_key, gateway_token, parse_offer
 
 __all__ = ["ZenohDirectory"]
@@ -129,20 +129,30 @@ class ZenohDirectory:
         # What the load's reply (or its refusal) says of each host that offers it: its endpoints.
         await asyncio.gather(*(self._ask_facts(o.zid) for o in self._book.offers_of(instance, host_id)
                                if not self._book.facts(o.zid)))
-        offer = await self._resolve(name, instance, host_id)
-        if offer is None:
-            if host.knows(instance):
-                raise NoSuchModule(f"no component host offers {instance}; to run {instance} in this gateway, "
-                                   f"start the gateway with --local {instance}")
-            raise NoSuchModule(f"no component {instance!r} (available: {', '.join(host.available()) or 'none'})")
-        if existing is not None:
-            where = existing.placement()
-            place = "this gateway" if where.get("runs") == "here" else f"{where.get('instance')}@{where.get('host')}"
-            raise LoadError(f"instance name {local_name!r} is taken by {place}: load {name} with -i ANOTHER_NAME")
-        host.check_room()
-        if not self._book.facts(offer.zid):
-            await self._ask_facts(offer.zid)  # heard of while the load waited: where it runs, said at once
-        description = await describe_remote(self.session, offer, self.timeouts.control)
+        deadline = self._loop.time() + self.timeouts.control
+        while True:
+            offer = await self._resolve(name, instance, host_id, deadline)
+            if offer is None:
+                if host.knows(instance):
+                    raise NoSuchModule(f"no component host offers {instance}; to run {instance} in this gateway, "
+                                       f"start the gateway with --local {instance}")
+                raise NoSuchModule(f"no component {instance!r} (available: {', '.join(host.available()) or 'none'})")
+            if existing is not None:
+                where = existing.placement()
+                place = ("this gateway" if where.get("runs") == "here"
+                         else f"{where.get('instance')}@{where.get('host')}")
+                raise LoadError(f"instance name {local_name!r} is taken by {place}: load {name} with -i "
+                                f"ANOTHER_NAME")
+            host.check_room()
+            if not self._book.facts(offer.zid):
+                await self._ask_facts(offer.zid)  # heard of while the load waited: where it runs, said at once
+            try:
+                description = await describe_remote(self.session, offer, self.timeouts.control)
+                break
+            except Unanswered as exc:
+                # The host withdrew it (or went away) as it was asked: the token's removal is on its way.
+                # Once it is heard, the name is one offered before: waited for as any restarting host's.
+                await self._withdrawn(offer, deadline, exc)
         proxy = RemoteInstance(host, self.link, offer, local_name, description,
                                lambda: self._book.facts(offer.zid))
         try:
@@ -152,8 +162,8 @@ class ZenohDirectory:
             raise
         return proxy  # the host lists it (or stops it, when a concurrent load won): see _attached
 
-    async def _resolve(self, name: str, instance: str, host_id: str | None) -> OfferKey | None:
-        deadline = self._loop.time() + self.timeouts.control
+    async def _resolve(self, name: str, instance: str, host_id: str | None, deadline: float) -> OfferKey | None:
+        """The offer *name* designates, waiting until *deadline* for a host that offered it to offer it again."""
         asked = False
         while True:
             try:
@@ -179,6 +189,21 @@ class ZenohDirectory:
             pattern = f"aiogenomix/offer/*/{host_id or '*'}/*/{instance}"
             for key in await alive(self.session, pattern, timeout=min(2.0, self.timeouts.control)):
                 self._take_offer(key, present=True)
+
+    async def _withdrawn(self, offer: OfferKey, deadline: float, unanswered: Unanswered) -> None:
+        """Wait until *offer*, whose host no longer answers for it, is heard withdrawn (or until *deadline*).
+
+        Raises:
+            RemoteUnreachable: when the offer still stands at *deadline*: its host keeps the token but
+                answers nothing for it.
+        """
+        while offer.key in {o.key for o in self._book.offers_of(offer.instance)}:
+            left = deadline - self._loop.time()
+            if left <= 0:
+                raise RemoteUnreachable(
+                    f"{offer.name} is still offered, but nothing answered for it within {self.timeouts.control:g} s "
+                    f"({unanswered}): its host is withdrawing it or going away") from None
+            await self._next_change(left)
 
     async def _next_change(self, within: float) -> None:
         await asyncio.wait({self._change}, timeout=within)

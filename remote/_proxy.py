@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import dataclasses
+import datetime
 import logging
 import secrets
 import time
@@ -32,7 +33,7 @@ from ..components.core.runtime import (
     RequestStatus, parse_request_id,
 )
 from ._mirror import MirroredOutPort
-from ._session import GONE, Answer, ask, ask_all, on_zenoh_thread
+from ._session import GONE, Answer, Unanswered, ask, ask_all, on_zenoh_thread
 from ._wire import (
     PROTOCOL, OfferKey, cleaned_key, decode_message, events_key, info_key, port_key, request_key, snapshot_key,
 )
@@ -273,10 +274,20 @@ class RemoteInstance:
         if self._cleans_due:
             payload["cleaned"], self._cleans_due = self._cleans_due, []
             self._cancel_clean_timer()
-        result = await ask(self.session, request_key(self.offer.zid, self.remote_instance, operation), payload,
-                           timeout, what=f"{what} of {self.instance} on {self.offer.host}", pending=self._pending)
+        try:
+            result = await ask(self.session, request_key(self.offer.zid, self.remote_instance, operation), payload,
+                               timeout, what=f"{what} of {self.instance} on {self.offer.host}", pending=self._pending)
+        except Unanswered:
+            raise Unanswered(f"{what} of {self.instance}: its host {self.offer.host} went away, or withdrew "
+                             f"{self.remote_instance}, before answering ({self.last_heard()})") from None
         self._last_message = time.monotonic()  # an answer is news from the host
         return result
+
+    def last_heard(self) -> str:
+        """When the host was last heard from (a heartbeat, an answer, a port message), said for a message."""
+        silence = min(self.link.silence(self.offer.zid), time.monotonic() - self._last_message)
+        at = datetime.datetime.fromtimestamp(time.time() - silence, datetime.UTC)
+        return f"last heard {silence:.2f} s before, at {at.isoformat(timespec='milliseconds')[:-6]}Z"
 
     def _publish_cleans(self) -> None:
         """Publish the cleans no query carried (the publication travels before any later query)."""

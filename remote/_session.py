@@ -11,6 +11,7 @@ import contextlib
 import dataclasses
 import json
 import pathlib
+import time
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -22,7 +23,7 @@ from ..components.core.runtime import RemoteRefusal, RemoteUnreachable
 
 __all__ = [
     "ZenohSettings", "ZenohSessionError", "open_session", "on_zenoh_thread", "ask", "ask_all", "alive",
-    "listen_endpoints", "connect_endpoints", "GONE", "Answer",
+    "listen_endpoints", "connect_endpoints", "GONE", "Answer", "Unanswered",
 ]
 
 T = TypeVar("T")
@@ -211,8 +212,25 @@ class Gone:
 #: The one :class:`Gone`.
 GONE = Gone()
 
-#: A pending query's result: a reply's body, None (no reply before Zenoh ended the query), or GONE.
-Answer = bytes | None | Gone
+
+class _Ended:
+    """What a query's future is given when Zenoh ended the query with no reply before its timeout."""
+
+
+_ENDED = _Ended()
+
+#: A pending query's result: a reply's body, None (no reply within the timeout), GONE, or _ENDED.
+Answer = bytes | None | Gone | _Ended
+
+
+class Unanswered(RemoteUnreachable):
+    """Zenoh ended a query, before its timeout, with no reply: nothing answers its key any more.
+
+    Zenoh ends a query early when no queryable matches its key (the host withdrew the instance,
+    or its process is gone and the network knows it) or when the queryables it reached went away
+    without replying (the host's process died, its link closed).  Either way no answer is coming:
+    it is not a timeout, and is not reported as one.
+    """
 
 
 async def ask(session: zenoh.Session, key: str, payload: Any, timeout: float, *, what: str,
@@ -230,7 +248,9 @@ async def ask(session: zenoh.Session, key: str, payload: Any, timeout: float, *,
 
     Raises:
         RemoteRefusal: when the component refused (its genomix error, to be answered as such).
-        RemoteUnreachable: when no reply came within *timeout* seconds, or the host went away meanwhile.
+        Unanswered: when Zenoh ended the query before *timeout* with no reply (nothing answers
+            *key* now: withdrawn, or its host went away), or its host was found gone meanwhile.
+        RemoteUnreachable: when no reply came within *timeout* seconds.
     """
     loop = asyncio.get_running_loop()
     answer: asyncio.Future[Answer] = loop.create_future()
@@ -245,7 +265,11 @@ async def ask(session: zenoh.Session, key: str, payload: Any, timeout: float, *,
             loop.call_soon_threadsafe(settle, body)
 
     def on_end() -> None:
-        loop.call_soon_threadsafe(settle, None)
+        # Timed here, on Zenoh's thread: a late event loop must not turn an early end into a timeout.
+        # Zenoh's own timer starts after *sent* and never fires early, so an end before *timeout* is
+        # never Zenoh giving up.
+        early = time.monotonic() - sent < timeout
+        loop.call_soon_threadsafe(settle, _ENDED if early else None)
 
     if pending is not None:
         pending.add(answer)
@@ -253,6 +277,7 @@ async def ask(session: zenoh.Session, key: str, payload: Any, timeout: float, *,
     # not held to be batched with other messages (a request waits on it).
     # One queryable answers each key: no consolidation to wait for.
     try:
+        sent = time.monotonic()
         session.get(key, on_zenoh_thread(on_reply, on_end), payload=orjson.dumps(payload), timeout=timeout,
                     express=True, consolidation=zenoh.ConsolidationMode.NONE)
         # Zenoh ends the query at its timeout (on_end); the margin covers a callback thread that is late.
@@ -267,8 +292,11 @@ async def ask(session: zenoh.Session, key: str, payload: Any, timeout: float, *,
     if body is None:
         raise RemoteUnreachable(f"{what}: no answer within {timeout:g} s (its host is frozen, or the network "
                                 f"between is cut)")
+    if isinstance(body, _Ended):
+        raise Unanswered(f"{what}: nothing answers it any more (its host withdrew it, or went away, before "
+                         f"answering)")
     if isinstance(body, Gone):
-        raise RemoteUnreachable(f"{what}: its host went away before it answered")
+        raise Unanswered(f"{what}: its host went away, or withdrew it, before answering")
     reply = orjson.loads(body)
     if "error" in reply:
         raise RemoteRefusal(reply["error"]["status"], reply["error"]["body"])

@@ -12,11 +12,12 @@ import asyncio
 import contextlib
 import dataclasses
 import math
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Sequence
 from typing import Annotated, Any
 
 import aiohttp
 import pytest
+import zenoh
 
 from aiogenomix.components.core import (
     Component, ComponentHost, Double, GenomException, InPort, Long, OutPort, String, activity, function, idl_struct,
@@ -29,6 +30,8 @@ from aiogenomix.gateway import GatewayConfig
 from aiogenomix.gateway import serve as serve_gateway
 from aiogenomix.remote import HostNode, RemoteInstance, RemoteTimeouts, ZenohDirectory, ZenohSettings
 from aiogenomix.remote._host_main import parse_args, serve
+from aiogenomix.remote._session import open_session
+from aiogenomix.remote._wire import info_key, offer_token
 
 from ._processes import free_port
 
@@ -84,8 +87,12 @@ class Turner(Component, name="turner", version="1.0"):
 
 
 @contextlib.asynccontextmanager
-async def robot(endpoint: str, *names: str) -> AsyncIterator[tuple[ComponentHost, HostNode]]:
-    """A component host offering *names* (turners) on *endpoint*, as aiogenomix-component runs it."""
+async def robot(endpoint: str, *names: str,
+                offered: Sequence[str] | None = None) -> AsyncIterator[tuple[ComponentHost, HostNode]]:
+    """A component host running *names* (turners) and offering them (or those *offered*) on *endpoint*.
+
+    As aiogenomix-component runs it.
+    """
     host = ComponentHost(factories={"turner": Turner})
     for name in names:
         await host.load("turner", [] if name == "turner" else ["-i", name])
@@ -93,7 +100,7 @@ async def robot(endpoint: str, *names: str) -> AsyncIterator[tuple[ComponentHost
     host.finder = directory
     host.shared("zenoh", lambda: directory)
     node = HostNode(directory.session, host, "robot1", [endpoint])
-    for name in names:
+    for name in names if offered is None else offered:
         component = host.get(name)
         assert isinstance(component, Component)
         node.offer(component)
@@ -105,9 +112,9 @@ async def robot(endpoint: str, *names: str) -> AsyncIterator[tuple[ComponentHost
 
 
 @contextlib.asynccontextmanager
-async def gateway(endpoint: str, *, control: float = 5.0,
+async def gateway(*endpoints: str, control: float = 5.0,
                   offers: int = 1) -> AsyncIterator[tuple[ComponentHost, ZenohDirectory]]:
-    """A gateway's host and directory, connected to *endpoint*, once it heard *offers* offers."""
+    """A gateway's host and directory, connected to *endpoints*, once it heard *offers* offers."""
     host = ComponentHost(factories={})
     heard = 0
     enough = asyncio.Event()
@@ -118,7 +125,7 @@ async def gateway(endpoint: str, *, control: float = 5.0,
         if heard >= offers:
             enough.set()
 
-    directory = await ZenohDirectory.open(ZenohSettings(connect=[endpoint]),
+    directory = await ZenohDirectory.open(ZenohSettings(connect=list(endpoints)),
                                           RemoteTimeouts(control=control, send=control, stale=5.0),
                                           on_offered=offered)
     host.finder = directory
@@ -128,6 +135,42 @@ async def gateway(endpoint: str, *, control: float = 5.0,
         yield host, directory
     finally:
         await host.close()
+
+
+class Withdrawing:
+    """A host's Zenoh session caught withdrawing ``turner``: its offer still stands, its queries go unanswered.
+
+    Each query of turner's description is dropped without a reply (the queryable went as it came),
+    as on a host whose exporter is closing while the gateway has not yet heard its token go.
+    """
+
+    def __init__(self, session: zenoh.Session) -> None:
+        self.session = session
+        self.zid = str(session.zid())
+        #: Set once a query of the description came, and was dropped.
+        self.asked = asyncio.Event()
+        loop = asyncio.get_running_loop()
+
+        def drop(query: zenoh.Query) -> None:
+            loop.call_soon_threadsafe(self.asked.set)
+            query.drop()
+
+        self._queryable = session.declare_queryable(info_key(self.zid, "turner"), drop)
+        self._token = session.liveliness().declare_token(offer_token("robot1", self.zid, "turner"))
+
+    def withdraw(self) -> None:
+        """The withdrawal ends: the offer's token goes."""
+        self._token.undeclare()
+
+
+@contextlib.asynccontextmanager
+async def withdrawing(endpoint: str) -> AsyncIterator[Withdrawing]:
+    """A :class:`Withdrawing` host listening on *endpoint*."""
+    session, _ = await asyncio.to_thread(open_session, ZenohSettings(listen=[endpoint]))
+    try:
+        yield Withdrawing(session)
+    finally:
+        await asyncio.to_thread(session.close)
 
 
 @pytest.fixture
@@ -246,6 +289,36 @@ async def test_an_unload_does_not_wait_for_a_load_waiting_for_its_host(endpoint:
             waiting.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await waiting
+
+
+async def test_a_load_that_races_a_withdrawal_waits_for_the_next_offer(endpoint: str) -> None:
+    old_run = f"tcp/127.0.0.1:{free_port()}"
+    async with withdrawing(old_run) as withdrawn, \
+            robot(endpoint, "turner", "other", offered=["other"]) as (robot_host, node), \
+            gateway(endpoint, old_run, control=60.0, offers=2) as (gateway_host, _):
+        loading = asyncio.create_task(gateway_host.load("turner"))
+        try:
+            # Its description was asked of the run withdrawing it, and nothing answered: not a timeout.
+            await asyncio.wait_for(withdrawn.asked.wait(), WITHIN)
+            withdrawn.withdraw()
+            # Another run offers turner: the load waited for it, as it waits for any restarting host.
+            node.offer(_turner(robot_host))
+            proxy = await asyncio.wait_for(asyncio.shield(loading), WITHIN)
+            assert isinstance(proxy, RemoteInstance) and proxy.offer.zid == node.zid
+        finally:
+            loading.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await loading
+
+
+async def test_a_load_of_an_offer_nothing_answers_for_says_so(endpoint: str) -> None:
+    async with withdrawing(endpoint) as withdrawn, gateway(endpoint, control=1.0) as (gateway_host, _):
+        with pytest.raises(RemoteUnreachable) as refused:
+            await gateway_host.load("turner")
+        assert withdrawn.asked.is_set()
+        message = str(refused.value)
+        assert "turner@robot1 is still offered, but nothing answered for it within 1 s" in message
+        assert "no answer within" not in message
 
 
 async def test_a_silent_host_s_port_is_refused_before_a_watch_starts(endpoint: str) -> None:

@@ -154,4 +154,5 @@ async def test_a_host_found_gone_ends_the_queries_waiting_for_it_at_once() -> No
         proxy.lost("demo ran on component host robot1, which stopped or cannot be reached")
         with pytest.raises(RemoteUnreachable) as gone:
             await sending  # at once, not after the send's 60 s
-        assert "send GotoPosition of demo on robot1: its host went away before it answered" in str(gone.value)
+        assert ("send GotoPosition of demo: its host robot1 went away, or withdrew demo, before answering (last "
+                "heard 0.00 s before, at ") in str(gone.value)
