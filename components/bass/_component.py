@@ -12,7 +12,7 @@ from ..audio import (
 )
 from ..core import (
     Component, ComponentHost, Out, OutPort, OverBudget, Reservation, String, Task, ThrottledLog, ULong, activity,
-    function,
+    function, Unit,
 )
 from ._history import AudioSnapshot, ChunkHistory
 from ._socket_server import FrameSocketServer
@@ -142,7 +142,7 @@ class Bass(Component, name="bass", version="1.0"):
     async def Acquire(
         self,
         device: Annotated[String, "ALSA name of the sound device"] = "hw:1,0",
-        sampleRate: Annotated[ULong, "Sample rate in Hz"] = 44100,
+        sampleRate: Annotated[ULong, Unit("Hz"), "Sample rate in Hz"] = 44100,
         nFramesPerChunk: Annotated[ULong, "Chunk size in frames"] = 2205,
         nChunksOnPort: Annotated[ULong, "Port size in chunks"] = 20,
     ) -> None:

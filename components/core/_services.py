@@ -20,7 +20,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Annotated, Any, Literal, Protocol, TypeVar, overload
 
 from ._exceptions import GenomException, InputError
-from ._types import IdlType, idl_type
+from ._types import IdlType, idl_type, notes_of
 
 if TYPE_CHECKING:
     from ._tasks import Task
@@ -62,6 +62,7 @@ class ParamSpec:
         type: Its IDL type.
         doc: Its documentation.
         default: Its default (a Python value), or :data:`NO_DEFAULT`.
+        unit: Its unit (``Annotated[Double, Unit("deg")]``), or "" when it has none.
     """
 
     name: str
@@ -69,11 +70,14 @@ class ParamSpec:
     type: IdlType
     doc: str = ""
     default: Any = NO_DEFAULT
+    unit: str = ""
 
     def describe(self, default: Any = NO_DEFAULT) -> dict[str, Any]:
         """The ``/info`` description of this parameter (*default* replaces the declared one)."""
         described: dict[str, Any] = {"name": self.name, "dir": self.direction, "type": self.type.describe(),
                                      "doc": self.doc}
+        if self.unit:
+            described["unit"] = self.unit
         if default is NO_DEFAULT:
             default = self.default
         if default is not NO_DEFAULT:
@@ -175,8 +179,9 @@ class ServiceSpec:
                 "parameters": params, "interrupts": list(self.interrupts)}
 
 
-def _doc_of(metadata: Sequence[Any]) -> str:
-    return next((m for m in metadata if isinstance(m, str)), "")
+def _doc_and_unit(hint: Any) -> tuple[str, str]:
+    notes = notes_of(hint)
+    return notes.get("doc", ""), notes.get("unit", "")
 
 
 def _split_doc(func: Callable[..., Any]) -> str:
@@ -190,15 +195,16 @@ def _outputs_of(annotation: Any) -> tuple[tuple[ParamSpec, ...], str]:
     if typing.get_origin(annotation) is Annotated:
         out = next((m for m in annotation.__metadata__ if isinstance(m, Out)), None)
         if out is not None:
-            return (ParamSpec(out.name, "out", idl_type(annotation), out.doc),), "single"
+            unit = _doc_and_unit(annotation)[1]
+            return (ParamSpec(out.name, "out", idl_type(annotation), out.doc, unit=unit),), "single"
     base = typing.get_args(annotation)[0] if typing.get_origin(annotation) is Annotated else annotation
     if dataclasses.is_dataclass(base) and not hasattr(base, "__idl_type__"):
         hints = typing.get_type_hints(base, include_extras=True)
         params = []
         for field in dataclasses.fields(base):
             hint = hints[field.name]
-            doc = _doc_of(hint.__metadata__) if typing.get_origin(hint) is Annotated else ""
-            params.append(ParamSpec(field.name, "out", idl_type(hint), doc))
+            doc, unit = _doc_and_unit(hint)
+            params.append(ParamSpec(field.name, "out", idl_type(hint), doc, unit=unit))
         return tuple(params), "fields"
     raise TypeError(
         f"return annotation {annotation!r}: use None, Annotated[T, Out('name')] or a dataclass of outputs"
@@ -226,13 +232,13 @@ def _build_spec(func: Callable[..., Any], declaration: _Declaration) -> ServiceS
         if name not in hints:
             raise TypeError(f"parameter {name!r} needs a type annotation")
         hint = hints[name]
-        doc = _doc_of(hint.__metadata__) if typing.get_origin(hint) is Annotated else ""
+        doc, unit = _doc_and_unit(hint)
         default = NO_DEFAULT if param.default is param.empty else param.default
         try:
             param_type = idl_type(hint)
         except TypeError as exc:
             raise TypeError(f"parameter {name!r}: {exc}") from None
-        inputs.append(ParamSpec(name, "in", param_type, doc, default))
+        inputs.append(ParamSpec(name, "in", param_type, doc, default, unit))
     outputs, style = _outputs_of(hints.get("return", inspect.Signature.empty))
     task = options.get("task")
     return ServiceSpec(

@@ -10,7 +10,7 @@ from typing import Annotated
 
 from ..audio import HeadAzimuth
 from ..binaural import TurnableHead
-from ..core import Component, ComponentHost, Double, Out, OutPort, Task, activity, function
+from ..core import Component, ComponentHost, Double, Out, OutPort, Task, activity, function, Unit
 from ._driver import HarmonicaDriver
 from ._errors import (
     BusError,
@@ -246,7 +246,8 @@ class Kemar(Component, name="kemar", version="1.0"):
         """Stop publishing the head state (interrupts CurrentPosition)."""
 
     @function(throws=(INVALID_VELOCITY, BUS_ERROR))
-    def SetVelocity(self, velocity: Annotated[Double, "Speed of position control in deg/s"] = 100.0) -> None:
+    def SetVelocity(
+            self, velocity: Annotated[Double, Unit("deg/s"), "Speed of position control in deg/s"] = 100.0) -> None:
         """Set the speed of the next position moves (Homing sets it back to 100 deg/s)."""
         self._check_velocity(velocity)
         head = self.head()
@@ -259,8 +260,9 @@ class Kemar(Component, name="kemar", version="1.0"):
               throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS))
     async def MoveAbsolutePosition(
         self,
-        target: Annotated[Double, "Azimuth in degrees (positive = left), kept 0.5 deg inside the limits"] = 0.0,
-        velocity: Annotated[Double, "Speed in deg/s; 0 = the current speed (SetVelocity)"] = 0.0,
+        target: Annotated[Double, Unit("deg"),
+                          "Azimuth in degrees (positive = left), kept 0.5 deg inside the limits"] = 0.0,
+        velocity: Annotated[Double, Unit("deg/s"), "Speed in deg/s; 0 = the current speed (SetVelocity)"] = 0.0,
     ) -> MoveOutcome:
         """Turn the head to an azimuth and wait until it is there (or at the limit, when it is beyond)."""
         head = self.head()
@@ -272,8 +274,8 @@ class Kemar(Component, name="kemar", version="1.0"):
               throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS))
     async def MoveRelativePosition(
         self,
-        target: Annotated[Double, "Degrees to turn from the present azimuth (positive = left)"] = 0.0,
-        velocity: Annotated[Double, "Speed in deg/s; 0 = the current speed (SetVelocity)"] = 0.0,
+        target: Annotated[Double, Unit("deg"), "Degrees to turn from the present azimuth (positive = left)"] = 0.0,
+        velocity: Annotated[Double, Unit("deg/s"), "Speed in deg/s; 0 = the current speed (SetVelocity)"] = 0.0,
     ) -> MoveOutcome:
         """Turn the head by an angle from where it is (the final azimuth is kept inside the limits)."""
         head = self.head()
@@ -285,14 +287,16 @@ class Kemar(Component, name="kemar", version="1.0"):
     @activity(motion=True, task=motion, interrupts=MOTIONS,
               throws=(NOT_HOMED, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS), validate=_validate_speed_control)
     async def ControlInSpeed(
-        self, velocity: Annotated[Double, "Angular speed in deg/s (positive = left); 0 stops the head"] = 0.0
+        self,
+        velocity: Annotated[Double, Unit("deg/s"), "Angular speed in deg/s (positive = left); 0 stops the head"] = 0.0,
     ) -> None:
         """Turn the head at a constant speed until 0 is asked or it comes 3 degrees from a limit."""
         with _as_genom_exceptions():
             await self.head().control_in_speed(velocity)
 
     @function(throws=_BUS_THROWS)
-    async def GetPosition(self) -> Annotated[Double, Out("position", "Head azimuth in degrees (positive = left)")]:
+    async def GetPosition(
+            self) -> Annotated[Double, Unit("deg"), Out("position", "Head azimuth in degrees (positive = left)")]:
         """Read the head azimuth from the drive (before Homing, the zero is wherever the head was at power-up)."""
         with _as_genom_exceptions():
             return await self.head().read_position()
