@@ -138,7 +138,7 @@ class Bass(Component, name="bass", version="1.0"):
         return backend
 
     @activity(task=capture, interrupts=("Acquire",), validate=_validate_acquire,
-              throws=(e_nomem, e_device, e_hwparams, e_swparams))
+              throws=(e_nomem, e_device, e_hwparams, e_swparams), progress="Audio.lastFrameIndex")
     async def Acquire(
         self,
         device: Annotated[String, "ALSA name of the sound device"] = "hw:1,0",

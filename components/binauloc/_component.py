@@ -218,7 +218,7 @@ class Binauloc(Component, name="binauloc", version="1.0"):
             raise e_setup(what=str(exc)) from exc
         return learner.frames
 
-    @activity(task=localize, interrupts=ANALYSES, throws=(e_setup, e_noData, e_rate))
+    @activity(task=localize, interrupts=ANALYSES, throws=(e_setup, e_noData, e_rate), progress="Azimuths.estimate")
     async def LocalizeSources(
         self, nEstimates: Annotated[ULong, "Estimates to make before ending (0: until Stop)"] = 0,
     ) -> Annotated[ULong, Out("nEstimates", "Estimates made")]:
@@ -249,7 +249,7 @@ class Binauloc(Component, name="binauloc", version="1.0"):
 
     # A motion: it turns the head, so a component host stops it when the gateway that asked is gone.
     @activity(motion=True, task=localize, interrupts=ANALYSES, throws=(e_setup, e_noData, e_rate, e_noHead, e_head),
-              validate=_validate_face)
+              validate=_validate_face, progress="Azimuths.estimate")
     async def FaceSource(
         self,
         turn: Annotated[Double, Unit("deg"),

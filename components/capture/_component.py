@@ -191,7 +191,7 @@ class Capture(Component, name="capture", version="1.1"):
         return backend
 
     @activity(task=retrieve_data, throws=(INVALID_CHUNK_TIME, ERROR_SEQUENCE_ENOMEM, NO_SUCH_DEVICE, DEVICE_ERROR,
-                                          ALREADY_CAPTURING), validate=_validate_start)
+                                          ALREADY_CAPTURING), validate=_validate_start, progress="Port.index")
     async def StartCapture(
         self,
         device: Annotated[String, "Name of the sound device"] = "hw:1,0",

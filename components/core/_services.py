@@ -101,6 +101,8 @@ class ServiceSpec:
     task: str | None = None
     #: Whether the activity moves hardware: its host stops it when the client that started it vanishes.
     motion: bool = False
+    #: Where the activity's progress is published: ``"Port.member"`` of an out port of its component.
+    progress: str | None = None
     #: How the return value maps to outputs: "none", "single" or "fields".
     output_style: str = "none"
     #: Whether the method is a coroutine function (plain ones run inline).
@@ -175,8 +177,11 @@ class ServiceSpec:
             if p.direction == "in" and p.name in outputs:
                 described["dir"] = "inout"
             params.append(described)
-        return {"name": self.name, "kind": self.kind, "doc": self.doc, "task": self.task,
-                "parameters": params, "interrupts": list(self.interrupts)}
+        described = {"name": self.name, "kind": self.kind, "doc": self.doc, "task": self.task,
+                     "parameters": params, "interrupts": list(self.interrupts)}
+        if self.progress:
+            described["progress"] = self.progress
+        return described
 
 
 def _doc_and_unit(hint: Any) -> tuple[str, str]:
@@ -253,13 +258,14 @@ def _build_spec(func: Callable[..., Any], declaration: _Declaration) -> ServiceS
         validate=options.get("validate"),
         task=getattr(task, "name", task),
         motion=bool(options.get("motion", False)),
+        progress=options.get("progress"),
         output_style=style,
         is_async=inspect.iscoroutinefunction(func),
     )
 
 
 #: The options every service decorator takes.
-_OPTIONS = ("name", "doc", "interrupts", "throws", "validate", "task", "motion")
+_OPTIONS = ("name", "doc", "interrupts", "throws", "validate", "task", "motion", "progress")
 
 
 def _check_options(owner: str, kind: ServiceKind, options: Mapping[str, Any]) -> None:
@@ -293,6 +299,10 @@ def _check_options(owner: str, kind: ServiceKind, options: Mapping[str, Any]) ->
     if motion and kind != "activity":
         # A function or attribute ends within the function grace: there is no motion left to stop.
         raise TypeError(f"{owner}: only an @activity can be a motion (motion=True), not an @{kind}")
+    progress = options.get("progress")
+    if progress is not None and not (isinstance(progress, str) and all(p.isidentifier() for p in progress.split("."))):
+        raise TypeError(f"{owner}: @{kind} option 'progress' names an out port and a member, \"Port.member\", "
+                        f"not {progress!r}")
 
 
 class ServiceDecorator(Protocol):
@@ -312,6 +322,7 @@ class ServiceDecorator(Protocol):
         validate: Callable[..., Any] | None = None,
         task: Task | str | None = None,
         motion: bool = False,
+        progress: str | None = None,
     ) -> Callable[[_F], _F]: ...
 
 
@@ -328,6 +339,10 @@ _OPTIONS_DOC = """
         motion: The activity moves hardware (a head, a base): a component host stops it when the
             gateway that started it vanishes (its process died, or its link stayed cut past Zenoh's
             lease), as a dead-man switch would.  Other activities (a capture, a recording) go on.
+        progress: Where the activity's progress can be followed while it runs: ``"Port.member"`` (or
+            ``"Port"``) of an out port of the component, such as ``"currentState.position"`` for a head's
+            moves (``/info`` says it; the console shows it beside the running request).  Checked when the
+            class is created.
 
     Raises:
         TypeError: for an unknown option (``interupts``) or an option of the wrong shape.
@@ -344,6 +359,7 @@ _DECORATOR_SIGNATURE = inspect.Signature([
     inspect.Parameter("validate", _KEYWORD, default=None, annotation="Callable[..., Any] | None"),
     inspect.Parameter("task", _KEYWORD, default=None, annotation="Task | str | None"),
     inspect.Parameter("motion", _KEYWORD, default=False, annotation="bool"),
+    inspect.Parameter("progress", _KEYWORD, default=None, annotation="str | None"),
 ], return_annotation="Any")
 
 
@@ -385,6 +401,7 @@ def redeclare(
     validate: Callable[..., Any] | None = None,
     task: Task | str | None = None,
     motion: bool | None = None,
+    progress: str | None = None,
 ) -> Callable[[Callable[..., Any]], _F]:
     """Declare a new implementation of a service declared by a base class (a merged component's).
 
@@ -410,6 +427,7 @@ def redeclare(
         validate: Its validate hook (default: the original's).
         task: The Task it runs in (default: the original's).
         motion: Whether it moves hardware (default: the original's).
+        progress: Where its progress is published (default: the original's).
 
     Raises:
         TypeError: when *service* declares no service, for an option of the wrong
@@ -421,7 +439,7 @@ def redeclare(
         raise TypeError(f"redeclare: {getattr(service, '__qualname__', service)!r} declares no service "
                         "(decorate it with @function, @activity or @attribute)")
     given = {"name": name, "doc": doc, "interrupts": interrupts, "throws": throws, "validate": validate,
-             "task": task, "motion": motion}
+             "task": task, "motion": motion, "progress": progress}
     changes = {key: value for key, value in given.items() if value is not None}
 
     def attach(f: Callable[..., Any]) -> _F:

@@ -110,13 +110,13 @@ class Demo(Component, name="demo", version="1.1"):
                 self.Mobile.publish(self.state)
 
     @activity(task=motion, interrupts=("GotoPosition", "MoveDistance"), throws=(TOO_FAR_AWAY, INVALID_VALUE),
-              validate=_validate_goto, motion=True)
+              validate=_validate_goto, motion=True, progress="Mobile.position")
     async def GotoPosition(self, posRef: Annotated[Double, Unit("m"), "Goto position in m"] = 0.0) -> None:
         """Move the robot to an absolute position on the track."""
         await self._drive_to(posRef)
 
     @activity(task=motion, interrupts=("GotoPosition", "MoveDistance"), throws=(TOO_FAR_AWAY, INVALID_VALUE),
-              validate=_validate_move, motion=True)
+              validate=_validate_move, motion=True, progress="Mobile.position")
     async def MoveDistance(self, distRef: Annotated[Double, Unit("m"), "Distance in m"] = 0.0) -> None:
         """Move the robot by a distance from where it is."""
         await self._drive_to(self.state.position + distRef)
@@ -135,7 +135,7 @@ class Demo(Component, name="demo", version="1.1"):
         """Get the speed of the motions."""
         return self.speed_ref
 
-    @activity(task=motion, throws=(INVALID_VALUE,), validate=_validate_monitor)
+    @activity(task=motion, throws=(INVALID_VALUE,), validate=_validate_monitor, progress="Mobile.position")
     async def Monitor(
         self, monitor: Annotated[Double, Unit("m"), "Position to watch in m"] = 0.0
     ) -> Annotated[State, Out("state", "The state of the robot when it crossed the position")]:

@@ -226,7 +226,8 @@ class Kemar(Component, name="kemar", version="1.0"):
 
     # ------------------------------------------------------------------ services
 
-    @activity(motion=True, task=motion, interrupts=MOTIONS, throws=(HOMING_FAILED, *_BUS_THROWS))
+    @activity(motion=True, task=motion, interrupts=MOTIONS, throws=(HOMING_FAILED, *_BUS_THROWS),
+              progress="currentState.position")
     async def Homing(self) -> None:
         """Find both limit switches, centre the head between them and make that azimuth 0 (speed: 100 deg/s)."""
         with _as_genom_exceptions():
@@ -257,7 +258,8 @@ class Kemar(Component, name="kemar", version="1.0"):
             raise INVALID_VELOCITY(velocity=velocity, maximum=self.config.max_speed_deg) from None
 
     @activity(motion=True, task=motion, interrupts=MOTIONS, validate=_validate_move,
-              throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS))
+              throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS),
+              progress="currentState.position")
     async def MoveAbsolutePosition(
         self,
         target: Annotated[Double, Unit("deg"),
@@ -271,7 +273,8 @@ class Kemar(Component, name="kemar", version="1.0"):
         return MoveOutcome(position=state.position, limited=head.clamp(target) != target)
 
     @activity(motion=True, task=motion, interrupts=MOTIONS, validate=_validate_move,
-              throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS))
+              throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS),
+              progress="currentState.position")
     async def MoveRelativePosition(
         self,
         target: Annotated[Double, Unit("deg"), "Degrees to turn from the present azimuth (positive = left)"] = 0.0,
@@ -285,7 +288,8 @@ class Kemar(Component, name="kemar", version="1.0"):
         return MoveOutcome(position=state.position, limited=head.clamp(start + target) != start + target)
 
     @activity(motion=True, task=motion, interrupts=MOTIONS,
-              throws=(NOT_HOMED, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS), validate=_validate_speed_control)
+              throws=(NOT_HOMED, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS), validate=_validate_speed_control,
+              progress="currentState.position")
     async def ControlInSpeed(
         self,
         velocity: Annotated[Double, Unit("deg/s"), "Angular speed in deg/s (positive = left); 0 stops the head"] = 0.0,
