@@ -30,6 +30,8 @@ ENDPOINT_PARAMETERS: dict[str, frozenset[str]] = {
     "/console": frozenset(),
     "/console/auth": frozenset(),
     "/console/login": frozenset(),
+    "/console/uPlot.iife.min.js": frozenset(),
+    "/console/uPlot.min.css": frozenset(),
     "/favicon.ico": frozenset(),
     "/openapi.json": frozenset(),
     "/docs": frozenset(),

@@ -1,7 +1,8 @@
-"""Routes about the gateway itself: ``/``, ``/version``, ``/load``, ``/unload`` and ``/usage``."""
+"""Routes about the gateway itself: ``/``, ``/version``, ``/load``, ``/unload``, ``/usage`` and the console."""
 
 from __future__ import annotations
 
+import functools
 import math
 import pathlib
 import shlex
@@ -18,13 +19,18 @@ from ._errors import BadQuery, LoadForbidden
 from ._keys import CONFIG, DOOR, HOST, SESSIONS
 from ._replies import SERVER_HEADER, SERVER_VERSION, json_reply, text_reply
 
-__all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "FEATURES", "WHERE_HEADER"]
+__all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "FEATURES", "WHERE_HEADER", "CONSOLE_ASSETS"]
 
 #: The header of a load's reply that says where the instance runs (JSON: ``runs``, ``host``, ``endpoints``...).
 WHERE_HEADER = "Aiogenomix-Where"
 
 #: The genomixd release whose protocol this gateway speaks (clients check it at connection).
 GENOMIX_PROTOCOL_VERSION = "1.7.3"
+
+#: Where the console's plotting library is served, and its files with their types.
+CONSOLE_ASSET_PATH = "/console/"
+CONSOLE_ASSETS = {"uPlot.iife.min.js": "application/javascript; charset=utf-8",
+                  "uPlot.min.css": "text/css; charset=utf-8"}
 
 #: What this gateway offers beyond genomix (clients use the fast paths only when listed).
 FEATURES = ["wait", "binary", "since", "watch", "console"]
@@ -69,6 +75,8 @@ def clock_reading(clock: Clock) -> dict[str, Any]:
 
 
 _CONSOLE = (pathlib.Path(__file__).parent / "console.html").read_bytes()
+#: Where the console's plotting library is (gateway/vendor/uplot/README.md says where it comes from).
+_VENDOR = pathlib.Path(__file__).parent / "vendor" / "uplot"
 #: Only the console's own script and style may run in its page.
 _CONSOLE_POLICY = console_policy(_CONSOLE)
 
@@ -78,6 +86,21 @@ async def console(request: web.Request) -> web.Response:
     """A browser console: modules, services with forms built from /info, ports, live events."""
     return web.Response(body=_CONSOLE, headers={"Content-Type": "text/html; charset=utf-8",
                                                 "Content-Security-Policy": _CONSOLE_POLICY, **SERVER_HEADER})
+
+
+@routes.get(CONSOLE_ASSET_PATH + "{asset}")
+async def console_asset(request: web.Request) -> web.Response:
+    """A file of the plotting library the console draws with (uPlot, vendored in the package: no CDN)."""
+    name = request.match_info["asset"]
+    if name not in CONSOLE_ASSETS:
+        raise web.HTTPNotFound()
+    return web.Response(body=_console_asset(name), headers={"Content-Type": CONSOLE_ASSETS[name],
+                                                            "Cache-Control": "max-age=86400", **SERVER_HEADER})
+
+
+@functools.cache
+def _console_asset(name: str) -> bytes:
+    return (_VENDOR / name).read_bytes()
 
 
 @routes.get(LOGIN_PATH)

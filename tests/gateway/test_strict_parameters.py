@@ -71,6 +71,8 @@ ENDPOINTS = {
     "/console": "/console",
     "/console/auth": "/console/auth",
     "/console/login": "/console/login",
+    "/console/uPlot.iife.min.js": "/console/uPlot.iife.min.js",
+    "/console/uPlot.min.css": "/console/uPlot.min.css",
     "/favicon.ico": "/favicon.ico",
     "/openapi.json": "/openapi.json",
     "/docs": "/docs",
