@@ -30,6 +30,7 @@ ENDPOINT_PARAMETERS: dict[str, frozenset[str]] = {
     "/console": frozenset(),
     "/console/auth": frozenset(),
     "/console/login": frozenset(),
+    "/console/plots.js": frozenset(),
     "/console/uPlot.iife.min.js": frozenset(),
     "/console/uPlot.min.css": frozenset(),
     "/favicon.ico": frozenset(),

@@ -27,10 +27,16 @@ WHERE_HEADER = "Aiogenomix-Where"
 #: The genomixd release whose protocol this gateway speaks (clients check it at connection).
 GENOMIX_PROTOCOL_VERSION = "1.7.3"
 
-#: Where the console's plotting library is served, and its files with their types.
+#: Where the console's scripts and style are served: its plots, and the plotting library they draw with.
 CONSOLE_ASSET_PATH = "/console/"
-CONSOLE_ASSETS = {"uPlot.iife.min.js": "application/javascript; charset=utf-8",
-                  "uPlot.min.css": "text/css; charset=utf-8"}
+_HERE = pathlib.Path(__file__).parent
+#: The console's files, by name: where each is in the package (gateway/vendor/uplot/README.md says where
+#: uPlot comes from), and its type.
+CONSOLE_ASSETS = {
+    "plots.js": (_HERE / "console_plots.js", "application/javascript; charset=utf-8"),
+    "uPlot.iife.min.js": (_HERE / "vendor" / "uplot" / "uPlot.iife.min.js", "application/javascript; charset=utf-8"),
+    "uPlot.min.css": (_HERE / "vendor" / "uplot" / "uPlot.min.css", "text/css; charset=utf-8"),
+}
 
 #: What this gateway offers beyond genomix (clients use the fast paths only when listed).
 FEATURES = ["wait", "binary", "since", "watch", "console"]
@@ -74,9 +80,7 @@ def clock_reading(clock: Clock) -> dict[str, Any]:
     return {"wall": clock.wall(), "scale": scale if math.isfinite(scale) else None, "kind": type(clock).__name__}
 
 
-_CONSOLE = (pathlib.Path(__file__).parent / "console.html").read_bytes()
-#: Where the console's plotting library is (gateway/vendor/uplot/README.md says where it comes from).
-_VENDOR = pathlib.Path(__file__).parent / "vendor" / "uplot"
+_CONSOLE = (_HERE / "console.html").read_bytes()
 #: Only the console's own script and style may run in its page.
 _CONSOLE_POLICY = console_policy(_CONSOLE)
 
@@ -90,17 +94,18 @@ async def console(request: web.Request) -> web.Response:
 
 @routes.get(CONSOLE_ASSET_PATH + "{asset}")
 async def console_asset(request: web.Request) -> web.Response:
-    """A file of the plotting library the console draws with (uPlot, vendored in the package: no CDN)."""
+    """A script or style of the console: its plots, or the plotting library (uPlot, in the package: no CDN)."""
     name = request.match_info["asset"]
     if name not in CONSOLE_ASSETS:
         raise web.HTTPNotFound()
-    return web.Response(body=_console_asset(name), headers={"Content-Type": CONSOLE_ASSETS[name],
-                                                            "Cache-Control": "max-age=86400", **SERVER_HEADER})
+    # Fetched again with each page (some 60 kB from the gateway itself): never an older gateway's plots.
+    return web.Response(body=_console_asset(name), headers={"Content-Type": CONSOLE_ASSETS[name][1],
+                                                            "Cache-Control": "no-cache", **SERVER_HEADER})
 
 
 @functools.cache
 def _console_asset(name: str) -> bytes:
-    return (_VENDOR / name).read_bytes()
+    return CONSOLE_ASSETS[name][0].read_bytes()
 
 
 @routes.get(LOGIN_PATH)

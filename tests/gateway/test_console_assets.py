@@ -50,6 +50,7 @@ async def test_the_gateway_serves_them_without_the_token(http: aiohttp.ClientSes
     async with http.get("/console") as page:
         body = await page.read()
         assert b'<script src="/console/uPlot.iife.min.js"></script>' in body
+        assert b'<script src="/console/plots.js"></script>' in body
         assert b'<link rel="stylesheet" href="/console/uPlot.min.css">' in body
         assert "script-src 'self' 'sha256-" in page.headers["Content-Security-Policy"]
 

@@ -71,6 +71,7 @@ ENDPOINTS = {
     "/console": "/console",
     "/console/auth": "/console/auth",
     "/console/login": "/console/login",
+    "/console/plots.js": "/console/plots.js",
     "/console/uPlot.iife.min.js": "/console/uPlot.iife.min.js",
     "/console/uPlot.min.css": "/console/uPlot.min.css",
     "/favicon.ico": "/favicon.ico",
