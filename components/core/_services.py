@@ -303,6 +303,9 @@ def _check_options(owner: str, kind: ServiceKind, options: Mapping[str, Any]) ->
     if progress is not None and not (isinstance(progress, str) and all(p.isidentifier() for p in progress.split("."))):
         raise TypeError(f"{owner}: @{kind} option 'progress' names an out port and a member, \"Port.member\", "
                         f"not {progress!r}")
+    if progress is not None and kind != "activity":
+        # A function or attribute ends within the function grace: there is no progress to follow.
+        raise TypeError(f"{owner}: only an @activity has a progress to follow, not an @{kind}")
 
 
 class ServiceDecorator(Protocol):

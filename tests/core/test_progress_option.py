@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from aiogenomix.components.core import Component, Double, OutPort, activity, idl_struct
+from aiogenomix.components.core import Component, Double, OutPort, activity, function, idl_struct
 
 
 @idl_struct("progress::state")
@@ -51,4 +51,14 @@ def test_a_progress_is_a_dotted_name() -> None:
         class Bad(Component, name="bad"):
             @activity(progress="Where/position")
             async def Move(self) -> None:
+                """Move."""
+
+
+def test_only_an_activity_has_a_progress() -> None:
+    with pytest.raises(TypeError, match="only an @activity has a progress"):
+        class Bad(Component, name="bad"):
+            Where = OutPort(State)
+
+            @function(progress="Where.position")
+            def Move(self) -> None:
                 """Move."""
