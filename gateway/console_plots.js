@@ -76,7 +76,6 @@ class TimeSeries {
     const shown = display(member && member.unit);
     this.scale = shown.scale;
     this.label = labelOf(name, shown.unit);
-    this.unit = shown.unit;
     this.times = []; this.values = []; this.range = null;
     this.element = el("div", null, { class: "series", "data-member": name, "data-x-label": "time (s)",
                                      "data-y-label": this.label });
@@ -200,12 +199,12 @@ class Waveform {
   }
 }
 
-/** Draws tick labels along one edge of a canvas figure: *at* maps a value to pixels. */
-function ticks(g, values, at, vertical, edge) {
+/** Draws tick labels along one edge of a canvas figure: *place* maps a value to pixels. */
+function ticks(g, values, place, vertical, edge) {
   g.fillStyle = "#333"; g.strokeStyle = "#999"; g.font = "11px system-ui, sans-serif";
   g.textAlign = vertical ? "right" : "center";
   for (const v of values) {
-    const p = at(v);
+    const p = place(v);
     g.beginPath();
     if (vertical) { g.moveTo(edge - 4, p); g.lineTo(edge, p); } else { g.moveTo(p, edge); g.lineTo(p, edge + 4); }
     g.stroke();
@@ -214,8 +213,12 @@ function ticks(g, values, at, vertical, edge) {
   g.textAlign = "left";
 }
 
-/** The values 0, step, 2 step, … up to *end*, with a step that cuts it into about five. */
-const steps = (start, end) => { const s = niceStep(end - start); const out = []; for (let v = Math.ceil(start / s) * s; v <= end + 1e-9; v += s) out.push(v); return out; };
+/** The multiples of a step that cuts *start*…*end* into about five, from *start* to *end*. */
+function steps(start, end) {
+  const step = niceStep(end - start), out = [];
+  for (let k = Math.ceil(start / step); k * step <= end + step * 1e-9; k++) out.push(k * step);
+  return out;
+}
 
 /** An `rgba8` picture, scaled to 256 pixels, with pixel axes (x right, y down, as the image's rows). */
 class Picture {
