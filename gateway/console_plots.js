@@ -235,7 +235,7 @@ class Picture {
     c.width = left + w * scale + 16; c.height = top + h * scale + 40;
     const g = c.getContext("2d");
     g.clearRect(0, 0, c.width, c.height);
-    g.imageSmoothingEnabled = false;
+    g.imageSmoothingEnabled = scale < 1;   // pixels shown as squares when enlarged, averaged when reduced
     g.drawImage(this.pixels, left, top, w * scale, h * scale);
     ticks(g, steps(0, w), (x) => left + x * scale, false, top + h * scale);
     ticks(g, steps(0, h), (y) => top + y * scale, true, left);

@@ -228,6 +228,8 @@ class Terminal:
 
 
 @heavy
+# Every section in turn, the generated clients (npm installs the TypeScript one) and a notebook included.
+@pytest.mark.timeout(900)
 async def test_the_readme_answers_as_written(gateway: tuple[int, int], tmp_path: Path) -> None:
     http_port, socket_port = gateway
 
