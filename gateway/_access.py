@@ -171,7 +171,11 @@ def inline_hashes(page: bytes, tag: str) -> str:
 
 
 def console_policy(page: bytes) -> str:
-    """The Content-Security-Policy of the console *page*: its inline script and style, nothing else."""
-    return (f"default-src 'none'; script-src {inline_hashes(page, 'script')}; style-src "
+    """The Content-Security-Policy of the console *page*: its inline script and style, and the gateway's files.
+
+    The gateway's own files are its plotting library (uPlot, served from the package); uPlot sizes its
+    elements through the CSSOM (``element.style``), which no policy restricts.
+    """
+    return (f"default-src 'none'; script-src 'self' {inline_hashes(page, 'script')}; style-src 'self' "
             f"{inline_hashes(page, 'style')}; connect-src 'self'; img-src 'self' data: blob:; base-uri 'none'; "
             "form-action 'none'; frame-ancestors 'none'")

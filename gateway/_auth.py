@@ -27,11 +27,12 @@ COOKIE = "aiogenomix_console"
 LOGIN_PATH = "/console/login"
 #: Says whether a request carries credentials (``{"authorized": bool}``), so the console can ask first.
 AUTH_PATH = "/console/auth"
-#: Served without credentials: the console page, and the two requests it makes about the token
-#: (the login checks the token itself); the OpenAPI description, and Swagger UI's page and files, which
-#: read it before anyone can say the token (every operation it describes needs the token).
-OPEN_PATHS = frozenset({"/console", AUTH_PATH, LOGIN_PATH, "/openapi.json", "/docs", "/docs/swagger-ui-bundle.js",
-                        "/docs/swagger-ui.css"})
+#: Served without credentials: the console page, its scripts and style, and the two requests it makes
+#: about the token (the login checks the token itself); the OpenAPI description, and Swagger UI's page and
+#: files, which read it before anyone can say the token (every operation it describes needs the token).
+OPEN_PATHS = frozenset({"/console", "/console/plots.js", "/console/uPlot.iife.min.js", "/console/uPlot.min.css",
+                        AUTH_PATH, LOGIN_PATH,
+                        "/openapi.json", "/docs", "/docs/swagger-ui-bundle.js", "/docs/swagger-ui.css"})
 
 
 class TokenCheck:

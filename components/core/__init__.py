@@ -24,8 +24,8 @@ from ._services import Out, activity, attribute, function, redeclare
 from ._tasks import Task
 from ._timestamp import Timestamp
 from ._types import (
-    Boolean, Bound, Char, DescribedType, Double, Float, Length, Long, LongLong, Octet, Short, String, ULong,
-    ULongLong, UShort, array, idl_enum, idl_struct, optional, sequence, string,
+    Boolean, Bound, Char, DescribedType, Double, Float, Grid, Length, Long, LongLong, Octet, Short, String, ULong,
+    ULongLong, Unit, UShort, array, idl_enum, idl_struct, optional, sequence, string,
 )
 
 __all__ = [
@@ -42,6 +42,8 @@ __all__ = [
     # Data types
     "idl_struct", "idl_enum", "Bound", "Length", "Boolean", "Octet", "Char", "Short", "UShort", "Long", "ULong",
     "LongLong", "ULongLong", "Float", "Double", "String", "sequence", "array", "optional", "string", "Timestamp",
+    # Units of numbers, and what the index of a sequence stands for
+    "Unit", "Grid",
     # The type of a port known by its description only (another process's, a recording's)
     "DescribedType",
     # JSON Schemas of /info types (for recordings, live views, API documents)

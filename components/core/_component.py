@@ -43,6 +43,28 @@ _unexpected = ThrottledLog(log)
 _STANDARD_SERVICES = ("abort_activity", "connect_port", "connect_service", "kill")
 
 
+def _check_progress(spec: ServiceSpec, ports: dict[str, PortSpec], owner: str) -> None:
+    """Check that a service's ``progress`` names an out port of the component and a member of its type.
+
+    Raises:
+        TypeError: naming the component, the service and what is missing.
+    """
+    assert spec.progress is not None
+    port_name, *path = spec.progress.split(".")
+    port = ports.get(port_name)
+    if port is None or port.direction != "out":
+        outs = ", ".join(name for name, p in ports.items() if p.direction == "out")
+        raise TypeError(f"{owner}, service {spec.name}: progress={spec.progress!r} names no out port "
+                        f"(out ports: {outs})")
+    described = port.type.describe()
+    for name in path:
+        members = {m["name"]: m["type"] for m in described.get("members", [])}
+        if name not in members:
+            raise TypeError(f"{owner}, service {spec.name}: progress={spec.progress!r}: {described['name']} has no "
+                            f"member {name!r} (members: {', '.join(members) or 'none'})")
+        described = members[name]
+
+
 class Component:
     """Base class of every component.
 
@@ -116,6 +138,8 @@ class Component:
             if spec.validate is not None:
                 # Caught here rather than as an error at the first request of the service.
                 check_validate_hook(spec, owner)
+            if spec.progress is not None:
+                _check_progress(spec, ports, owner)
 
     def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
         self.host = host

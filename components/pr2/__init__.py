@@ -20,7 +20,7 @@ import numpy as np
 
 from ..audio import HeadAzimuth, SoundScene
 from ..core import (
-    Component, Double, GenomException, InPort, InPortRuntime, OutPort, OutPortRuntime, String, Task, activity,
+    Component, Double, GenomException, InPort, InPortRuntime, OutPort, OutPortRuntime, String, Task, activity, Unit,
 )
 from ..world import (
     ARM_JOINTS, HEAD_LIMITS, ROOM, TORSO_RANGE, HeadCommand, Image, JointState, LeftArmCommand,
@@ -199,9 +199,9 @@ class Pr2(Component, name="pr2", version="1.0"):
               motion=True)
     async def move_head(
         self,
-        pan: Annotated[Double, "Head pan in rad (positive = left, -2.857 to 2.857)"] = 0.0,
-        tilt: Annotated[Double, "Head tilt in rad (positive = down, -0.371 to 1.296)"] = 0.0,
-        time_to_finish: Annotated[Double, "Seconds the motion should take"] = 1.0,
+        pan: Annotated[Double, Unit("rad"), "Head pan in rad (positive = left, -2.857 to 2.857)"] = 0.0,
+        tilt: Annotated[Double, Unit("rad"), "Head tilt in rad (positive = down, -0.371 to 1.296)"] = 0.0,
+        time_to_finish: Annotated[Double, Unit("s"), "Seconds the motion should take"] = 1.0,
     ) -> None:
         """Turn the head to a pan and tilt, and wait until it is there (goals outside the limits stop at them)."""
         self.Port_head.publish(HeadCommand(pan, tilt, time_to_finish))
@@ -215,7 +215,7 @@ class Pr2(Component, name="pr2", version="1.0"):
         self,
         x: Annotated[Double, "x in the room, m"] = 0.0,
         y: Annotated[Double, "y in the room, m"] = 0.0,
-        w: Annotated[Double, "Heading in rad, counter-clockwise from x"] = 0.0,
+        w: Annotated[Double, Unit("rad"), "Heading in rad, counter-clockwise from x"] = 0.0,
     ) -> None:
         """Drive the base to a pose of the room and wait until it is there (a new goal interrupts the last)."""
         self.Port_gotoposition.publish(PositionCommand(x, y, w))
@@ -248,14 +248,14 @@ class Pr2(Component, name="pr2", version="1.0"):
     @activity(motion=True, task=PublishPort, interrupts=("move_l_arm",), throws=(INVALID_VALUE,))
     async def move_l_arm(
         self,
-        l_shoulder_pan_joint: Annotated[Double, "rad, -0.715 to 2.285"] = 0.0,
-        l_shoulder_lift_joint: Annotated[Double, "rad, -0.524 to 1.396"] = 0.0,
-        l_upper_arm_roll_joint: Annotated[Double, "rad, -0.8 to 3.9"] = 0.0,
-        l_elbow_flex_joint: Annotated[Double, "rad, -2.321 to 0"] = 0.0,
-        l_forearm_roll_joint: Annotated[Double, "rad, continuous"] = 0.0,
-        l_wrist_flex_joint: Annotated[Double, "rad, -2.18 to 0"] = 0.0,
-        l_wrist_roll_joint: Annotated[Double, "rad, continuous"] = 0.0,
-        time_to_finish: Annotated[Double, "Seconds the motion should take"] = 1.0,
+        l_shoulder_pan_joint: Annotated[Double, Unit("rad"), "rad, -0.715 to 2.285"] = 0.0,
+        l_shoulder_lift_joint: Annotated[Double, Unit("rad"), "rad, -0.524 to 1.396"] = 0.0,
+        l_upper_arm_roll_joint: Annotated[Double, Unit("rad"), "rad, -0.8 to 3.9"] = 0.0,
+        l_elbow_flex_joint: Annotated[Double, Unit("rad"), "rad, -2.321 to 0"] = 0.0,
+        l_forearm_roll_joint: Annotated[Double, Unit("rad"), "rad, continuous"] = 0.0,
+        l_wrist_flex_joint: Annotated[Double, Unit("rad"), "rad, -2.18 to 0"] = 0.0,
+        l_wrist_roll_joint: Annotated[Double, Unit("rad"), "rad, continuous"] = 0.0,
+        time_to_finish: Annotated[Double, Unit("s"), "Seconds the motion should take"] = 1.0,
     ) -> None:
         """Move the left arm's seven joints and wait until they are there (goals outside the limits stop at them)."""
         values = (l_shoulder_pan_joint, l_shoulder_lift_joint, l_upper_arm_roll_joint, l_elbow_flex_joint,
@@ -265,14 +265,14 @@ class Pr2(Component, name="pr2", version="1.0"):
     @activity(motion=True, task=PublishPort, interrupts=("move_r_arm",), throws=(INVALID_VALUE,))
     async def move_r_arm(
         self,
-        r_shoulder_pan_joint: Annotated[Double, "rad, -2.285 to 0.715"] = 0.0,
-        r_shoulder_lift_joint: Annotated[Double, "rad, -0.524 to 1.396"] = 0.0,
-        r_upper_arm_roll_joint: Annotated[Double, "rad, -3.9 to 0.8"] = 0.0,
-        r_elbow_flex_joint: Annotated[Double, "rad, -2.321 to 0"] = 0.0,
-        r_forearm_roll_joint: Annotated[Double, "rad, continuous"] = 0.0,
-        r_wrist_flex_joint: Annotated[Double, "rad, -2.18 to 0"] = 0.0,
-        r_wrist_roll_joint: Annotated[Double, "rad, continuous"] = 0.0,
-        time_to_finish: Annotated[Double, "Seconds the motion should take"] = 1.0,
+        r_shoulder_pan_joint: Annotated[Double, Unit("rad"), "rad, -2.285 to 0.715"] = 0.0,
+        r_shoulder_lift_joint: Annotated[Double, Unit("rad"), "rad, -0.524 to 1.396"] = 0.0,
+        r_upper_arm_roll_joint: Annotated[Double, Unit("rad"), "rad, -3.9 to 0.8"] = 0.0,
+        r_elbow_flex_joint: Annotated[Double, Unit("rad"), "rad, -2.321 to 0"] = 0.0,
+        r_forearm_roll_joint: Annotated[Double, Unit("rad"), "rad, continuous"] = 0.0,
+        r_wrist_flex_joint: Annotated[Double, Unit("rad"), "rad, -2.18 to 0"] = 0.0,
+        r_wrist_roll_joint: Annotated[Double, Unit("rad"), "rad, continuous"] = 0.0,
+        time_to_finish: Annotated[Double, Unit("s"), "Seconds the motion should take"] = 1.0,
     ) -> None:
         """Move the right arm's seven joints and wait until they are there (goals outside the limits stop at them)."""
         values = (r_shoulder_pan_joint, r_shoulder_lift_joint, r_upper_arm_roll_joint, r_elbow_flex_joint,
@@ -283,8 +283,8 @@ class Pr2(Component, name="pr2", version="1.0"):
               validate=controlTorso)
     async def move_torso(
         self,
-        torso: Annotated[Double, "Torso lift in m, 0 to 0.31"] = 0.0,
-        time_to_finish: Annotated[Double, "Seconds the motion should take"] = 1.0,
+        torso: Annotated[Double, Unit("m"), "Torso lift in m, 0 to 0.31"] = 0.0,
+        time_to_finish: Annotated[Double, Unit("s"), "Seconds the motion should take"] = 1.0,
     ) -> None:
         """Raise or lower the torso and wait until it is there."""
         self.Port_torso.publish(TorsoCommand(torso, time_to_finish))

@@ -134,7 +134,7 @@ class Replay(Component, name="replay", version="1.0"):
 
     # -- services ---------------------------------------------------------------------------
 
-    @activity(throws=(NOT_PLAYING,), interrupts=("Play",))
+    @activity(throws=(NOT_PLAYING,), interrupts=("Play",), progress="Status.position")
     async def Play(self, speed: Annotated[Double, "Replay this many times faster than recorded (1: as recorded)"]
                    = 1.0) -> Annotated[ULongLong, Out("published", "Publications replayed")]:
         """Publish the recorded ports again at their recorded timing, from the start to the end of the recording."""
