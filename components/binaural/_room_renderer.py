@@ -45,14 +45,15 @@ from ._hrir_set import HrirSet, wrap_degrees
 from ._kemar import load_kemar
 from ._late import late_tail
 from ._renderer import BinauralRenderer
-from ._room import MIN_DISTANCE, OCTAVE_BANDS, SPEED_OF_SOUND, Shoebox, band_weights, image_sources
+from ._room import MIN_DISTANCE, OCTAVE_BANDS, SPEED_OF_SOUND, ImageSources, Shoebox, band_weights, image_sources
 
 __all__ = ["RoomRenderer"]
 
 #: Seconds over which the early images fade out and the tail fades in.
 _FADE = 0.005
-#: The farthest a source may be heard from (m): the delay lines hold this much sound.
-MAX_DISTANCE = 200.0
+#: The farthest a source may be heard from in the free field (m): the delay lines hold this much sound.
+#: In a room, its diagonal.
+MAX_DISTANCE = 100.0
 #: The mixing time is kept within these bounds (s).
 _MIXING_BOUNDS = (0.02, 0.25)
 
@@ -76,7 +77,7 @@ class RoomRenderer:
     """
 
     def __init__(self, rate: float, sources: int, *, hrirs: HrirSet | None = None, room: Shoebox | None = None,
-                 max_order: int = 3, mixing_time: float | None = None, update: float = 0.04,
+                 max_order: int = 3, mixing_time: float | None = None, update: float = 0.05,
                  diffuse_level: float | None = None, sensor_noise: float | None = None, seed: int = 0,
                  speed_of_sound: float | None = None) -> None:
         if max_order < 0:
@@ -96,7 +97,9 @@ class RoomRenderer:
                                        sensor_noise=sensor_noise, seed=seed)
         self._seed = seed
         self._update_frames = max(1, round(update * self.rate))
-        self._line_length = int(math.ceil(MAX_DISTANCE / self.speed_of_sound * self.rate)) + 4
+        self._max_distance = (MAX_DISTANCE if room is None
+                              else math.dist((0.0, 0.0, 0.0), room.dimensions) + MIN_DISTANCE)
+        self._line_length = int(math.ceil(self._max_distance / self.speed_of_sound * self.rate)) + 4
         self._lines = np.zeros((sources, self._line_length))
         self._delays: npt.NDArray[np.float64] | None = None        # samples, at the end of the last block
         self._gains: npt.NDArray[np.float64] | None = None
@@ -107,9 +110,12 @@ class RoomRenderer:
         self._early: FadingConvolver | None = None
         self._early_spectra: npt.NDArray[np.complex128] | None = None
         self._early_key: tuple[bytes, bytes] | None = None
+        self._images: dict[bytes, ImageSources] = {}     # per source and listener position: a head turning keeps them
         self._since_update = 0
         self._late: StagedLateConvolver | None = None
         self._weights = np.ones((1, 1))                  # the octave bands' weights at the early FFT's bins
+        self._reflection_taps = self.hrirs.taps
+        self._tail_head = np.zeros((0, 2, 1), dtype=np.complex128)
         self.frames_rendered = 0
 
     @property
@@ -149,7 +155,9 @@ class RoomRenderer:
         if self.room is not None and self._late is None:
             self._start_room(end_positions, end_listener)
         out = np.zeros((frames, 2))
-        pieces = max(1, math.ceil(frames / self._update_frames))
+        # Long blocks (a bass chunk of 170 ms) are rendered in pieces, each ending where the head and the
+        # sources are by then, so that the reflections follow within a couple of update intervals.
+        pieces = max(1, math.ceil(frames / (2 * self._update_frames)))
         edges = np.linspace(0, frames, pieces + 1).round().astype(int)
         for first, last in zip(edges[:-1], edges[1:], strict=True):
             share = last / frames if frames else 1.0
@@ -179,8 +187,8 @@ class RoomRenderer:
         azimuth, elevation, distance = directions(self._positions, listener, 0.0)
         delays = distance / self.speed_of_sound * self.rate
         gains = 1.0 / np.maximum(distance, MIN_DISTANCE)
-        if np.any(distance > MAX_DISTANCE):
-            raise BinauralError(f"a source is more than {MAX_DISTANCE:g} m from the listener")
+        if np.any(distance > self._max_distance):
+            raise BinauralError(f"a source is more than {self._max_distance:g} m from the listener")
         delayed = self._delay(signals, delays, gains)
         out = self.direct.render(delayed, self._head, azimuth, elevation)
         if self.room is not None:
@@ -224,17 +232,25 @@ class RoomRenderer:
             mixing = min(arrivals, default=_MIXING_BOUNDS[0] * self.speed_of_sound) / self.speed_of_sound
             self.mixing_time = float(np.clip(mixing, *_MIXING_BOUNDS))
         mixing_frames = int(math.ceil(self.mixing_time * self.rate))
-        self._early = FadingConvolver(self.sources, mixing_frames + self.hrirs.length)
-        block = 1 << max(6, int(math.floor(math.log2(max(64, (self.mixing_time - _FADE) * self.rate)))))
+        # Reflections are heard through the first 6 ms of their responses (a head's response is that long;
+        # the rest of a measured set's 512 taps is the measurement's low tail), faded out over the last 1 ms.
+        kept = min(self.hrirs.length, round(0.006 * self.rate))
+        fade = max(1, round(0.001 * self.rate))
+        self._reflection_taps = self.hrirs.taps[:, :kept].copy()
+        self._reflection_taps[:, kept - fade:] *= np.cos(0.5 * np.pi * np.arange(1, fade + 1) / fade)[:, np.newaxis]
+        self._early = FadingConvolver(self.sources, mixing_frames + kept)
         rng = np.random.default_rng(self._seed + 17)
         diffuse = diffuse_filters(self._measured, self.rate)
-        rt60 = room.eyring_rt60()
-        tails = [late_tail(diffuse, rt60, volume=room.volume, speed_of_sound=self.speed_of_sound,
+        tails = [late_tail(diffuse, room.eyring_rt60(), volume=room.volume, speed_of_sound=self.speed_of_sound,
                            start=self.mixing_time, fade=_FADE, rng=rng) for _ in range(self.sources)]
-        length = max((len(t) for t in tails), default=block + 1)
-        stacked = np.zeros((self.sources, max(length, block + 1), 2))
+        # The tail's first taps join the early responses (convolved at once, they need no latency); from the
+        # largest power of two those hold on, the late convolver takes it in blocks that grow.
+        block = 1 << int(math.floor(math.log2(self._early.taps)))
+        length = max([len(t) for t in tails] + [block + 1])
+        stacked = np.zeros((self.sources, length, 2))
         for i, tail in enumerate(tails):
             stacked[i, :len(tail)] = tail
+        self._tail_head = self._early.spectra(stacked[:, :block])
         self._late = StagedLateConvolver(stacked, block)
         self._weights = band_weights(np.fft.rfftfreq(self._early.n_fft, 1.0 / self.rate))
 
@@ -258,13 +274,20 @@ class RoomRenderer:
         """The early reflections' spectra ``(sources, 2, bins)`` now, and what they were made from."""
         assert self.room is not None and self._early is not None and self._positions is not None
         assert self._listener is not None and self._head is not None and self.mixing_time is not None
-        taps = self.hrirs.taps
+        taps = self._reflection_taps
         length = self._early.taps
         mixing = self.mixing_time
-        spectra = np.zeros((self.sources, 2, self._early.n_fft // 2 + 1), dtype=np.complex128)
+        # Responses per band (one when every wall absorbs alike at every frequency: the common case).
+        bands = 1 if bool(np.all(self.room.absorption == self.room.absorption[:, :1])) else len(OCTAVE_BANDS)
+        responses = np.zeros((bands, self.sources, 2, length))
         keys = []
+        images_now: dict[bytes, ImageSources] = {}
         for i, position in enumerate(self._positions):
-            images = image_sources(self.room, position, self._listener, max_order=self.max_order, max_time=mixing)
+            key = position.tobytes() + self._listener.tobytes()
+            images = self._images.get(key)
+            if images is None:
+                images = image_sources(self.room, position, self._listener, max_order=self.max_order, max_time=mixing)
+            images_now[key] = images
             reflected = images.orders > 0
             delays = images.delays(self.speed_of_sound)[reflected]
             gains = images.gains[reflected] * _fade_out(delays, mixing)[:, np.newaxis]           # (n, bands)
@@ -272,16 +295,16 @@ class RoomRenderer:
             nearest = self._nearest.indices(azimuth, elevation)
             starts = np.round(delays * self.rate).astype(np.int64)
             keys.append((nearest.tobytes(), starts.tobytes()))
-            # One band when every wall absorbs alike at every frequency: the common case, seven times cheaper.
-            bands = [slice(None)] if np.all(gains == gains[:, :1]) else list(range(len(OCTAVE_BANDS)))
-            index = starts[:, np.newaxis] + np.arange(self.hrirs.length)                          # (n, taps)
-            for band in bands:
-                column = gains[:, 0] if isinstance(band, slice) else gains[:, band]
+            index = (starts[:, np.newaxis] + np.arange(taps.shape[1])).ravel()                   # (n · taps)
+            chosen = taps[nearest]                                                                # (n, taps, ears)
+            for band in range(bands):
                 for ear in range(2):
-                    response = np.bincount(index.ravel(), (column[:, np.newaxis] * taps[nearest, :, ear]).ravel(),
-                                           minlength=length)[:length]
-                    spectrum = np.fft.rfft(response, self._early.n_fft)
-                    spectra[i, ear] += spectrum if isinstance(band, slice) else spectrum * self._weights[band]
+                    weights = (gains[:, band, np.newaxis] * chosen[:, :, ear]).ravel()
+                    responses[band, i, ear] = np.bincount(index, weights, minlength=length)[:length]
+        spectra = np.fft.rfft(responses, self._early.n_fft, axis=-1)                 # (bands, sources, ears, bins)
+        spectra = spectra[0] if bands == 1 else np.einsum("bsef,bf->sef", spectra, self._weights)
+        spectra += self._tail_head
+        self._images = images_now
         return spectra, (b"".join(k[0] for k in keys), b"".join(k[1] for k in keys))
 
 
