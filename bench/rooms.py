@@ -113,7 +113,9 @@ def render(result: Result) -> str:
                      f"{result['verdict'].get(name, '')} |")
     lines += ["", "The early part's cost against the reflection order: one making of the early reflections of the "
               "three talkers (image sources within 250 ms, each through its nearest measured HRIR), as a turning "
-              "head pays it every 40 ms.", "", "| order | image sources | milliseconds |", "|---:|---:|---:|"]
+              "head pays it every 50 ms. Order 0 is the fixed part: the FFT of responses of 250 ms (the mixing time "
+              "is held there for the comparison; by default it is the next order's first arrival, 26 ms here).", "",
+              "| order | image sources | milliseconds |", "|---:|---:|---:|"]
     for row in result["early"]:
         lines.append(f"| {row['order']} | {row['images']} | {row['ms']:.2f} |")
     lines.append("")

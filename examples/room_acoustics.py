@@ -26,6 +26,7 @@ BANDS = (500.0, 1000.0, 2000.0, 4000.0)
 
 
 def t20(responses: list[np.ndarray], centre: float) -> float:
+    """T20 of an octave band: the responses' Schroeder integrals averaged, fitted from -5 to -25 dB."""
     sos = signal.butter(4, [centre / np.sqrt(2), centre * np.sqrt(2)], "bandpass", fs=RATE, output="sos")
     length = min(len(r) for r in responses)
     decay = np.zeros(length)
@@ -38,11 +39,14 @@ def t20(responses: list[np.ndarray], centre: float) -> float:
 
 
 def drr(response: np.ndarray, arrival: float) -> float:
+    """Direct-to-reverberant ratio, dB: within 2.5 ms of the arrival against all after."""
     half, at = int(0.0025 * RATE), int(round(arrival))
-    return float(10 * np.log10(np.sum(response[max(0, at - half):at + half] ** 2) / np.sum(response[at + half:] ** 2)))
+    direct = np.sum(response[max(0, at - half):at + half] ** 2)
+    return float(10 * np.log10(direct / np.sum(response[at + half:] ** 2)))
 
 
 def probe() -> HrirSet:
+    """Two point microphones at the head's centre: a unit sample in every direction."""
     azimuth = np.tile(np.arange(-180.0, 180.0, 10.0), 7)
     taps = np.zeros((len(azimuth), 64, 2))
     taps[:, 0, :] = 1.0
@@ -50,6 +54,7 @@ def probe() -> HrirSet:
 
 
 def simulated(alpha: float, hybrid: bool) -> list[np.ndarray]:
+    """The simulator's responses at the four places: image sources and ray tracing, or image sources alone."""
     pra.random.seed(1)
     room = pra.ShoeBox(list(DIMENSIONS), fs=int(RATE), materials=pra.Material(alpha, 0.3 if hybrid else None),
                        max_order=3 if hybrid else 40, air_absorption=False, ray_tracing=hybrid)
@@ -62,6 +67,7 @@ def simulated(alpha: float, hybrid: bool) -> list[np.ndarray]:
 
 
 def main() -> None:
+    """Print the table."""
     kemar = load_kemar()
     arrivals = np.linalg.norm(PLACES - np.asarray(SOURCE), axis=1) / 343.0 * RATE
     print("| α | Eyring | ours (KEMAR) | pyroomacoustics, hybrid | pyroomacoustics, image sources only "
