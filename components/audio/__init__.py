@@ -29,7 +29,7 @@ from ._head_model import SphericalHeadRenderer, woodworth_itd
 from ._limits import MAX_FRAMES_PER_CHUNK, RATE_RANGE
 from ._renderers import KemarSceneRenderer, SceneRenderer, prepare_kemar, scene_renderer
 from ._line_server import CLOSE, TOKEN_PREFIX, Conversation, LastReply, LineServer, split_lines
-from ._room_scene import RoomSceneRenderer, listener_of, shoebox_of
+from ._room_scene import MeasuredSceneRenderer, RoomSceneRenderer, listener_of, shoebox_of
 from ._scene import DEFAULT_SCENE, Scene, Source, load_scene
 from ._socket_ports import SocketPorts
 from ._socket_server import DEFAULT_PORT, DedicatedSocketServer
@@ -48,7 +48,8 @@ __all__ = [
     "RATE_RANGE", "MAX_FRAMES_PER_CHUNK",
     # Simulated scenes
     "Scene", "Source", "DEFAULT_SCENE", "load_scene", "SceneRenderer", "scene_renderer", "KemarSceneRenderer",
-    "prepare_kemar", "SphericalHeadRenderer", "woodworth_itd", "RoomSceneRenderer", "shoebox_of", "listener_of",
+    "prepare_kemar", "SphericalHeadRenderer", "woodworth_itd", "RoomSceneRenderer", "MeasuredSceneRenderer",
+    "shoebox_of", "listener_of",
     # The chunk window
     "ChunkWindow", "WindowRead", "WindowState",
     # The dedicated sockets

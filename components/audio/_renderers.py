@@ -128,8 +128,10 @@ def scene_renderer(scene: Scene, rate: int, *, hrirs: HrirSet | None = None,
     if scene.head == "spherical":
         return SphericalHeadRenderer(scene, rate)
     if scene.placed:
-        from ._room_scene import RoomSceneRenderer
+        from ._room_scene import MeasuredSceneRenderer, RoomSceneRenderer, measured
 
+        if measured(scene):
+            return MeasuredSceneRenderer(scene, rate, roots=roots)
         return RoomSceneRenderer(scene, rate, roots=roots)
     if hrirs is None and (scene.hrtf is not None or scene.head != "kemar"):
         from ._room_scene import scene_hrirs

@@ -15,6 +15,10 @@ renders through :class:`~aiogenomix.components.binaural.RoomRenderer`::
     },
     "listener": {"x": 3, "y": 2, "z": 1.5, "facing": 0}
 
+A measured room is ``"room": {"sofa": "hall.sofa"}``: binaural room impulse responses with head
+orientations (SOFA ``MultiSpeakerBRIR``, ``SingleRoomMIMOSRIR`` or ``SingleRoomSRIR``), each source at
+one of its loudspeakers (``"emitter": 0``); they include the head that measured them.
+
 The listener is where the head is when no robot says (``kemar`` and its captures
 hear from there; ``morse_kemar`` and ``pr2`` say where their head is in the virtual
 world), and its ``facing`` adds to the head's azimuth. Without one, the head is at
@@ -33,18 +37,20 @@ import numpy as np
 import numpy.typing as npt
 
 from ..binaural import (
-    BinauralError, HrirSet, Path, Pose, RoomRenderer, Shoebox, load_kemar, read_sofa, snowman_hrirs,
+    BinauralError, HrirSet, MeasuredRoomRenderer, Path, Pose, RoomRenderer, Shoebox, load_kemar, read_sofa,
+    read_sofa_room, snowman_hrirs,
 )
 from ._errors import SceneError
 from ._head_model import to_int32
 from ._paths import confined_path, open_regular_file
 from ._scene import Scene, Source, SourceSignal
 
-__all__ = ["RoomSceneRenderer", "check_placed", "shoebox_of", "listener_of", "scene_hrirs", "read_wav"]
+__all__ = ["RoomSceneRenderer", "MeasuredSceneRenderer", "check_placed", "shoebox_of", "listener_of", "scene_hrirs",
+           "read_wav", "measured"]
 
 #: The largest WAV file a source reads (bytes): ten minutes of stereo float at 96 kHz.
 MAX_WAV_BYTES = 512 << 20
-_ROOM_KEYS = {"dimensions", "origin", "rt60", "absorption", "max_order", "mixing_time"}
+_ROOM_KEYS = {"dimensions", "origin", "rt60", "absorption", "max_order", "mixing_time", "sofa"}
 _LISTENER_KEYS = {"x", "y", "z", "facing"}
 #: The diffuse field and the sensor noise draw from their own seed, apart from the sources'.
 _NOISE_SEED_OFFSET = 1_000_003
@@ -74,6 +80,8 @@ def shoebox_of(room: Mapping[str, Any], speed_of_sound: float = 343.0) -> Shoebo
     unknown = set(room) - _ROOM_KEYS
     if unknown:
         raise SceneError(f"unknown room key {sorted(unknown)[0]!r} (keys: {', '.join(sorted(_ROOM_KEYS))})")
+    if "sofa" in room:
+        raise SceneError("a measured room ({\"sofa\": FILE}) is no shoebox")
     if ("rt60" in room) == ("absorption" in room):
         raise SceneError("a room has its walls' absorption or its rt60: one of the two")
     dimensions = _point(room.get("dimensions"), "room.dimensions")
@@ -86,11 +94,16 @@ def shoebox_of(room: Mapping[str, Any], speed_of_sound: float = 343.0) -> Shoebo
         raise SceneError(f"room: {exc}") from None
 
 
+def measured(scene: Scene) -> bool:
+    """Whether the scene's room is a measured one (``{"sofa": FILE}``)."""
+    return isinstance(scene.room, Mapping) and "sofa" in scene.room
+
+
 def listener_of(scene: Scene) -> Pose:
     """Where the scene's head is when no robot says, and where it faces."""
     raw = scene.listener
     if raw is None:
-        if scene.room is None:
+        if scene.room is None or measured(scene):
             return Pose(0.0, 0.0, 1.5)
         room = shoebox_of(scene.room)
         (x, y, z), (lx, ly, lz) = room.origin, room.dimensions
@@ -121,6 +134,8 @@ def _path_of(raw: object, what: str) -> Path:
 def _placement(source: Source, index: int, listener: Pose) -> tuple[float, float, float] | Path:
     """Where a source of a scene in metres is: a point or a path."""
     what = f"sources[{index}]"
+    if source.emitter is not None:
+        raise SceneError(f"{what}: an emitter is a loudspeaker of a measured room (\"room\": {{\"sofa\": FILE}})")
     given = [source.position is not None, source.path is not None, source.distance is not None]
     if sum(given) != 1:
         raise SceneError(f"{what}: in a scene in metres a source has one of position, path, or distance "
@@ -144,6 +159,9 @@ def check_placed(scene: Scene) -> None:
     if scene.head == "spherical":
         raise SceneError("the spherical head renders azimuths only: a scene in metres needs HRIRs "
                          "(head \"kemar\" or \"snowman\", or an hrtf file)")
+    if measured(scene):
+        _check_measured(scene)
+        return
     room = shoebox_of(scene.room, scene.speed_of_sound) if scene.room is not None else None
     listener = listener_of(scene)
     if room is not None:
@@ -161,6 +179,22 @@ def check_placed(scene: Scene) -> None:
         points = place.waypoints if isinstance(place, Path) else (place,)
         if room is not None and not all(room.contains(p) for p in points):
             raise SceneError(f"sources[{i}] is (or goes) outside the room")
+
+
+def _check_measured(scene: Scene) -> None:
+    raw = scene.room or {}
+    if set(raw) != {"sofa"} or not isinstance(raw["sofa"], str):
+        raise SceneError("a measured room is {\"sofa\": FILE} and nothing else")
+    if scene.hrtf is not None or scene.head != "kemar" or scene.diffuse_level is not None:
+        raise SceneError("a measured room is heard through the head that measured it, with its own noise: "
+                         "no head, hrtf or diffuse_level")
+    for i, source in enumerate(scene.sources):
+        emitter = source.emitter
+        if isinstance(emitter, bool) or not isinstance(emitter, int) or emitter < 0:
+            raise SceneError(f"sources[{i}]: in a measured room a source plays from a loudspeaker: "
+                             "\"emitter\": 0, 1, ...")
+        if source.position is not None or source.path is not None or source.distance is not None:
+            raise SceneError(f"sources[{i}]: in a measured room a source is at its emitter, not at a position")
 
 
 def scene_hrirs(scene: Scene, roots: Sequence[str] | None) -> HrirSet:
@@ -203,6 +237,58 @@ def read_wav(path: str, shown: str, rate: int) -> npt.NDArray[np.float64]:
     return mono
 
 
+def _signals(scene: Scene, rate: int, roots: Sequence[str] | None) -> list[SourceSignal]:
+    """The dry signals of the scene's sources, its WAV files read (blocking)."""
+    signals = []
+    for i, source in enumerate(scene.sources):
+        samples = None
+        if source.type == "file":
+            assert source.file is not None
+            path = confined_path(os.path.join(scene.base or "", source.file), roots)
+            samples = read_wav(path, source.file, rate)
+        signals.append(SourceSignal(source, rate, source.seed if source.seed is not None else scene.seed + i, samples))
+    return signals
+
+
+class MeasuredSceneRenderer:
+    """Renders a scene in a measured room: each source through the BRIRs of its loudspeaker, the head turning.
+
+    Args:
+        scene: The scene (``"room": {"sofa": FILE}``).
+        rate: Sample rate in Hz.
+        roots: The directories its files may come from (None: anywhere).
+    """
+
+    def __init__(self, scene: Scene, rate: int, *, roots: Sequence[str] | None = None) -> None:
+        self.scene = scene
+        self.rate = rate
+        self.facing = listener_of(scene).facing
+        name = str((scene.room or {})["sofa"])
+        try:
+            room = read_sofa_room(confined_path(os.path.join(scene.base or "", name), roots), shown=name)
+            self._signals = _signals(scene, rate, roots)
+            self.renderer = MeasuredRoomRenderer(rate, room, [s.emitter or 0 for s in scene.sources],
+                                                 sensor_noise=scene.noise_floor, seed=scene.seed + _NOISE_SEED_OFFSET)
+        except BinauralError as exc:
+            raise SceneError(f"room: {exc}") from None
+
+    @property
+    def frames_rendered(self) -> int:
+        """Frames rendered so far."""
+        return self.renderer.frames_rendered
+
+    def render(self, count: int, head_azimuth: float, source_azimuths: npt.ArrayLike | None = None,
+               listener: Sequence[float] | None = None) -> npt.NDArray[np.int32]:
+        """The next *count* frames as S32 samples (azimuths and listener are the measurement's: ignored)."""
+        return to_int32(self.render_float(count, head_azimuth, source_azimuths, listener))
+
+    def render_float(self, count: int, head_azimuth: float, source_azimuths: npt.ArrayLike | None = None,
+                     listener: Sequence[float] | None = None) -> npt.NDArray[np.float64]:
+        """The next *count* frames with full scale 1, the head at *head_azimuth* (plus the listener's facing)."""
+        dry = np.stack([s.next(count) for s in self._signals]) if self._signals else np.zeros((0, count))
+        return self.renderer.render(dry, self.facing + head_azimuth)
+
+
 class RoomSceneRenderer:
     """Renders a scene in metres: its sources at positions, in its room, at a head that may move and turn.
 
@@ -219,15 +305,7 @@ class RoomSceneRenderer:
         self.rate = rate
         self.listener = listener_of(scene)
         hrirs = scene_hrirs(scene, roots)
-        self._signals = []
-        for i, source in enumerate(scene.sources):
-            samples = None
-            if source.type == "file":
-                assert source.file is not None
-                path = confined_path(os.path.join(scene.base or "", source.file), roots)
-                samples = read_wav(path, source.file, rate)
-            self._signals.append(SourceSignal(source, rate, source.seed if source.seed is not None else scene.seed + i,
-                                              samples))
+        self._signals = _signals(scene, rate, roots)
         self._places = [_placement(s, i, self.listener) for i, s in enumerate(scene.sources)]
         diffuse = None
         if scene.diffuse_level is not None:

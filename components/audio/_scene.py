@@ -89,6 +89,7 @@ class Source:
         file: The WAV file of a ``file`` source.
         loop: Play a file (or the speech) again and again; false plays it once.
         voice: The speech's voice: ``male``, ``female`` or ``child``.
+        emitter: In a measured room (``"room": {"sofa": FILE}``), the loudspeaker the source plays from.
     """
 
     type: SourceKind = "noise"
@@ -105,11 +106,13 @@ class Source:
     file: str | None = None
     loop: bool = True
     voice: str = "male"
+    emitter: int | None = None
 
     @property
     def placed(self) -> bool:
-        """Whether the source is placed in metres (a position, a distance, an elevation or a path)."""
-        return self.position is not None or self.distance is not None or self.path is not None or self.elevation != 0
+        """Whether the source is placed in a room: a position, a distance, an elevation, a path or an emitter."""
+        return (self.position is not None or self.distance is not None or self.path is not None
+                or self.elevation != 0 or self.emitter is not None)
 
     def power(self, rate: float) -> float:
         """The source's mean power once it has started (full scale 1), at *rate* Hz."""
@@ -135,7 +138,8 @@ class Scene:
         speed_of_sound: In metres per second.
         hrtf: A SOFA file to hear through (instead of *head*'s HRIRs), relative to the scene file.
         room: The shoebox: ``dimensions``, ``absorption`` or ``rt60``, ``origin``, ``max_order``,
-            ``mixing_time`` (:func:`~._room_scene.shoebox_of`).
+            ``mixing_time`` (:func:`~._room_scene.shoebox_of`); or a measured room, ``{"sofa": FILE}``
+            (binaural room impulse responses with head orientations), each source at a loudspeaker (``emitter``).
         listener: Where the head is when no robot says: ``x``, ``y``, ``z`` (m) and ``facing`` (°).
         base: The directory of the scene file (relative files are found there); not a JSON key.
     """

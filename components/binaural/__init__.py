@@ -26,7 +26,8 @@ Scenes offline (the API experiments use; numpy in, numpy out)::
 Heads: :func:`load_kemar` (the default), :func:`snowman_hrirs` (a sphere on a torso,
 computed), :func:`read_sofa` (any SOFA ``SimpleFreeFieldHRIR`` file; the ``sofa``
 extra); :func:`write_sofa` writes one. :class:`RoomRenderer` renders block by block
-for a capture.
+for a capture. Measured rooms: :func:`read_sofa_room` (SOFA BRIRs with head orientations) and
+:class:`MeasuredRoomRenderer`.
 """
 
 from ._active import FrontBackPolicy, HeadTurnFailed, TurnableHead
@@ -42,19 +43,22 @@ from ._localiser import (
     BATCH_SAMPLES, MOTION_TOLERANCE, WINDOWS, AzimuthEstimate, BinauralLocaliser, LocaliserSetup, NoiseLearner,
     Window,
 )
+from ._measured_room import MeasuredRoom, MeasuredRoomRenderer
 from ._offline import Path, Talker, render_scene, room_response
 from ._renderer import BinauralRenderer
 from ._room import OCTAVE_BANDS, SPEED_OF_SOUND, WALLS, ImageSources, Shoebox, band_weights, image_sources
 from ._room_renderer import RoomRenderer
 from ._signals import SIGNALS, VOICES, speech_like, tone_complex, white_noise
 from ._snowman import snowman_hrirs
-from ._sofa import SOFA_CONVENTION, SofaError, read_sofa, write_sofa
+from ._sofa import ROOM_CONVENTIONS, SOFA_CONVENTION, SofaError, read_sofa, read_sofa_room, write_sofa
 
 __all__ = [
     # Measured HRIRs
     "HrirSet", "load_kemar", "kemar_cache_path", "KEMAR_RATE", "HorizontalInterpolator", "wrap_degrees",
     # Other heads
     "snowman_hrirs", "read_sofa", "write_sofa", "SofaError", "SOFA_CONVENTION",
+    # Measured rooms
+    "read_sofa_room", "MeasuredRoom", "MeasuredRoomRenderer", "ROOM_CONVENTIONS",
     # Rendering
     "BinauralRenderer", "AzimuthFilters", "azimuth_filters", "DiffuseFilters", "diffuse_filters",
     # Scenes in rooms
