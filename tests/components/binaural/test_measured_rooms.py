@@ -126,3 +126,25 @@ def test_a_scene_plays_its_talkers_from_a_measured_rooms_loudspeakers(tmp_path: 
                       ({"sources": [{"emitter": 0}]}, "measured room")):
         with pytest.raises(SceneError, match=says):
             Scene.from_dict(bad)
+
+
+def test_a_single_room_srir_tells_its_loudspeakers_by_their_positions(tmp_path: Path, brirs: np.ndarray) -> None:
+    import netCDF4
+
+    views, emitters, taps, _ = brirs.shape
+    with netCDF4.Dataset(tmp_path / "srir.sofa", "w") as out:
+        out.setncatts({"Conventions": "SOFA", "SOFAConventions": "SingleRoomSRIR", "DataType": "FIR"})
+        for dimension, size in (("I", 1), ("C", 3), ("R", 2), ("N", taps), ("M", views * emitters)):
+            out.createDimension(dimension, size)
+        # One measurement per loudspeaker and head orientation, the loudspeaker told by SourcePosition.
+        ir = out.createVariable("Data.IR", "f8", ("M", "R", "N"))
+        ir[:] = brirs.transpose(0, 1, 3, 2).reshape(views * emitters, 2, taps)
+        out.createVariable("Data.SamplingRate", "f8", ("I",))[:] = [RATE]
+        view = out.createVariable("ListenerView", "f8", ("M", "C"))
+        view[:] = [[v, 0.0, 1.0] for v in VIEWS for _ in EMITTERS]
+        view.Type = "spherical"
+        out.createVariable("SourcePosition", "f8", ("M", "C"))[:] = [e for _ in VIEWS for e in EMITTERS]
+    room = read_sofa_room(tmp_path / "srir.sofa")
+    assert room.emitters == 2 and len(room.emitter) == views * emitters
+    index = room.nearest(int(room.emitter[1]), -80.0)
+    assert room.view[index] == pytest.approx(-90.0) and np.array_equal(room.taps[index], brirs[3, 1])
