@@ -27,6 +27,7 @@ the room's centre (1.5 m up, or half its height if lower), else at the origin.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from collections.abc import Mapping, Sequence
@@ -205,12 +206,22 @@ def scene_hrirs(scene: Scene, roots: Sequence[str] | None) -> HrirSet:
         BinauralError: when the KEMAR's HRIRs are unavailable.
     """
     if scene.hrtf is not None:
-        path = os.path.join(scene.base or "", scene.hrtf)
+        path = confined_path(os.path.join(scene.base or "", scene.hrtf), roots)
         try:
-            return read_sofa(confined_path(path, roots), shown=scene.hrtf)
+            found = os.stat(path)
+        except OSError as exc:
+            raise SceneError(f"hrtf: cannot open {scene.hrtf!r}: {exc.strerror}") from None
+        try:
+            return _read_head(path, found.st_mtime_ns, found.st_size, scene.hrtf)
         except BinauralError as exc:
             raise SceneError(f"hrtf: {exc}") from None
     return snowman_hrirs() if scene.head == "snowman" else load_kemar()
+
+
+@functools.lru_cache(maxsize=8)
+def _read_head(path: str, modified: int, size: int, shown: str) -> HrirSet:
+    """A SOFA head, read once per file version: the same set, so its filters (cached per set) are made once."""
+    return read_sofa(path, shown=shown)
 
 
 def read_wav(path: str, shown: str, rate: int) -> npt.NDArray[np.float64]:
