@@ -49,6 +49,16 @@ async def view(load: tuple[str, ...] = ("demo",), **settings: Any) -> AsyncItera
     config = GatewayConfig(port=0, audio_socket_port=0, foxglove_port=port, preload=list(load), **settings)
     async with serve(config) as url:
         yield url, port
+        # Unloaded one by one, each to its end: the gateway's own shutdown gives them a second in all,
+        # which a busy machine may not leave a world.
+        async with aiohttp.ClientSession(base_url=url, headers=_authorization(settings)) as http:
+            for name in reversed(load):
+                async with http.get(f"/unload/{name}") as unloaded:
+                    assert unloaded.status == 200, await unloaded.text()
+
+
+def _authorization(settings: dict[str, Any]) -> dict[str, str]:
+    return {"Authorization": f"Bearer {settings['token']}"} if settings.get("token") else {}
 
 
 async def handshake(port: int, headers: dict[str, str], path: str = "/") -> tuple[int, dict[str, Any]]:

@@ -135,13 +135,14 @@ async def test_a_viewer_gets_the_head_and_a_camera_while_a_stalled_one_delays_no
         sound = decoded[3]
         assert (sound.format, sound.sample_rate, sound.number_of_channels) == ("pcm-s16", 44100, 2)
         shown = np.frombuffer(sound.data, "<i2").reshape(-1, 2)
-        assert shown.shape == (2205, 2)
+        assert shown.shape[1] == 2 and shown.shape[0] and shown.shape[0] % 2205 == 0  # whole chunks (two if late)
         async with aconnect(url) as client:
             window = (await client.module("kemarcapture")).Port
             port = await window()
         captured = np.stack([np.asarray(port.left), np.asarray(port.right)], axis=1) >> 16
-        starts = [k for k in range(0, len(captured), 2205) if np.array_equal(captured[k:k + 2205], shown)]
-        assert len(starts) == 1  # that very chunk of the capture
+        starts = [k for k in range(0, len(captured) - len(shown) + 1, 2205)
+                  if np.array_equal(captured[k:k + len(shown)], shown)]
+        assert len(starts) == 1  # those very chunks of the capture
 
         # The gateway's clients meanwhile: the listen stream is as prompt as before, within 50 ms (the 90th
         # percentile, judged against the same measure without the stalled viewer: a machine whose cores are
