@@ -2,10 +2,10 @@
 
 Foxglove, Lichtblick and the ``@foxglove/ws-protocol`` client connect with a WebSocket
 offering one of two names for the same protocol: ``foxglove.websocket.v1`` (its
-specification's name, offered by ``@foxglove/ws-protocol`` and the Lichtblick releases
-before 1.20) or ``foxglove.sdk.v1`` (the Foxglove SDK's name, offered by the newer
-viewers).  The server answers the first of the viewer's names that it knows: both are
-served alike.
+specification's name, offered by ``@foxglove/ws-protocol`` and by Lichtblick before its
+pull request 819) or ``foxglove.sdk.v1`` (the Foxglove SDK's name, which foxglove_bridge
+answers since 3.2 and the newer viewers offer).  The server takes the first of the viewer's
+names: both are served alike.
 
 A connection is admitted as an HTTP request is (decision 0034):
 
