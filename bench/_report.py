@@ -125,6 +125,7 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     from .remote import render as remote_section
     from .sessions import render as sessions_section
     from .sse_clients import render as sse_section
+    from .viewers import render as viewers_section
     from .world import render as world_section
 
     facts = {k: v for k, v in machine.items() if k != "quick"}
@@ -132,6 +133,7 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     sections = [("port_read", _port_read), ("service", _service), ("fanout", _fanout), ("load", _load),
                 ("soak", _soak), ("memory", _memory), ("world", world_section), ("remote", remote_section),
                 ("sse_clients", sse_section), ("sessions", sessions_section), ("budgets", budgets_section),
+                ("viewers", viewers_section),
                 ("record", record_section), ("instructions", instructions_section),
                 ("localisation", localisation_section)]
     for name, section in sections:
