@@ -107,10 +107,7 @@ class LiveViewServer:
         self._ids = itertools.count(1)
         self._session = str(time.time_ns())
         self._log = ThrottledLog(log)
-        self._http_log = logging.getLogger(f"{log.name}.http")
-        self._http_log.addFilter(_AsClientFault(self._log))
         self._runner: web.AppRunner | None = None
-        self._site: web.TCPSite | None = None
         self.port = 0
 
     # -- the server's life --------------------------------------------------------------------------
@@ -125,7 +122,7 @@ class LiveViewServer:
         app.router.add_route("*", "/{tail:.*}", self._connect)
         # No access log: a viewer's connection is not a request worth a line.  What aiohttp itself
         # would log is a malformed request's refusal: the client's doing, one DEBUG line.
-        runner = web.AppRunner(app, access_log=None, handle_signals=False, logger=self._http_log,
+        runner = web.AppRunner(app, access_log=None, handle_signals=False, logger=_HTTP_LOG,
                                shutdown_timeout=_STOP_GRACE)
         await runner.setup()
         site = web.TCPSite(runner, address, port)
@@ -134,10 +131,8 @@ class LiveViewServer:
         except BaseException:
             await runner.cleanup()
             raise
-        self._runner, self._site = runner, site
-        server = getattr(site, "_server", None)  # aiohttp keeps the asyncio server there
-        sockets = server.sockets if server is not None else ()
-        self.port = int(sockets[0].getsockname()[1]) if sockets else port
+        self._runner = runner
+        self.port = int(runner.addresses[0][1]) if runner.addresses else port
 
     async def stop(self) -> None:
         """Close every viewer's connection, within a second, and stop listening (idempotent)."""
@@ -307,6 +302,11 @@ class _AsClientFault(logging.Filter):
         fault = record.exc_info[1] if record.exc_info else None
         self._log.log(logging.DEBUG, "Foxglove view: %s: %s", record.getMessage(), fault)
         return False
+
+
+#: The logger the view's aiohttp server reports to: only ever about a request it could not parse.
+_HTTP_LOG = logging.getLogger(f"{log.name}.http")
+_HTTP_LOG.addFilter(_AsClientFault(ThrottledLog(log)))
 
 
 def _whole(value: Any) -> int:
