@@ -98,11 +98,6 @@ class FoxgloveView:
         """The TCP port the server listens on (0 before :meth:`start`)."""
         return self._server.port
 
-    @property
-    def viewers(self) -> int:
-        """How many viewers are connected."""
-        return len(self._server.viewers)
-
     async def start(self, instances: Mapping[str, LoadedInstance]) -> None:
         """Start the server and show the ports of *instances*.
 
