@@ -126,13 +126,16 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     from .rooms import render as rooms_section
     from .sessions import render as sessions_section
     from .sse_clients import render as sse_section
+    from .storm import render as storm_section
+    from .viewers import render as viewers_section
     from .world import render as world_section
 
     facts = {k: v for k, v in machine.items() if k != "quick"}
     out = [HEAD.format(quick=" (quick runs)" if machine.get("quick") else "", **facts)]
     sections = [("port_read", _port_read), ("service", _service), ("fanout", _fanout), ("load", _load),
                 ("soak", _soak), ("memory", _memory), ("world", world_section), ("remote", remote_section),
-                ("sse_clients", sse_section), ("sessions", sessions_section), ("budgets", budgets_section),
+                ("sse_clients", sse_section), ("sessions", sessions_section), ("storm", storm_section),
+                ("budgets", budgets_section), ("viewers", viewers_section),
                 ("record", record_section), ("instructions", instructions_section),
                 ("localisation", localisation_section), ("rooms", rooms_section)]
     for name, section in sections:

@@ -97,7 +97,7 @@ class AccessPolicy:
 
     def origin_allowed(self, origin: str) -> bool:
         """Whether pages of *origin* (other than the gateway's own) may use the gateway."""
-        return "*" in self.origins or origin in self.origins
+        return "*" in self.origins or origin.rstrip("/") in self.origins  # as the operator's: file:// is file:
 
 
 def browser_refusal(policy: AccessPolicy, path: str, headers: Mapping[str, str],

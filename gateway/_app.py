@@ -73,7 +73,8 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app.add_routes(_routes_docs.routes)
     app.cleanup_ctx.append(_host_lifetime(owns_host))
     if config.foxglove_port is not None:
-        app[FOXGLOVE] = FoxgloveView(config.foxglove_host, config.foxglove_port, clock=app[HOST].clock)
+        app[FOXGLOVE] = FoxgloveView(config.foxglove_host, config.foxglove_port, door, clock=app[HOST].clock,
+                                     max_viewers=config.max_viewers, viewer_bytes=config.viewer_bytes)
         app.cleanup_ctx.append(_foxglove_lifetime)
     app.on_shutdown.append(shut_down(owns_host))
     return app
@@ -106,7 +107,7 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
 async def _foxglove_lifetime(app: web.Application) -> AsyncIterator[None]:
     """The live view, from the start (the preloaded instances shown) to the end (after the components stop)."""
     view, host = app[FOXGLOVE], app[HOST]
-    view.start(host.instances)
+    await view.start(host.instances)
     hiding: set[asyncio.Task[None]] = set()
 
     def hide(instance: str) -> None:

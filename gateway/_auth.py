@@ -1,6 +1,7 @@
 """The gateway's token (``--token``): carried by every request, in a header or in the console's cookie.
 
-Programs send ``Authorization: Bearer <token>``.  A browser page cannot add
+Programs send ``Authorization: Bearer <token>``; the live view's viewers, which
+cannot set a header on a WebSocket, put it in the URL (``?token=``, ``_door``).  A browser page cannot add
 that header to the ``EventSource`` streams it opens, so the console trades the
 token once for a cookie: ``GET /console/login`` with the header answers with
 ``Set-Cookie`` holding a random credential of this gateway run (never the
@@ -52,6 +53,10 @@ class TokenCheck:
         # Header bytes that are not UTF-8 arrive as surrogate escapes: compare the bytes as sent.
         given = authorization.encode("utf-8", "surrogateescape")
         return hmac.compare_digest(given, self._expected)
+
+    def matches(self, token: str) -> bool:
+        """Whether *token* (given bare, as in the live view's URL) is the gateway's token."""
+        return hmac.compare_digest(b"Bearer " + token.encode("utf-8", "surrogateescape"), self._expected)
 
     def admits(self, headers: Mapping[str, str]) -> bool:
         """Whether a request with *headers* (by lower-case name) carries the token or the console's cookie."""

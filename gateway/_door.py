@@ -9,7 +9,9 @@ so a refusal always comes from one place).  The checks run in this order:
    cross-site marks; a refused page learns nothing more, not even whether a
    token is needed (403); a page of an allowed origin asking first
    (``OPTIONS``, a CORS preflight) is told what it may send;
-2. the token (``_auth``), when the gateway has one (401);
+2. the token (``_auth``), when the gateway has one (401): in a header or the
+   console's cookie, or in the live view's URL (``?token=``: a viewer cannot
+   set a header on a WebSocket);
 3. the query's parameters (``_parameters``): a name the endpoint does not take,
    or one of its names twice, is refused before anything runs (400).
 
@@ -82,7 +84,7 @@ class Door:
         self.token = token
 
     def decide(self, method: str, path: str, names: Iterable[str], headers: Mapping[str, str],
-               scheme: str = "http") -> Admission | Preflight | Refusal:
+               scheme: str = "http", url_token: str | None = None) -> Admission | Preflight | Refusal:
         """Decide on a request.
 
         Args:
@@ -91,13 +93,16 @@ class Door:
             names: The names of its query parameters, decoded, in order, repeats included.
             headers: Its header fields, looked up by lower-case name.
             scheme: How it reached the gateway (for telling the gateway's own pages apart).
+            url_token: The token as the live view's URL carries it (``?token=``, decoded), for the
+                viewers that cannot send a header; None elsewhere.
         """
         body, origin = browser_refusal(self.policy, path, headers, scheme)
         if body is not None:
             return Refusal(403, body)
         if origin is not None and method == "OPTIONS" and "access-control-request-method" in headers:
             return Preflight(origin)  # a browser's question, never with credentials: before the token
-        if self.token is not None and path not in OPEN_PATHS and not self.token.admits(headers):
+        if (self.token is not None and path not in OPEN_PATHS and not self.token.admits(headers)
+                and (url_token is None or not self.token.matches(url_token))):
             return Refusal(401, unauthorized_body(), origin)
         body = parameter_refusal(path, names, method)
         if body is not None:

@@ -158,8 +158,9 @@ async def _serve_until_signalled(config: GatewayConfig) -> None:
             if config.foxglove_port is not None:
                 host = f"[{config.foxglove_host}]" if ":" in config.foxglove_host else config.foxglove_host
                 shown_port = config.foxglove_port or "<free port, in the log>"
-                print(f"  Foxglove view ws://{host}:{shown_port} (in Foxglove or Lichtblick: open a connection, "
-                      "Foxglove WebSocket)", flush=True)
+                token = "/?token=<the token>" if config.token else ""
+                print(f"  Foxglove view ws://{host}:{shown_port}{token} (in Foxglove or Lichtblick: open a "
+                      "connection, Foxglove WebSocket)", flush=True)
             taken = _port_taken(config.host, config.audio_socket_port)
             if taken:
                 print(f"aiogenomix gateway: warning: the audio socket port {config.audio_socket_port} is taken "

@@ -31,7 +31,8 @@ from ..components.core.runtime import RequestStatus
 from ._errors import BadQuery, NoSuchSession, TooManySessions
 from ._sse import FINAL_ID, event_id, format_event
 
-__all__ = ["Listener", "Session", "SessionStore", "check_session_name", "MAX_NAME_LENGTH", "NAME_FORBIDDEN"]
+__all__ = ["Listener", "Event", "Session", "SessionStore", "check_session_name", "MAX_NAME_LENGTH", "NAME_FORBIDDEN",
+           "WRITE_SLICE"]
 
 _JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 
@@ -42,6 +43,8 @@ MAX_NAME_LENGTH = 128
 #: (The same class is the name's pattern in /openapi.json, so that generated names are always taken.)
 NAME_FORBIDDEN = "\x00-\x1f\x7f-\x9f\u2028\u2029"
 _FORBIDDEN = re.compile(f"[{NAME_FORBIDDEN}]")
+#: The most bytes of events a listen stream writes at once (a replay of many events goes out in slices).
+WRITE_SLICE = 16 * 1024
 
 
 def check_session_name(name: str) -> str:
@@ -65,6 +68,10 @@ def _shown(name: str) -> str:
 class Listener:
     """One open listen stream: a bounded buffer of framed events.
 
+    The frames are the session's own (made once per event, in both forms): a listener holds
+    references, never copies, so that a storm of listens replaying the session's latest events
+    costs a pointer per event each, not the events again.
+
     Args:
         limit: How many undelivered events it may hold before it is dropped.
         alive: Whether its connection is still open (a vanished client is only
@@ -82,14 +89,14 @@ class Listener:
         self.overflowed = False
         self.closed = False
 
-    def offer(self, frame: bytes, number: int) -> None:
-        """Queue the framed event *number* of its session (never blocks)."""
+    def offer(self, event: Event) -> None:
+        """Queue one event of its session, in the listener's form (never blocks)."""
         if self.closed:
             return
         if len(self.frames) >= self.limit:
             self.overflowed = True
         else:
-            self.frames.append(event_id(number) + frame if self.standard else frame)
+            self.frames.append(event.standard if self.standard else event.frame)
         self.ready.set()
 
     def quit(self, session: str) -> None:
@@ -105,12 +112,42 @@ class Listener:
         self.closed = True
         self.ready.set()
 
-    def take(self) -> bytes:
-        """Everything queued, joined into one write."""
-        data = b"".join(self.frames)
-        self.frames.clear()
-        self.ready.clear()
-        return data
+    @property
+    def ended(self) -> bool:
+        """Whether the stream is over: closed or overflowed, and nothing is left to write."""
+        return (self.closed or self.overflowed) and not self.frames
+
+    def take(self, most: int = WRITE_SLICE) -> bytes:
+        """The next frames, joined into one write of at most *most* bytes (or one frame, if larger).
+
+        A replay of the session's latest events goes out in such slices, each written when the
+        connection has taken the one before: a listen that dies in the middle held one slice.
+        """
+        frames = self.frames
+        taken = [frames.popleft()] if frames else []
+        size = len(taken[0]) if taken else 0
+        while frames and size + len(frames[0]) <= most:
+            size += len(frames[0])
+            taken.append(frames.popleft())
+        if not frames:
+            self.ready.clear()
+        return taken[0] if len(taken) == 1 else b"".join(taken)
+
+
+class Event:
+    """An event of a session, framed once in each form.
+
+    Attributes:
+        number: Its number in the session (the standard form's ``id``).
+        frame: genomix's form.
+        standard: The standard form (``id:`` line first).
+    """
+
+    __slots__ = ("number", "frame", "standard")
+
+    def __init__(self, frame: bytes, number: int) -> None:
+        self.number, self.frame = number, frame
+        self.standard = event_id(number) + frame
 
 
 class Session:
@@ -125,8 +162,8 @@ class Session:
     def __init__(self, name: str, backlog: int = 1000, listener_limit: int = 10000) -> None:
         self.name = name
         self.listeners: set[Listener] = set()
-        #: The latest events, with their numbers (the oldest go first).
-        self.recent: deque[tuple[bytes, int]] = deque(maxlen=backlog)
+        #: The latest events (the oldest go first).
+        self.recent: deque[Event] = deque(maxlen=backlog)
         #: The number of the session's last event (a standard stream's event ids).
         self.events = 0
         #: The number of the last event offered to a listener: those after it wait for one.
@@ -139,11 +176,12 @@ class Session:
         """Send a framed event to every live listener, and keep it among the latest (see :meth:`attach`)."""
         self.prune()
         self.events += 1
-        self.recent.append((frame, self.events))
+        event = Event(frame, self.events)
+        self.recent.append(event)
         if self.listeners:
             self.offered = self.events
         for listener in self.listeners:
-            listener.offer(frame, self.events)
+            listener.offer(event)
 
     def attach(self, alive: Callable[[], bool] = lambda: True, standard: bool = False,
                last_id: str | None = None) -> Listener:
@@ -154,9 +192,9 @@ class Session:
         """
         listener = Listener(self.listener_limit, alive, standard)
         after = self._resumed_after(last_id)
-        for frame, number in self.recent:
-            if number > after:
-                listener.offer(frame, number)
+        for event in self.recent:
+            if event.number > after:
+                listener.offer(event)
         self.offered = self.events
         self.listeners.add(listener)
         return listener
