@@ -23,6 +23,7 @@ from ._keys import (
     WatchFrames,
 )
 from ._read_bodies import ReadBodies
+from ._refusal_log import SERVER_LOG
 from ._watch_wakes import WatchWakes
 from ._sessions import SessionStore
 from ._shutdown import shut_down
@@ -51,7 +52,8 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     # in front of the routes instead (_connection), which costs less.
     guard = guard_middleware(door)
     middlewares: list[Middleware] = [guard]
-    app = web.Application(middlewares=middlewares)
+    # Whatever runner serves the app, aiohttp's server logs its refusals of client input as ours are.
+    app = web.Application(middlewares=middlewares, handler_args={"logger": SERVER_LOG})
     app[CONFIG] = config
     app[DOOR] = door
     app[GUARD] = guard

@@ -68,8 +68,9 @@ class FastReads:
         parameters = _parameters(query)
         if parameters is None:
             return None
-        headers = head.headers()
-        if not head.keeps_alive(headers) or self._door.decide("GET", path, parameters, headers) is not ADMITTED:
+        headers, repeated = head.headers()
+        if (not head.keeps_alive(headers)
+                or self._door.decide("GET", path, parameters, headers, repeated=repeated) is not ADMITTED):
             return None
         fmt = parameters.get("format", "")
         if fmt not in ("", "json", "binary"):

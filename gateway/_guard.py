@@ -14,7 +14,7 @@ from collections.abc import Awaitable, Callable
 from aiohttp import web
 from aiohttp.typedefs import Middleware
 
-from ._access import allow_origin, preflight_reply
+from ._access import allow_origin, preflight_reply, target_authority
 from ._door import Door, Preflight, Refusal
 from ._errors import error_reply
 from ._replies import json_reply
@@ -34,7 +34,13 @@ def guard_middleware(door: Door) -> Middleware:
         names = [name for name, _ in request.query.items()] if request.query_string else ()
         # The scheme matters only to tell a page of the gateway's own origin from another's.
         scheme = request.scheme if "Origin" in headers else "http"
-        verdict = door.decide(request.method, request.path, names, headers, scheme)
+        # An absolute-form target (``GET http://name/path``) names the request's host, whatever Host says.
+        target = request.raw_path
+        authority = target_authority(target) if target[:1] != "/" else None
+        # aiohttp's parser refuses a second Host; a second Origin is the door's to refuse.
+        repeated = ("origin",) if "Origin" in headers and len(headers.getall("Origin")) > 1 else ()
+        verdict = door.decide(request.method, request.path, names, headers, scheme, authority=authority,
+                              repeated=repeated)
         if type(verdict) is Refusal:
             response: web.StreamResponse = json_reply(verdict.body, status=verdict.status)
         elif type(verdict) is Preflight:

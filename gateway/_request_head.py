@@ -10,7 +10,9 @@ values, a body only by ``Content-Length``), and anything else is refused here
 with its status, before aiohttp sees a byte of it:
 
 * 400 for a malformed request line or field line, a method this gateway does
-  not know, two ``Content-Length`` fields or one that is not a number,
+  not know, a field that may appear once given twice (:data:`SINGLETONS`:
+  ``Host``, ``Content-Type``, ``User-Agent``...; RFC 9110 and 9112), or a
+  ``Content-Length`` that is not a number,
 * 411 for a body in chunked transfer coding (send a ``Content-Length``),
 * 414 for a request line longer than the gateway's ``max_url_bytes``,
 * 431 for a field line longer than :data:`MAX_FIELD_LINE` bytes, or more than
@@ -25,7 +27,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-__all__ = ["RequestHead", "HeadRefusal", "MAX_FIELD_LINE", "MAX_FIELDS", "head_end", "parse_head", "check_partial"]
+__all__ = ["RequestHead", "HeadRefusal", "MAX_FIELD_LINE", "MAX_FIELDS", "SINGLETONS", "head_end", "parse_head",
+           "check_partial"]
 
 #: The longest field (header) line, in bytes (aiohttp's own default).
 MAX_FIELD_LINE = 8190
@@ -34,6 +37,11 @@ MAX_FIELDS = 100
 #: Methods passed on to the routes (which answer 405 for those they do not take).  aiohttp's parser
 #: knows more (WebDAV's, CONNECT), none of which this gateway serves.
 METHODS = frozenset({"GET", "HEAD", "POST", "PUT", "DELETE", "OPTIONS", "PATCH"})
+
+#: The fields a request may carry once at most (RFC 9110's singletons): aiohttp's parser refuses a repeated
+#: one too, so a head with one is refused here, where the refusal is the gateway's documented one.
+SINGLETONS = frozenset({"content-length", "content-location", "content-range", "content-type", "etag", "host",
+                        "max-forwards", "server", "transfer-encoding", "user-agent"})
 
 _METHOD_NAMES = {method.encode(): method for method in METHODS}
 _VERSIONS = {b" HTTP/1.1": "1.1", b" HTTP/1.0": "1.0"}
@@ -47,6 +55,8 @@ _SIMPLE_REQUEST = re.compile(rb"[A-Z]+ /[\x21-\x7e]*")
 _FIELD_LINES = re.compile(rb"(?:" + _TOKEN + rb":[\t\x20-\x7e\x80-\xff]*\r\n)*")
 _CONTENT_LENGTH = re.compile(rb"^content-length:[ \t]*([0-9]{1,15})[ \t]*\r$", re.IGNORECASE | re.MULTILINE)
 _UPGRADE_LINE = re.compile(rb"^upgrade:[^\r]*\r\n", re.IGNORECASE | re.MULTILINE)
+_SINGLETON_LINE = re.compile(rb"^(" + rb"|".join(name.encode() for name in sorted(SINGLETONS)) + rb"):",
+                             re.IGNORECASE | re.MULTILINE)
 # The fields that say what follows a head: a body, or another protocol.
 _FRAMING = re.compile(rb"^(?:content-length|transfer-encoding|upgrade):", re.IGNORECASE | re.MULTILINE)
 
@@ -86,13 +96,21 @@ class RequestHead:
     raw: bytes
     body_length: int
 
-    def headers(self) -> dict[str, str]:
-        """The fields by lower-case name; a repeated name keeps its first value, as aiohttp's ``get`` does."""
+    def headers(self) -> tuple[dict[str, str], set[str]]:
+        """The fields by lower-case name, and the names given more than once.
+
+        A repeated name keeps its first value, as aiohttp's ``get`` does.
+        """
         found: dict[str, str] = {}
+        repeated: set[str] = set()
         for line in self.fields.split(b"\r\n")[:-1]:
             name, _, value = line.partition(b":")
-            found.setdefault(name.decode("ascii").lower(), value.strip(b" \t").decode("latin-1"))
-        return found
+            key = name.decode("ascii").lower()
+            if key in found:
+                repeated.add(key)
+            else:
+                found[key] = value.strip(b" \t").decode("latin-1")
+        return found, repeated
 
     def keeps_alive(self, headers: dict[str, str]) -> bool:
         """Whether the connection stays open after the reply: HTTP/1.1 whose *headers* do not say ``close``."""
@@ -132,6 +150,9 @@ def parse_head(buffer: bytes, start: int, end: int) -> RequestHead:
         raise HeadRefusal(431, f"a request may carry at most {MAX_FIELDS} header fields")
     if len(fields) > MAX_FIELD_LINE and max(map(len, fields.split(b"\r\n"))) > MAX_FIELD_LINE:
         raise HeadRefusal(431, f"a request header line is longer than {MAX_FIELD_LINE} bytes")
+    singletons = _SINGLETON_LINE.findall(fields)
+    if len(singletons) > 1:
+        _refuse_repeated(singletons)
     if _FRAMING.search(fields):  # rare: a body, or an upgrade
         lowered = fields.lower()
         if b"\ntransfer-encoding:" in b"\n" + lowered:
@@ -167,6 +188,17 @@ def check_partial(buffer: bytes, start: int, max_url_bytes: int) -> None:
 def _too_long(max_url_bytes: int) -> HeadRefusal:
     return HeadRefusal(414, f"the request line (the URL with its query, input= included) is longer than "
                             f"{max_url_bytes} bytes, this gateway's limit")
+
+
+def _refuse_repeated(singletons: list[bytes]) -> None:
+    """Refuse a head in which one of the *singletons* found (field names as sent) is given twice."""
+    seen: set[bytes] = set()
+    for name in singletons:
+        lowered = name.lower()
+        if lowered in seen:
+            raise HeadRefusal(400, f"malformed HTTP request: the {name.decode()} header field is given more "
+                                   "than once")
+        seen.add(lowered)
 
 
 def _content_length(fields: bytes) -> int:
