@@ -19,9 +19,12 @@ from ._door import Door, Preflight, Refusal
 from ._errors import error_reply
 from ._replies import json_reply
 
-__all__ = ["guard_middleware", "Handler"]
+__all__ = ["guard_middleware", "expect_body", "Handler", "MAX_BODY_BYTES"]
 
 Handler = Callable[[web.Request], Awaitable[web.StreamResponse]]
+
+#: The largest request body the gateway reads (a POST's JSON input): 1 MiB, aiohttp's own default.
+MAX_BODY_BYTES = 1 << 20
 
 
 def guard_middleware(door: Door) -> Middleware:
@@ -43,6 +46,8 @@ def guard_middleware(door: Door) -> Middleware:
                               repeated=repeated)
         if type(verdict) is Refusal:
             response: web.StreamResponse = json_reply(verdict.body, status=verdict.status)
+        elif (request.content_length or 0) > MAX_BODY_BYTES:
+            response = _too_large(request.content_length or 0)
         elif type(verdict) is Preflight:
             return preflight_reply(verdict.origin)
         else:
@@ -55,3 +60,33 @@ def guard_middleware(door: Door) -> Middleware:
         return response
 
     return guard
+
+
+async def expect_body(request: web.Request) -> web.StreamResponse | None:
+    """The answer of the routes that take a body to ``Expect: 100-continue``, before the guard runs.
+
+    aiohttp asks a route's expect handler before its middleware: a body announced
+    longer than :data:`MAX_BODY_BYTES` gets 413 at once (the client sends nothing),
+    any other ``100 Continue`` (and an expectation other than ``100-continue`` 417).
+    """
+    length = request.content_length or 0
+    if length > MAX_BODY_BYTES:
+        return _too_large(length)
+    if request.headers.get("Expect", "").lower() != "100-continue":
+        return json_reply({"ex": "::genomix::http", "message": "the only expectation taken is 100-continue"},
+                          status=417)
+    if request.version >= (1, 1):
+        await request.writer.write(b"HTTP/1.1 100 Continue\r\n\r\n")
+        request.writer.output_size = 0  # the interim reply is not the reply's (as aiohttp's own handler does)
+    return None
+
+
+def _too_large(length: int) -> web.StreamResponse:
+    """413 for a body announced longer than :data:`MAX_BODY_BYTES`, at once: before a ``100 Continue``.
+
+    The body is not read: the connection closes after the reply.
+    """
+    response = json_reply({"ex": "::genomix::http", "message": f"a request body may be at most {MAX_BODY_BYTES} "
+                                                               f"bytes; this one announces {length}"}, status=413)
+    response.force_close()
+    return response
