@@ -140,15 +140,15 @@ class GatewayConnection(web.RequestHandler):
         self._linger: asyncio.TimerHandle | None = None
         self._lingering: asyncio.Transport | None = None  # refused, closed after LINGER or the client's end
         self._busy = 0  # requests in the handler
-        self._unread = False  # bytes came since the last request reached the handler
+        self._unread = False  # bytes came while a request was in the handler
+        self._head_since: float | None = None  # when the head being received began (the loop's clock)
         self._unread_body: StreamReader | None = None  # of the last request, being read to its end by aiohttp
 
     # -- the connection ---------------------------------------------------------------------
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:  # noqa: D102
         super().connection_made(transport)
-        self._unread = True  # a connection is opened to send a request: its head is timed from now
-        self._arm_head_timer()
+        self._time_head()  # a connection is opened to send a request: its head is timed from now
 
     def connection_lost(self, exc: BaseException | None) -> None:  # noqa: D102
         for timer in (self._head_timer, self._linger):
@@ -173,15 +173,16 @@ class GatewayConnection(web.RequestHandler):
     def data_received(self, data: bytes) -> None:  # noqa: D102
         if self._refused:
             return  # the rest of a refused request, read and dropped while the client reads the refusal
-        self._unread = True
         super().data_received(data)
         body = self._unread_body
         if body is not None:
             if not body.is_eof():
                 return  # the rest of the body of a request answered already: aiohttp reads it, no head yet
             self._unread_body = None
-        if not self._busy:
-            self._arm_head_timer()
+        if self._busy:
+            self._unread = True  # a head after the request being answered: timed once that one is
+        elif self._head_since is None:
+            self._time_head()
 
     # -- requests (told by the server's request handler: see ``_run``) ----------------------
 
@@ -189,15 +190,14 @@ class GatewayConnection(web.RequestHandler):
         """A request's head is complete and its handler runs."""
         self._busy += 1
         self._unread = False
-        if self._head_timer is not None:
-            self._head_timer.cancel()
-            self._head_timer = None
+        self._head_since = None
 
     def request_ended(self, request: web.BaseRequest) -> None:
         """The handler of *request* returned: bytes received meanwhile start the next head's time."""
         self._busy -= 1
         if not self._busy and self._unread:
-            self._arm_head_timer()
+            self._unread = False
+            self._time_head()
         # aiohttp reads what is left of a body nobody read (for up to its lingering time), so
         # that the client reads the reply rather than a reset.  It does not stop when the
         # connection is lost: :meth:`connection_lost` ends that body.
@@ -265,17 +265,28 @@ class GatewayConnection(web.RequestHandler):
 
     # -- the head timer ---------------------------------------------------------------------
 
-    def _arm_head_timer(self) -> None:
-        if self._head_timer is None and self._limits.header_timeout > 0 and not self._refused:
-            self._head_timer = self._event_loop.call_later(self._limits.header_timeout, self._head_timed_out)
+    def _time_head(self) -> None:
+        """Time a head from now: its first byte came, or the request before it has been answered.
+
+        One timer per connection, moved on lazily: a timer made and cancelled at every request
+        of 50 busy connections would cost asyncio more than the rest of the connection.
+        """
+        if self._limits.header_timeout <= 0 or self._refused:
+            return
+        self._head_since = self._event_loop.time()
+        if self._head_timer is None:
+            self._head_timer = self._event_loop.call_at(self._head_since + self._limits.header_timeout,
+                                                        self._head_timed_out)
 
     def _head_timed_out(self) -> None:
         self._head_timer = None
-        if self.transport is None or self._refused:
-            return
-        if self._busy:
-            self._arm_head_timer()  # a request is being answered: the head after it is timed once that one is
-        elif self._unread:
+        since = self._head_since
+        if self.transport is None or self._refused or since is None:
+            return  # closed, or no head being received (timed again from the next one's first byte)
+        deadline = since + self._limits.header_timeout
+        if self._event_loop.time() < deadline:
+            self._head_timer = self._event_loop.call_at(deadline, self._head_timed_out)
+        else:
             self._refuse(408, f"the request head took more than {self._limits.header_timeout:g} s")
 
 
