@@ -70,11 +70,12 @@ def _analysis(results: dict[str, Any]) -> str:
         "answer with an error, is passed to aiohttp. The bytes are those orjson gives for the joined arrays, and "
         "those the route gives (`tests/gateway/test_port_pieces.py`, `test_fast_reads.py`); a window that turns "
         "over during a reply does not tear it.",
-        "* **A read of a new publication** (the profile above): a request's bytes received "
-        f"{f('a request' + chr(39) + 's bytes received (its head read, and a plain read answered)')} per request "
-        f"under the profiler, of which the head's checks {f('the head checked (request line and fields)')}, the "
+        "* **A read of a new publication** (the profile above): aiohttp reads every request's head "
+        f"({f('aiohttp: a request' + chr(39) + 's bytes received and parsed (every request)')} per call under the "
+        "profiler) and hands it to the server's handler "
+        f"({f('the server' + chr(39) + 's handler: a plain read answered, or the routes')}), of which the "
         f"door {f('the door' + chr(39) + 's decision')}, the plain read "
-        f"{f('a plain read answered at the connection (all below but the write)')} (its body, found ready, "
+        f"{f('a plain read answered ahead of the routes (all below but the write)')} (its body, found ready, "
         f"{f('the read' + chr(39) + 's body (made ahead for a polled form: found ready)')}) and the `writev` "
         f"{f('the gathered write (writev: the kernel' + chr(39) + 's copy)')}: the kernel's copy of the bytes, "
         "what the floor pays too. Each body made ahead took "
@@ -83,7 +84,7 @@ def _analysis(results: dict[str, Any]) -> str:
         f"{f('build a JSON body (splice the chunks' + chr(39) + ' texts)')} (a new chunk's text is made once, by "
         f"its first reader), a binary one {f('build a binary body (list the chunks' + chr(39) + ' memory)')}. "
         "For comparison, `/version` through aiohttp's routes: "
-        f"{f('aiohttp: handle a request through the routes (/version)')} per request, of which its handler "
+        f"{f('the guard, route and handler (/version)')} per request, of which its handler "
         f"{f('the /version handler')}. Each fresh read also pays waking both processes after a pause: "
         f"{_wake(results)}.",
         "* **Small windows (500 and 1000 ms).** The floor moves 0.18–0.87 MB in a few tenths of a millisecond, so "
@@ -312,8 +313,12 @@ def _load(r: dict[str, Any]) -> str:
         *([] if "gateway_cpu_us_per_request" not in r else [
             "", f"CPU time per request (from /proc, the server's own, whatever else the machine runs): gateway "
             f"{r['gateway_cpu_us_per_request']:.0f} µs, bare aiohttp {r['bare_cpu_us_per_request']:.0f} µs "
-            f"(ratio {r['bare_cpu_us_per_request'] / r['gateway_cpu_us_per_request']:.2f})"
-            + ("." if "baseline" not in r else f", before {r['baseline_cpu_us_per_request']:.0f} µs.")]), ""])
+            + (f"(gateway ÷ bare aiohttp {r['cpu_ratio']:.2f}, median of the rounds' ratios; target ≤ "
+               f"{r['target_cpu_ratio']})" if "cpu_ratio" in r else
+               f"(ratio {r['bare_cpu_us_per_request'] / r['gateway_cpu_us_per_request']:.2f})")
+            + ("." if "baseline" not in r else f", before {r['baseline_cpu_us_per_request']:.0f} µs"
+               + (f" ({r['baseline_cpu_ratio']:.2f} of bare aiohttp's)." if "baseline_cpu_ratio" in r else "."))]),
+        ""])
 
 
 def _soak(r: dict[str, Any]) -> str:
