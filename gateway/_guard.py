@@ -1,10 +1,12 @@
 """The guard in front of the routes: the door's decision, then the handler, its errors as genomix JSON.
 
-The gateway's connections call it as the server's request handler, given the
-routes (``_connection``); an application served by aiohttp's own runner has it
-as its one middleware.  Either way a refused request never reaches a route,
-every exception of a handler becomes the documented error reply, and a page of
-an allowed other origin gets the CORS headers it needs to read the reply.
+It is the application's one middleware, however the application is served
+(docs/decisions/0034): a refused request never reaches a route, a body announced
+longer than :data:`MAX_BODY_BYTES` is refused before it is read, every exception
+of a handler becomes the documented error reply, and a page of an allowed other
+origin gets the CORS headers it needs to read the reply.  The routes that take a
+body answer ``Expect: 100-continue`` with :func:`expect_body`, which aiohttp asks
+before the middleware.
 """
 
 from __future__ import annotations
