@@ -75,6 +75,8 @@ class FastReads:
         if parameters is None or request.body_exists:
             return None
         headers = request.headers
+        if "Expect" in headers:  # answered by the route's expect handler (100 Continue, or 417)
+            return None
         repeated = ("origin",) if "Origin" in headers and len(headers.getall("Origin")) > 1 else ()
         if self._door.decide("GET", path, parameters, headers, repeated=repeated) is not ADMITTED:
             return None
