@@ -8,7 +8,6 @@ from collections.abc import AsyncIterator, Callable
 
 import orjson
 from aiohttp import web
-from aiohttp.typedefs import Middleware
 
 from ..components.core import ComponentHost, ScaledClock
 from . import _routes_admin, _routes_docs, _routes_modules, _routes_openapi, _routes_ports, _routes_sessions
@@ -16,12 +15,13 @@ from ._access import AccessPolicy
 from ._auth import TokenCheck
 from ._config import GatewayConfig
 from ._door import Door
-from ._guard import guard_middleware
+from ._guard import MAX_BODY_BYTES, guard_middleware
 from ._foxglove import FoxgloveView
 from ._keys import (
-    CONFIG, DOOR, FOXGLOVE, GUARD, HOST, READ_BODIES, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, Shutdown,
+    CONFIG, DOOR, FOXGLOVE, HOST, READ_BODIES, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, Shutdown,
     WatchFrames,
 )
+from ._connection import ConnectionLimits, handler_arguments
 from ._read_bodies import ReadBodies
 from ._watch_wakes import WatchWakes
 from ._sessions import SessionStore
@@ -47,14 +47,14 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     config.check()
     door = Door(AccessPolicy(config.allowed_hosts, config.allowed_origins),
                 TokenCheck(config.token) if config.token else None)
-    # One middleware: the door, then errors as JSON; the gateway's own connections call it
-    # in front of the routes instead (_connection), which costs less.
-    guard = guard_middleware(door)
-    middlewares: list[Middleware] = [guard]
-    app = web.Application(middlewares=middlewares)
+    # One middleware: the door, then errors as JSON.  The limits of a connection are aiohttp's
+    # handler's, so that whatever runner serves the app applies them (``serve`` adds the
+    # refusals in JSON, the head timeout and the plain reads ahead of the routes).
+    limits = ConnectionLimits(config.max_url_bytes, config.header_timeout, config.keep_alive)
+    app = web.Application(middlewares=[guard_middleware(door)], handler_args=handler_arguments(limits),
+                          client_max_size=MAX_BODY_BYTES)
     app[CONFIG] = config
     app[DOOR] = door
-    app[GUARD] = guard
     app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)
     app[SHUTDOWN] = Shutdown()
     app[WATCH_FRAMES] = WatchFrames()

@@ -36,7 +36,8 @@ import orjson
 from aiohttp import WSMsgType, web
 
 from ..components.core import ThrottledLog
-from ._door import Door, Refusal
+from ._access import target_authority
+from ._door import Door, Refusal, repeated_fields
 from ._foxglove_viewer import ERROR, WARNING, Viewer
 from ._parameters import LIVE_VIEW
 from ._replies import SERVER_HEADER, json_reply
@@ -212,7 +213,11 @@ class LiveViewServer:
         headers = request.headers
         names = [name for name, _ in request.query.items()] if request.query_string else ()
         tokens = request.query.getall("token", ()) if request.query_string else ()
-        verdict = self.door.decide("GET", LIVE_VIEW, names, headers, url_token=tokens[0] if tokens else None)
+        # The host a request names: an absolute-form target's authority, whatever Host says (as on HTTP).
+        target = request.raw_path
+        authority = target_authority(target) if target[:1] != "/" else None
+        verdict = self.door.decide("GET", LIVE_VIEW, names, headers, url_token=tokens[0] if tokens else None,
+                                   authority=authority, repeated=repeated_fields(headers))
         if isinstance(verdict, Refusal):
             return verdict
         if request.method != "GET" or headers.get("Upgrade", "").lower() != "websocket":
