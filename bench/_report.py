@@ -63,7 +63,7 @@ def _analysis(results: dict[str, Any]) -> str:
         "publication and form, so readers of one publication share it, and for each form read during a "
         "publication the next publication's body is made as soon as it is published (`gateway/_read_bodies.py`): "
         "a client polling at the port's rate finds it ready. Every request is read once, by aiohttp's parser "
-        "(`gateway/_connection.py`, decision 34); a plain read (a `GET /module/M/read/P` with at most `format` "
+        "(`gateway/_connection.py`, decision 37); a plain read (a `GET /module/M/read/P` with at most `format` "
         "and `since`, that the door admits as a program's) is answered by the server's handler ahead of the routes "
         "when the socket has nothing left to send (`gateway/_fast_reads.py`), without aiohttp's routing, "
         "middleware and response object. Every other request, and every read the door refuses or the routes "

@@ -1,4 +1,4 @@
-"""The application ``create_app`` builds answers alike however it is served (decision 34).
+"""The application ``create_app`` builds answers alike however it is served (decision 37).
 
 ``serve`` runs that application as it is, with the gateway's connections and the
 plain reads ahead of the routes; an embedder may serve it with aiohttp's own runner.
