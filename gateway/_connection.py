@@ -1,7 +1,7 @@
 """The gateway's HTTP connections: aiohttp's own, with the refusals, limits and timeouts the protocol documents.
 
 Every request is read once, by aiohttp's parser (llhttp, in C): there is no
-other reader of requests to disagree with it (docs/decisions/0034).  Each
+other reader of requests to disagree with it (docs/decisions/0037).  Each
 connection is a :class:`GatewayConnection`, aiohttp's connection handler
 (``web.RequestHandler``, made for the server the application's runner built)
 with what the gateway's protocol adds to it, in one place:

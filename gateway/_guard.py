@@ -1,7 +1,7 @@
 """The guard in front of the routes: the door's decision, then the handler, its errors as genomix JSON.
 
 It is the application's one middleware, however the application is served
-(docs/decisions/0034): a refused request never reaches a route, a body announced
+(docs/decisions/0037): a refused request never reaches a route, a body announced
 longer than :data:`MAX_BODY_BYTES` is refused before it is read, every exception
 of a handler becomes the documented error reply, and a page of an allowed other
 origin gets the CORS headers it needs to read the reply.  The routes that take a
