@@ -22,7 +22,7 @@ READING = {"name": "Reading", "doc": "A reading", "type": {"name": "double", "ki
 @pytest.fixture
 async def loaded(tmp_path: Path) -> AsyncIterator[tuple[ComponentHost, Path]]:
     """A replay loaded with a recording of three readings."""
-    stream, path = create_recording(str(tmp_path / "readings.mcap"), None)
+    stream, path, *_ = create_recording(str(tmp_path / "readings.mcap"), None)
     recording = Recording.open(stream, path, {})
     port = recording.add_port("probe/Reading", READING)
     for k in range(3):
