@@ -27,7 +27,7 @@ import io
 import math
 import os
 import stat
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import BinaryIO, TextIO
 
@@ -142,8 +142,11 @@ class _Output:
 
 
 def export_recording(recording: str | os.PathLike[str], directory: str | os.PathLike[str], *,
-                     overwrite: bool = False) -> list[ExportedFile]:
+                     overwrite: bool = False, notice: Callable[[str], None] | None = None) -> list[ExportedFile]:
     """Write the WAV and CSV files of a recording into *directory* (made if missing); return what was written.
+
+    A recording its recorder did not end (killed, crashed) is exported up to its last complete
+    chunk; *notice*, when given, is told so in a sentence first.
 
     Raises:
         NotARecording: when the file is not a recording, or holds neither audio nor a head state.
@@ -152,6 +155,8 @@ def export_recording(recording: str | os.PathLike[str], directory: str | os.Path
     """
     written: list[ExportedFile] = []
     with open(recording, "rb") as stream, RecordingReader(stream, os.fspath(recording)) as reader:
+        if reader.unfinished is not None and notice is not None:
+            notice(reader.unfinished.said)
         # As private as the recording: one its owner alone reads makes files its owner alone reads.
         mode = os.fstat(stream.fileno()).st_mode & 0o666
         with _Output(Path(directory), overwrite, mode) as out:

@@ -32,7 +32,8 @@ from mcap.records import (
 
 from ..core import OverBudget
 
-__all__ = ["McapFile", "MAGIC", "DEFAULT_CHUNK_SIZE", "WriteFailed", "QuotaReached", "ByteQuota"]
+__all__ = ["McapFile", "MAGIC", "DEFAULT_CHUNK_SIZE", "WriteFailed", "QuotaReached", "ByteQuota", "file_ending",
+           "record_bytes"]
 
 MAGIC = b"\x89MCAP0\r\n"
 #: Uncompressed bytes gathered before a chunk is written.  The mcap reader decompresses whole chunks
@@ -111,7 +112,6 @@ class McapFile:
         self._counts: dict[int, int] = defaultdict(int)
         self._start_time: int | None = None
         self._end_time = 0
-        self._metadata_count = 0
         self._open = RecordBuilder()
         self._open_indexes: dict[int, MessageIndex] = {}
         self._open_counts: dict[int, int] = defaultdict(int)
@@ -226,7 +226,6 @@ class McapFile:
         index_size = len(_built(index))
         self._write(data, ending=self._ending_bound(index_size))
         self._metadata_indexes.append(index)
-        self._metadata_count += 1
         self._summary_bytes += index_size
 
     def add_message(self, channel_id: int, log_time: int, publish_time: int, sequence: int, data: bytes) -> None:
@@ -324,40 +323,65 @@ class McapFile:
 
     def _ending(self) -> bytes:
         """DataEnd, the summary (schemas, channels, statistics, chunk and metadata indexes), the footer, the magic."""
-        head = _built(DataEnd(data_section_crc=0))
-        summary_start = self.committed + len(head)
-        builder = RecordBuilder()
-        offsets: list[SummaryOffset] = []
+        return file_ending(self.committed, schemas=list(self._schemas.values()), channels=list(self._channels.values()),
+                           counts=dict(self._counts), times=(self._start_time or 0, self._end_time),
+                           chunk_indexes=self._chunk_indexes, chunk_count=self._chunk_count,
+                           metadata_indexes=self._metadata_indexes)
 
-        def group(opcode: int, records: list[Schema] | list[Channel] | list[Statistics] | list[MetadataIndex]
-                  | bytearray) -> None:
-            if not records:
-                return
-            start = builder.count
-            if isinstance(records, bytearray):
-                builder.write(records)  # records already encoded
-            else:
-                for record in records:
-                    record.write(builder)
-            offsets.append(SummaryOffset(group_opcode=opcode, group_start=summary_start + start,
-                                         group_length=builder.count - start))
 
-        statistics = Statistics(
-            message_count=self.messages, schema_count=len(self._schemas), channel_count=len(self._channels),
-            attachment_count=0, metadata_count=self._metadata_count, chunk_count=self._chunk_count,
-            message_start_time=self._start_time or 0, message_end_time=self._end_time,
-            channel_message_counts=dict(self._counts))
-        group(Opcode.SCHEMA, list(self._schemas.values()))
-        group(Opcode.CHANNEL, list(self._channels.values()))
-        group(Opcode.STATISTICS, [statistics])
-        group(Opcode.CHUNK_INDEX, self._chunk_indexes)
-        group(Opcode.METADATA_INDEX, self._metadata_indexes)
-        summary_offset_start = summary_start + builder.count
-        for offset in offsets:
-            offset.write(builder)
-        summary = _end(builder)
-        footer = Footer(summary_start=summary_start, summary_offset_start=summary_offset_start, summary_crc=0)
-        return head + summary + _built(footer) + MAGIC
+def file_ending(data_end: int, *, schemas: list[Schema], channels: list[Channel], counts: dict[int, int],
+                times: tuple[int, int], chunk_indexes: bytes | bytearray, chunk_count: int,
+                metadata_indexes: list[MetadataIndex]) -> bytes:
+    """The end of an MCAP file whose data section ends at *data_end*: DataEnd, the summary, the footer, the magic.
+
+    Args:
+        data_end: Where the data section ends (the ending is written there).
+        schemas: The file's schemas.
+        channels: Its channels.
+        counts: Messages per channel id.
+        times: The log times of its first and last messages.
+        chunk_indexes: Its ChunkIndex records, encoded, in the order of the chunks.
+        chunk_count: How many they are.
+        metadata_indexes: Its metadata records' indexes.
+    """
+    head = _built(DataEnd(data_section_crc=0))
+    summary_start = data_end + len(head)
+    builder = RecordBuilder()
+    offsets: list[SummaryOffset] = []
+
+    def group(opcode: int, records: list[Schema] | list[Channel] | list[Statistics] | list[MetadataIndex]
+              | bytes | bytearray) -> None:
+        if not records:
+            return
+        start = builder.count
+        if isinstance(records, (bytes, bytearray)):
+            builder.write(records)  # records already encoded
+        else:
+            for record in records:
+                record.write(builder)
+        offsets.append(SummaryOffset(group_opcode=opcode, group_start=summary_start + start,
+                                     group_length=builder.count - start))
+
+    statistics = Statistics(
+        message_count=sum(counts.values()), schema_count=len(schemas), channel_count=len(channels),
+        attachment_count=0, metadata_count=len(metadata_indexes), chunk_count=chunk_count,
+        message_start_time=times[0], message_end_time=times[1], channel_message_counts=dict(counts))
+    group(Opcode.SCHEMA, schemas)
+    group(Opcode.CHANNEL, channels)
+    group(Opcode.STATISTICS, [statistics])
+    group(Opcode.CHUNK_INDEX, chunk_indexes)
+    group(Opcode.METADATA_INDEX, metadata_indexes)
+    summary_offset_start = summary_start + builder.count
+    for offset in offsets:
+        offset.write(builder)
+    summary = _end(builder)
+    footer = Footer(summary_start=summary_start, summary_offset_start=summary_offset_start, summary_crc=0)
+    return head + summary + _built(footer) + MAGIC
+
+
+def record_bytes(record: ChunkIndex) -> bytes:
+    """One record, encoded."""
+    return _built(record)
 
 
 def _built(record: Header | Schema | Channel | Chunk | ChunkIndex | Metadata | MetadataIndex | Footer | DataEnd

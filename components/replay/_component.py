@@ -10,7 +10,7 @@ from typing import Annotated, Any
 
 from ..core import (
     Boolean, Component, ComponentHost, DescribedType, Double, GenomException, LoadError, Out, OutPort, OutPortRuntime,
-    String, ULongLong,
+    String, ThrottledLog, ULongLong,
     activity, function, idl_struct,
 )
 from ..recording import PortMessage, RecordingError, RecordingReader, open_recording, replay_roots
@@ -18,6 +18,8 @@ from ..recording import PortMessage, RecordingError, RecordingReader, open_recor
 __all__ = ["Replay", "ReplayStatus", "NOT_PLAYING"]
 
 log = logging.getLogger(__name__)
+#: A client may load an unfinished recording again and again: said a few times a minute.
+_throttled = ThrottledLog(log)
 
 
 @idl_struct("replay::status")
@@ -105,6 +107,8 @@ class Replay(Component, name="replay", version="1.0"):
         """The recording's non-audio ports with their types and docs, and its time span."""
         opened, _ = self._reader()
         with opened as reader:
+            if reader.unfinished is not None:
+                _throttled.warning("%s: %s", self.instance, reader.unfinished.said)
             ports = []
             for channel in reader.channels("port"):
                 recorded = channel.metadata["aiogenomix.port"]
