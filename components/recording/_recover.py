@@ -114,11 +114,11 @@ class _Scan:
                 return
             opcode, length = _RECORD_HEAD.unpack(head)
             end = offset + _RECORD_HEAD.size + length
-            if opcode in _SUMMARY_OPCODES and end <= self.size:
+            if end > self.size or opcode == 0:
+                return   # cut short, or zeros a crash left: the data ends with the last whole record
+            if opcode in _SUMMARY_OPCODES:
                 self.last_indexes_whole = True   # the data section was ended: only its summary is missing
                 return
-            if end > self.size or opcode == 0 or opcode in _SUMMARY_OPCODES:
-                return   # cut short, or zeros a crash left: the data ends with the last whole record
             if opcode == Opcode.MESSAGE_INDEX and self.chunks:
                 channel, entries = _INDEX_HEAD.unpack(self.stream.read(_INDEX_HEAD.size))
                 chunk = self.chunks[-1]
@@ -163,9 +163,12 @@ class _Scan:
             try:
                 records = breakup_chunk(Chunk.read(ReadDataStream(self.stream)), validate_crc=True)
             except (McapError, ValueError, EOFError, struct.error):
-                # Written, but not whole (a crash between the file's size and its data reaching the disk).
+                # Written, but not whole (a crash between the file's size and its data reaching the disk): the
+                # data ends before it, and the indexes of the chunk before were followed by it, so are whole.
                 self.chunks.pop()
                 self.kept = last.offset
+                self.metadata = [m for m in self.metadata if m.offset + m.length <= self.kept]
+                self.last_indexes_whole = True
                 continue
             if not self.last_indexes_whole:
                 # Its indexes may lack channels: readers scan it whole; its counts come from its data.

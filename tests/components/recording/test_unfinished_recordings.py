@@ -25,8 +25,10 @@ import aiohttp
 import numpy as np
 import pytest
 import soundfile
+from mcap.data_stream import RecordBuilder
 from mcap.exceptions import McapError
 from mcap.reader import NonSeekingReader, make_reader
+from mcap.records import Metadata
 
 from aiogenomix.components.audio import SceneError, open_backend
 from aiogenomix.components.core import ComponentHost, HostSettings, ManualClock, VirtualClock
@@ -126,12 +128,20 @@ def test_a_crash_s_zeros_and_a_damaged_last_chunk_are_left_out(whole: bytes) -> 
     # Zeros where the disk had not received the data when the machine went down.
     zeros = whole[:chunks[2][1]] + bytes(64 << 10)
     assert our_read(zeros)[0] == stream_read(whole[:chunks[2][1]])
-    # A last chunk whose data does not check (its CRC): left out, the chunks before are read.
-    damaged = bytearray(whole[:chunks[2][1]])
+    # A last chunk whose data does not check (its CRC): left out with what follows it, the chunks before are read.
+    damaged = bytearray(whole[:chunks[2][1]] + metadata_record("after", {"written": "after the chunk"}))
     damaged[chunks[2][1] - 100] ^= 0xFF
     messages, reader = our_read(bytes(damaged))
     assert messages == stream_read(whole[:chunks[1][1]])
-    assert reader.unfinished is not None and reader.unfinished.kept <= chunks[2][0]
+    assert reader.unfinished is not None and reader.unfinished.kept == chunks[2][0]
+    assert set(reader.metadata()) == {"aiogenomix", "aiogenomix.end"}   # "after" went with the chunk
+
+
+def metadata_record(name: str, values: dict[str, str]) -> bytes:
+    builder = RecordBuilder()
+    Metadata(name=name, metadata=values).write(builder)
+    data: bytes = builder.end()  # type: ignore[no-untyped-call]
+    return data
 
 
 async def test_an_empty_recording_is_refused_as_unfinished_by_every_reader(tmp_path: Path,
