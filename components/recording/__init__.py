@@ -31,6 +31,7 @@ from ._paths import SUFFIX, NewRecording, create_recording, open_recording, repl
 from ._ports import AudioRecorder, ImageRecorder, JsonRecorder, PortRecorder, RecordedPort
 from ._reader import AudioChunk, PortMessage, RecordingReader, SessionEventRecord
 from ._quota import FileQuota, RecordQuotas, directory_bytes
+from ._recover import Recovered
 from ._recording import EVENTS_TYPE, EventRecorder, Recording, RecordingCounts
 from ._writer import DEFAULT_QUEUE_BYTES, RecordingWriter
 
@@ -48,7 +49,8 @@ __all__ = [
     # Paths
     "create_recording", "NewRecording", "open_recording", "replay_roots", "SUFFIX",
     # Reading and exporting
-    "RecordingReader", "AudioChunk", "PortMessage", "SessionEventRecord", "export_recording", "ExportedFile",
+    "RecordingReader", "Recovered", "AudioChunk", "PortMessage", "SessionEventRecord", "export_recording",
+    "ExportedFile",
     "AUDIO_COLUMNS", "HEAD_COLUMNS",
     # Message types
     "MessageType", "Field", "CdrError", "HEADER", "AUDIO_DATA_STAMPED", "AUDIO_FRAMES", "AUDIO_INFO", "JOINT_STATE",
