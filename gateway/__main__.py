@@ -105,7 +105,7 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
     config = GatewayConfig(
         host=args.host, port=args.port, time_scale=args.time_scale, can=args.can, can_timeout=args.can_timeout,
         audio_device=args.audio_device, audio_socket_port=args.audio_socket_port, audio_files=args.audio_files,
-        record_dirs=args.record_dir,
+        record_dirs=args.record_dir, record_mode=args.record_mode,
         token=args.token or None, allowed_hosts=args.allowed_host, allowed_origins=args.allow_origin,
         components=args.components.split(",") if args.components else None, preload=args.load,
         header_timeout=args.header_timeout, max_url_bytes=args.max_url_bytes, session_idle=args.session_idle,

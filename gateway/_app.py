@@ -72,6 +72,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app.add_routes(_routes_openapi.routes)
     app.add_routes(_routes_docs.routes)
     app.cleanup_ctx.append(_host_lifetime(owns_host))
+    app.cleanup_ctx.append(_session_ends)
     if config.foxglove_port is not None:
         app[FOXGLOVE] = FoxgloveView(config.foxglove_host, config.foxglove_port, door, clock=app[HOST].clock,
                                      max_viewers=config.max_viewers, viewer_bytes=config.viewer_bytes)
@@ -102,6 +103,18 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
         yield  # the shutdown step (_shutdown) stops the components, within a bounded time
 
     return lifetime
+
+
+async def _session_ends(app: web.Application) -> AsyncIterator[None]:
+    """Sessions that end as their idle time passes, and the components told of every end (a recording stops)."""
+    sessions, host = app[SESSIONS], app[HOST]
+    sessions.add_end_listener(host.end_session)
+    expiry = asyncio.create_task(sessions.expire_on_time(), name="session expiry")
+    try:
+        yield
+    finally:
+        expiry.cancel()
+        await asyncio.gather(expiry, return_exceptions=True)
 
 
 async def _foxglove_lifetime(app: web.Application) -> AsyncIterator[None]:

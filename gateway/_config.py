@@ -31,6 +31,7 @@ class GatewayConfig:
             The file of ``audio_device`` itself is always allowed: the operator chose it.
         record_dirs: Directories a ``recorder`` may write recordings into, and captures may replay
             them from (``mcap:PATH``); none by default, so a client cannot make the gateway write its disk.
+        record_mode: The permissions of new recordings (``0o600``: their owner's only).
         token: When set, every request must carry ``Authorization: Bearer <token>``.
         allowed_hosts: Host names browsers may use for the gateway besides IP addresses,
             ``localhost`` and this machine's names (DNS-rebinding protection; ``*``: any).
@@ -78,6 +79,7 @@ class GatewayConfig:
     audio_socket_port: int = _RIG.audio_socket_port
     audio_files: list[str] = dataclasses.field(default_factory=list)
     record_dirs: list[str] = dataclasses.field(default_factory=list)
+    record_mode: int = _RIG.record_mode
     token: str | None = None
     allowed_hosts: list[str] = dataclasses.field(default_factory=list)
     allowed_origins: list[str] = dataclasses.field(default_factory=list)
@@ -121,7 +123,7 @@ class GatewayConfig:
         return rig_settings(can=self.can, can_timeout=self.can_timeout, audio_device=self.audio_device,
                             audio_socket_port=self.audio_socket_port, audio_socket_host=self.host,
                             audio_socket_token=self.token, audio_files=self.audio_files, budgets=self.budgets,
-                            record_dirs=self.record_dirs)
+                            record_dirs=self.record_dirs, record_mode=self.record_mode)
 
     def simulated_parts(self) -> list[str]:
         """Plain words for the parts of the rig that are simulated."""

@@ -12,21 +12,22 @@ unnoticed.
 Any client may name a session, so what sessions hold is bounded: a session
 nobody listens to is forgotten after an idle time (its requests run on and keep
 their status; only its undelivered events go), and there is a cap on their
-number.  Names are checked: at most 128 characters, none of them a control
-character or a line separator.
+number.  Names are checked: at most 128 characters, none of them a character no
+client's name may hold (the core's ``NAME_FORBIDDEN``: control characters, line
+separators, bidirectional controls).
 """
 
 from __future__ import annotations
 
 import asyncio
 import itertools
-import re
 import time
 from collections import OrderedDict, deque
 from collections.abc import Callable
 
 import orjson
 
+from ..components.core import NAME_FORBIDDEN, forbidden_in_name
 from ..components.core.runtime import RequestStatus
 from ._errors import BadQuery, NoSuchSession, TooManySessions
 from ._sse import FINAL_ID, event_id, format_event
@@ -38,11 +39,6 @@ _JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 
 #: The longest session name, in characters.
 MAX_NAME_LENGTH = 128
-#: What a session name may not hold: control characters (C0, DEL, C1) and Unicode's line and paragraph
-#: separators.  A name travels back in events and logs, where a line end or a NUL would forge lines.
-#: (The same class is the name's pattern in /openapi.json, so that generated names are always taken.)
-NAME_FORBIDDEN = "\x00-\x1f\x7f-\x9f\u2028\u2029"
-_FORBIDDEN = re.compile(f"[{NAME_FORBIDDEN}]")
 #: The most bytes of events a listen stream writes at once (a replay of many events goes out in slices).
 WRITE_SLICE = 16 * 1024
 
@@ -51,10 +47,13 @@ def check_session_name(name: str) -> str:
     """Return *name* if it can name a session.
 
     Raises:
-        BadQuery: for control characters or line separators, or more than 128 characters.
+        BadQuery: for a character no client's name may hold (``NAME_FORBIDDEN``: control characters,
+            line separators, bidirectional controls), or more than 128 characters.
     """
-    if _FORBIDDEN.search(name):
-        raise BadQuery(f"session name {_shown(name)} holds control characters or line separators")
+    forbidden = forbidden_in_name(name)
+    if forbidden is not None:
+        raise BadQuery(f"session name {_shown(name)} holds {forbidden}: control characters, line separators and "
+                       "bidirectional controls are refused")
     if len(name) > MAX_NAME_LENGTH:
         raise BadQuery(f"session name {_shown(name)} is longer than {MAX_NAME_LENGTH} characters")
     return name
@@ -251,6 +250,7 @@ class SessionStore:
         self.idle_timeout = idle_timeout
         self.max_sessions = max_sessions
         self.clock = clock
+        self._end_listeners: list[Callable[[str], None]] = []
 
     def __len__(self) -> int:
         self.expire()
@@ -316,9 +316,26 @@ class SessionStore:
                 return
             self._forget(name)
 
+    def add_end_listener(self, listener: Callable[[str], None]) -> None:
+        """Call *listener* with the name of each session that ends: stopped, or expired (not at shutdown)."""
+        self._end_listeners.append(listener)
+
+    async def expire_on_time(self) -> None:
+        """Expire sessions as their idle time passes, not only when a client next comes (runs until cancelled).
+
+        What ends with a session (a recording of it) must not wait for a client that may never come:
+        the sessions are looked at every tenth of the idle time, at most every 5 s.
+        """
+        period = min(max(self.idle_timeout / 10, 0.01), 5.0)
+        while True:
+            await asyncio.sleep(period)
+            self.expire()
+
     def _forget(self, name: str) -> None:
         del self._sessions[name]
         self._idle.pop(name, None)
+        for listener in self._end_listeners:
+            listener(name)
 
     def _live(self, name: str) -> Session | None:
         session = self._sessions.get(name)

@@ -150,7 +150,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if arguments[:1] == ["export"]:
             args = _export_parser().parse_args(arguments[1:])
-            for exported in export_recording(args.recording, args.output, overwrite=args.overwrite):
+            def unfinished(said: str) -> None:
+                print(f"aiogenomix-record: {said}", file=sys.stderr, flush=True)
+
+            for exported in export_recording(args.recording, args.output, overwrite=args.overwrite,
+                                             notice=unfinished):
                 unit = "frames" if exported.path.suffix == ".wav" else "rows"
                 print(f"{exported.path}: {exported.what} ({exported.rows} {unit})")
             return 0

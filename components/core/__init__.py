@@ -16,6 +16,7 @@ from ._exceptions import (
 )
 from ._host import ComponentHost, LoadError
 from ._log_limits import ThrottledLog
+from ._names import NAME_FORBIDDEN, forbidden_in_name
 from ._json_schema import JsonSchemas, json_schema, schema_name
 from ._settings import HostSettings
 from ._ports import ComputedOutPort, Incremental, InPort, InPortRuntime, OutPort, OutPortRuntime
@@ -33,6 +34,8 @@ __all__ = [
     "Component", "ComponentHost", "HostSettings", "LoadError",
     # Bounds of what clients can make a component hold, and the log lines they can cause
     "Budgets", "OverBudget", "Ledger", "Ledgers", "Reservation", "ThrottledLog",
+    # What a name a client gives may hold (session names, recording paths)
+    "NAME_FORBIDDEN", "forbidden_in_name",
     # Services
     "function", "activity", "attribute", "redeclare", "Out",
     # Ports and tasks

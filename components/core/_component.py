@@ -12,6 +12,7 @@ import asyncio
 import datetime
 import inspect
 import logging
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Annotated, Any, ClassVar, TypeVar
 
 from ._exceptions import (
@@ -265,6 +266,23 @@ class Component:
         at once and leaves the robot moving (a speed command: ``morse_kemar``'s ``Rotate``).  By
         default nothing: a component whose motions stop when their request ends needs none.
         """
+
+    async def on_session_end(self, session: str, requests: list[Request]) -> None:
+        """Hook: the gateway's session *session* ended while *requests* it sent to this instance ran.
+
+        A session ends when its client stops it (``/session/stop``) or is gone: nobody listened to it
+        and no client used it for the gateway's ``--session-idle``; all of a gateway's sessions end
+        when the gateway that runs them vanishes.  By default nothing: a request goes on whoever sent
+        it, as in genomix.  A component whose work belongs to its client ends it here (the
+        recorder stops a recording of that session, unless it was asked to outlive it).
+        """
+
+    async def session_ended(self, session: str, sent_by: Callable[[Request], bool] | None = None) -> None:
+        """The host's seam: *session* ended; hand its running requests (those *sent_by* one gateway) to the hook."""
+        requests = [r for r in self.requests.running()
+                    if r.session == session and (sent_by is None or sent_by(r))]
+        if requests:
+            await self.on_session_end(session, requests)
 
     # -- requests -------------------------------------------------------------------------
 
