@@ -25,7 +25,9 @@ from ..components.core.runtime import LoadedInstance, NoSuchModule, RemoteUnreac
 from ._offers import OfferBook, OfferedBefore, split_name
 from ._proxy import RemoteInstance, RemoteLink, RemoteTimeouts, describe_remote
 from ._session import Unanswered, ZenohSettings, alive, ask, on_zenoh_thread, open_session
-from ._wire import BEATS, LEGACY_OFFERS, OFFERS, OfferKey, facts_key, gateway_token, parse_offer
+from ._wire import (
+    BEATS, LEGACY_OFFERS, OFFERS, OfferKey, beat_key, facts_key, gateway_token, legacy_offer, offers_of, parse_offer,
+)
 
 __all__ = ["ZenohDirectory"]
 
@@ -72,12 +74,18 @@ class ZenohDirectory:
         self._host: ComponentHost | None = None
         self._tasks: set[asyncio.Task[Any]] = set()
         self.link = RemoteLink(session, self.zid, self.timeouts, self.silence)
-        self._declared: list[Any] = [session.declare_subscriber(BEATS, on_zenoh_thread(self._on_beat))]
-        # With history: the tokens already declared come first, then every change.
-        for key in (OFFERS, LEGACY_OFFERS):
-            self._declared.append(session.liveliness().declare_subscriber(
-                key, on_zenoh_thread(self._on_offer), history=True))
+        self._declared: list[Any] = []
+        #: What a host's directory follows, declared as it needs it: the offers of each instance name it
+        #: looked for, and the heartbeat of each host run it holds a proxy of.
+        self._names: dict[str, list[Any]] = {}
+        self._beats: dict[str, Any] = {}
         if gateway:
+            # A gateway hears every host (``/`` says when each was heard) and every offer; a host hears only
+            # the hosts it reads from (see _follow_name and _follow_beats): with N hosts, N beats reach each
+            # gateway, and none reach a host that reads no other host's port, not N - 1.
+            self._declared.append(session.declare_subscriber(BEATS, on_zenoh_thread(self._on_beat)))
+            for key in (OFFERS, LEGACY_OFFERS):
+                self._declared.append(self._offers_subscriber(key))
             # Declared before any request is sent: a host that runs our motions sees us vanish.
             self._declared.append(session.liveliness().declare_token(gateway_token(self.zid)))
 
@@ -121,6 +129,7 @@ class ZenohDirectory:
         if host_id is None and name in self._local:
             return None
         self._follow(host)
+        self._follow_name(instance)
         local_name = _local_name(instance, argv)
         existing = host.instances.get(local_name)
         if (isinstance(existing, RemoteInstance) and existing.remote_instance == instance
@@ -153,6 +162,7 @@ class ZenohDirectory:
                 # The host withdrew it (or went away) as it was asked: the token's removal is on its way.
                 # Once it is heard, the name is one offered before: waited for as any restarting host's.
                 await self._withdrawn(offer, deadline, exc)
+        self._follow_beats(offer.zid)
         proxy = RemoteInstance(host, self.link, offer, local_name, description,
                                lambda: self._book.facts(offer.zid))
         try:
@@ -239,6 +249,31 @@ class ZenohDirectory:
         heard = self._heard.get(zid)
         return math.inf if heard is None else time.monotonic() - heard
 
+    def _offers_subscriber(self, key: str) -> Any:
+        # With history: the tokens already declared come first, then every change.
+        return self.session.liveliness().declare_subscriber(key, on_zenoh_thread(self._on_offer), history=True)
+
+    def _follow_name(self, instance: str) -> None:
+        """Follow the offers of *instance* from now on (a host's directory follows the names it looks for)."""
+        if self._gateway or instance in self._names:
+            return
+        self._names[instance] = [self._offers_subscriber(offers_of(instance)),
+                                 self._offers_subscriber(legacy_offer(instance))]
+
+    def _follow_beats(self, zid: str) -> None:
+        """Hear the heartbeat of the host run *zid* (a gateway hears every host's already)."""
+        if self._gateway or zid in self._beats:
+            return
+        self._beats[zid] = self.session.declare_subscriber(beat_key(zid), on_zenoh_thread(self._on_beat))
+
+    def _run_over(self, zid: str) -> None:
+        """The host run *zid* offers nothing any more: stop hearing it."""
+        self._heard.pop(zid, None)
+        beats = self._beats.pop(zid, None)
+        if beats is not None:
+            with contextlib.suppress(zenoh.ZError):
+                beats.undeclare()
+
     def _on_beat(self, sample: zenoh.Sample) -> None:
         # On Zenoh's thread, whatever the event loop is doing: a busy gateway does not make a host stale.
         self._heard[str(sample.key_expr).split("/")[2]] = time.monotonic()
@@ -257,7 +292,8 @@ class ZenohDirectory:
             if not self._book.add(offer):
                 log.warning("refused the offer %s: it is of remote protocol %d", key, offer.protocol)
             else:
-                if not self._book.facts(offer.zid):
+                if self._gateway and not self._book.facts(offer.zid):
+                    # For `/` (a host's directory asks when it loads: see find).
                     self._spawn(self._ask_facts(offer.zid), f"facts of {offer.host}")
                 self._spawn(self._offered(offer), f"offered {offer.name}")
         else:
@@ -267,6 +303,8 @@ class ZenohDirectory:
                     log.warning("%s is gone: its component host %s stopped or cannot be reached", name, gone.host)
                     self._lost[(gone.host, gone.instance)] = name
                     proxy.lost(f"{name} ran on component host {gone.host}, which stopped or cannot be reached")
+            if gone is not None and not self._book.offers_by(gone.zid):
+                self._run_over(gone.zid)
         self._change.set_result(None)
         self._change = self._loop.create_future()
 
@@ -322,7 +360,7 @@ class ZenohDirectory:
         for task in list(self._tasks):
             task.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
-        for declared in self._declared:
+        for declared in [*self._declared, *(s for pair in self._names.values() for s in pair), *self._beats.values()]:
             with contextlib.suppress(zenoh.ZError):
                 declared.undeclare()
         await asyncio.to_thread(self.session.close)
