@@ -21,9 +21,10 @@ from typing import Any
 import zenoh
 
 from ..components.core import ComponentHost, LoadError
-from ..components.core.runtime import LoadedInstance, NoSuchModule, RemoteUnreachable
+from ..components.core.runtime import LoadedInstance, NoSuchModule, RemoteHostGone, RemoteUnreachable, names_hint
+from ._links import report_unlinked
 from ._offers import OfferBook, OfferedBefore, split_name
-from ._proxy import RemoteInstance, RemoteLink, RemoteTimeouts, describe_remote
+from ._proxy import RemoteInstance, RemoteLink, RemoteTimeouts, describe_remote, heard_text, utc_text
 from ._session import Unanswered, ZenohSettings, alive, ask, on_zenoh_thread, open_session
 from ._wire import (
     BEATS, LEGACY_OFFERS, OFFERS, OfferKey, beat_key, facts_key, gateway_token, legacy_offer, offers_of, parse_offer,
@@ -71,6 +72,8 @@ class ZenohDirectory:
         self._proxies: dict[str, RemoteInstance] = {}
         #: The instances lost with their host, by (host id, instance): re-attached when offered again.
         self._lost: dict[tuple[str, str], str] = {}
+        #: The same, by name here: the host id and when it was last heard from (epoch s), for their refusals.
+        self._gone: dict[str, tuple[str, float]] = {}
         self._host: ComponentHost | None = None
         self._tasks: set[asyncio.Task[Any]] = set()
         self.link = RemoteLink(session, self.zid, self.timeouts, self.silence)
@@ -88,6 +91,8 @@ class ZenohDirectory:
                 self._declared.append(self._offers_subscriber(key))
             # Declared before any request is sent: a host that runs our motions sees us vanish.
             self._declared.append(session.liveliness().declare_token(gateway_token(self.zid)))
+        # Zenoh retries an endpoint that refuses us without a word: say it once, and why.
+        self._spawn(report_unlinked(session, config), "zenoh links")
 
     @classmethod
     async def open(cls, settings: ZenohSettings, timeouts: RemoteTimeouts | None = None, *,
@@ -145,7 +150,7 @@ class ZenohDirectory:
                 if host.knows(instance):
                     raise NoSuchModule(f"no component host offers {instance}; to run {instance} in this gateway, "
                                        f"start the gateway with --local {instance}")
-                raise NoSuchModule(f"no component {instance!r} (available: {', '.join(host.available()) or 'none'})")
+                raise NoSuchModule(f"no component {instance!r} {names_hint(instance, host.available(), 'available')}")
             if existing is not None:
                 where = existing.placement()
                 place = ("this gateway" if where.get("runs") == "here"
@@ -231,11 +236,28 @@ class ZenohDirectory:
         offer = instance.offer
         self._proxies[instance.instance] = instance
         self._lost.pop((offer.host, offer.instance), None)
+        self._gone.pop(instance.instance, None)
         if offer.key not in {o.key for o in self._book.offers_of(offer.instance)}:
             # Withdrawn while it started: lost at once, as if heard now.
-            self._lost[(offer.host, offer.instance)] = instance.instance
-            instance.lost(f"{instance.instance} ran on component host {offer.host}, which stopped or cannot be "
-                          f"reached")
+            self._lose(instance)
+
+    def _lose(self, proxy: RemoteInstance) -> None:
+        """*proxy*'s host withdrew its instance or is gone: end what waits on it, unload it, say so until it returns."""
+        offer = proxy.offer
+        self._lost[(offer.host, offer.instance)] = proxy.instance
+        proxy.lost(f"{proxy.instance} ran on component host {offer.host}, which stopped or cannot be reached "
+                   f"({proxy.last_heard()})")
+        self._gone[proxy.instance] = (offer.host, proxy.heard_at())
+
+    def absent(self, instance: str) -> RemoteHostGone | None:
+        """Why *instance* is not loaded, when it was lost with its host (None: this directory knows nothing of it)."""
+        gone = self._gone.get(instance)
+        if gone is None:
+            return None
+        host, heard_at = gone
+        return RemoteHostGone(f"{instance} ran on component host {host}, which stopped or cannot be reached "
+                              f"({heard_text(heard_at)}); it is loaded again when {host} offers it again", host,
+                              utc_text(heard_at))
 
     def _forget(self, instance: str) -> None:
         proxy = self._proxies.get(instance)
@@ -298,11 +320,11 @@ class ZenohDirectory:
                 self._spawn(self._offered(offer), f"offered {offer.name}")
         else:
             gone = self._book.remove(key)
-            for name, proxy in list(self._proxies.items()):
+            for proxy in list(self._proxies.values()):
                 if gone is not None and proxy.offer == gone:
-                    log.warning("%s is gone: its component host %s stopped or cannot be reached", name, gone.host)
-                    self._lost[(gone.host, gone.instance)] = name
-                    proxy.lost(f"{name} ran on component host {gone.host}, which stopped or cannot be reached")
+                    log.warning("%s is gone: its component host %s stopped or cannot be reached (%s)",
+                                proxy.instance, gone.host, proxy.last_heard())
+                    self._lose(proxy)
             if gone is not None and not self._book.offers_by(gone.zid):
                 self._run_over(gone.zid)
         self._change.set_result(None)
@@ -336,6 +358,8 @@ class ZenohDirectory:
             except Exception as exc:  # noqa: BLE001  # said in the log; the offered event says it was not loaded
                 log.warning("%s is offered again by %s, but could not be loaded again: %s", offer.instance,
                             offer.host, exc)
+        if name is not None:
+            self._gone.pop(name, None)  # loaded again, or not to be: no longer waiting for its host
         if self.on_offered is not None:
             self.on_offered({"name": offer.instance, "host": offer.host, "loaded": loaded})
 

@@ -187,7 +187,13 @@ def open_session(settings: ZenohSettings) -> tuple[zenoh.Session, zenoh.Config]:
     try:
         return zenoh.open(config), config
     except zenoh.ZError as exc:
-        raise ZenohSessionError(f"cannot open the Zenoh session ({settings.summary(config)}): {_reason(exc)}; "
+        reason = _reason(exc)
+        if reason.startswith("Unable to connect"):  # a client reaches its router, or fails: say why it failed
+            from ._links import why_unlinked
+
+            reason = "; ".join(f"no link to {endpoint}: {why_unlinked(endpoint)}"
+                               for endpoint in connect_endpoints(config)) or reason
+        raise ZenohSessionError(f"cannot open the Zenoh session ({settings.summary(config)}): {reason}; "
                                 f"check --zenoh-connect, --zenoh-listen (e.g. tcp/192.168.1.10:7447) and "
                                 f"--zenoh-config") from None
 
