@@ -265,12 +265,18 @@ async def ask(session: zenoh.Session, key: str, payload: Any, timeout: float, *,
         if not answer.done():
             answer.set_result(value)
 
+    replied = False  # set on Zenoh's thread, which calls on_reply and on_end one after the other
+
     def on_reply(reply: zenoh.Reply) -> None:
+        nonlocal replied
         body = reply.ok.payload.to_bytes() if reply.ok is not None else None
-        if body is not None:
+        if body is not None and not replied:
+            replied = True
             loop.call_soon_threadsafe(settle, body)
 
     def on_end() -> None:
+        if replied:
+            return  # the reply settled it: the end need not wake the event loop a second time per call
         # Timed here, on Zenoh's thread: a late event loop must not turn an early end into a timeout.
         # Zenoh's own timer starts after *sent* and never fires early, so an end before *timeout* is
         # never Zenoh giving up.
