@@ -62,20 +62,20 @@ def _analysis(results: dict[str, Any]) -> str:
         "(`gateway/_gather.py`), and what the socket does not take goes to the transport. A body is kept per "
         "publication and form, so readers of one publication share it, and for each form read during a "
         "publication the next publication's body is made as soon as it is published (`gateway/_read_bodies.py`): "
-        "a client polling at the port's rate finds it ready. Every connection reads each request's head before "
-        "aiohttp does (`gateway/_connection.py`): a plain read (a `GET /module/M/read/P` with at most `format` and "
-        "`since`, that the door admits as a program's) is answered there when aiohttp holds nothing of the "
-        "connection (`gateway/_fast_reads.py`), without aiohttp's request task, routing and response object: "
-        "timestamps in the gateway put those at about 130 µs of the 200 µs that passed between a 500 ms read's "
-        "bytes and its reply's first byte. Every other request, and every read the door refuses or the routes "
+        "a client polling at the port's rate finds it ready. Every request is read once, by aiohttp's parser "
+        "(`gateway/_connection.py`, decision 37); a plain read (a `GET /module/M/read/P` with at most `format` "
+        "and `since`, that the door admits as a program's) is answered by the server's handler ahead of the routes "
+        "when the socket has nothing left to send (`gateway/_fast_reads.py`), without aiohttp's routing, "
+        "middleware and response object. Every other request, and every read the door refuses or the routes "
         "answer with an error, is passed to aiohttp. The bytes are those orjson gives for the joined arrays, and "
         "those the route gives (`tests/gateway/test_port_pieces.py`, `test_fast_reads.py`); a window that turns "
         "over during a reply does not tear it.",
-        "* **A read of a new publication** (the profile above): a request's bytes received "
-        f"{f('a request' + chr(39) + 's bytes received (its head read, and a plain read answered)')} per request "
-        f"under the profiler, of which the head's checks {f('the head checked (request line and fields)')}, the "
+        "* **A read of a new publication** (the profile above): aiohttp reads every request's head "
+        f"({f('aiohttp: a request' + chr(39) + 's bytes received and parsed (every request)')} per call under the "
+        "profiler) and hands it to the server's handler "
+        f"({f('the server' + chr(39) + 's handler: a plain read answered, or the routes')}), of which the "
         f"door {f('the door' + chr(39) + 's decision')}, the plain read "
-        f"{f('a plain read answered at the connection (all below but the write)')} (its body, found ready, "
+        f"{f('a plain read answered ahead of the routes (all below but the write)')} (its body, found ready, "
         f"{f('the read' + chr(39) + 's body (made ahead for a polled form: found ready)')}) and the `writev` "
         f"{f('the gathered write (writev: the kernel' + chr(39) + 's copy)')}: the kernel's copy of the bytes, "
         "what the floor pays too. Each body made ahead took "
@@ -84,7 +84,7 @@ def _analysis(results: dict[str, Any]) -> str:
         f"{f('build a JSON body (splice the chunks' + chr(39) + ' texts)')} (a new chunk's text is made once, by "
         f"its first reader), a binary one {f('build a binary body (list the chunks' + chr(39) + ' memory)')}. "
         "For comparison, `/version` through aiohttp's routes: "
-        f"{f('aiohttp: handle a request through the routes (/version)')} per request, of which its handler "
+        f"{f('the guard, route and handler (/version)')} per request, of which its handler "
         f"{f('the /version handler')}. Each fresh read also pays waking both processes after a pause: "
         f"{_wake(results)}.",
         "* **Small windows (500 and 1000 ms).** The floor moves 0.18–0.87 MB in a few tenths of a millisecond, so "
@@ -96,11 +96,11 @@ def _analysis(results: dict[str, Any]) -> str:
         "through a Python line parser. The floor writes a ready buffer: the copy of a new publication and the "
         "parser are the difference, and the ratio moves most with the machine's load.",
         f"* **Load (50 clients).** The gateway spends {cpu}. Both servers spend most of a request in aiohttp "
-        "(on Python 3.11 it also starts a task per request, which both pay). The gateway reads each request's "
-        "head in Python before aiohttp parses it again (the price of answering reads without aiohttp and of "
-        "keeping its replies in order), calls its guard (the door: Host and Origin, one dictionary look-up for a "
-        "Host seen before; the token; the query's parameter names; then error translation) in front of the "
-        f"routes rather than as middleware, and adds the component runtime's request ({runtime} a `send` "
+        "(on Python 3.11 it also starts a task per request, which both pay); both read each request once, with "
+        "aiohttp's parser. The gateway's handler first looks whether the request is a plain read, then its "
+        "guard (the door: Host and Origin, one dictionary look-up for a Host seen before; the token; the query's "
+        "parameter names; then error translation) runs as the application's one middleware, and it adds the "
+        f"component runtime's request ({runtime} a `send` "
         "of `GetSpeed` in the runtime alone, measured in the benchmark's own process), the route's query and its "
         "reply. The throughput ratio also depends on how the two cores are shared with wrk and the rest of the "
         "machine: the CPU ratio is the steadier figure.",
@@ -123,17 +123,21 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     from .localisation import render as localisation_section
     from .record import render as record_section
     from .remote import render as remote_section
+    from .rooms import render as rooms_section
     from .sessions import render as sessions_section
     from .sse_clients import render as sse_section
+    from .storm import render as storm_section
+    from .viewers import render as viewers_section
     from .world import render as world_section
 
     facts = {k: v for k, v in machine.items() if k != "quick"}
     out = [HEAD.format(quick=" (quick runs)" if machine.get("quick") else "", **facts)]
     sections = [("port_read", _port_read), ("service", _service), ("fanout", _fanout), ("load", _load),
                 ("soak", _soak), ("memory", _memory), ("world", world_section), ("remote", remote_section),
-                ("sse_clients", sse_section), ("sessions", sessions_section), ("budgets", budgets_section),
+                ("sse_clients", sse_section), ("sessions", sessions_section), ("storm", storm_section),
+                ("budgets", budgets_section), ("viewers", viewers_section),
                 ("record", record_section), ("instructions", instructions_section),
-                ("localisation", localisation_section)]
+                ("localisation", localisation_section), ("rooms", rooms_section)]
     for name, section in sections:
         if name in results:
             out.append(_dated(section(results[name]), results[name].get("measured")))
@@ -175,6 +179,34 @@ def _ratio_rows(where: str, paths: dict[str, Any], targets: dict[str, float]) ->
     return rows
 
 
+_STRICT_LABELS = {"socket": "dedicated socket", "binary": "binary HTTP", "binary_before": "before: binary HTTP"}
+
+
+def _strict_rows(r: dict[str, Any]) -> list[str]:
+    """The table of the paths against the strict floor (absent from results measured before it existed)."""
+    places = [(f"{window} ms", paths) for window, paths in r["windows"].items()]
+    places += [("bass 4000 ms", r["bass"])] if "bass" in r else []
+    if not all("strict" in paths for _, paths in places):
+        return []
+    targets = r.get("strict_targets", {})
+    lines = ["", "Against the strict floor: the same bytes answered by one blocking `sendall` of a buffer made "
+             "beforehand, from a thread per connection (no event loop, no copy); the targets apply to the 4000 ms "
+             "windows.", "",
+             "| port | path | strict floor median ms | × strict floor | block spread | target |",
+             "|---|---|---|---|---|---|"]
+    for where, paths in places:
+        for name, label in _STRICT_LABELS.items():
+            if name not in paths["strict"]:
+                continue
+            ratio = paths["strict"][name]
+            target = targets.get(name) if where.endswith("4000 ms") else None
+            verdict = ("(reference)" if target is None else
+                       f"≤ {target}× " + ("met" if ratio["ratio"] <= target else "**MISSED**"))
+            lines.append(f"| {where} | {label} | {_ms(ratio['floor_median'] * 1e3)} | **{ratio['ratio']:.2f}** | "
+                         f"{ratio['ratio_min']:.2f}–{ratio['ratio_max']:.2f} | {verdict} |")
+    return lines
+
+
 def _port_read(r: dict[str, Any]) -> str:
     lines = ["## 1. Reading the audio window", "",
              f"Stereo int32 at 44.1 kHz in 50 ms chunks: `{r.get('module', 'capture')}`'s Port (with a head position "
@@ -194,6 +226,7 @@ def _port_read(r: dict[str, Any]) -> str:
         lines += _ratio_rows(f"{window} ms", paths, r["targets"])
     if "bass" in r:
         lines += _ratio_rows("bass 4000 ms", r["bass"], r["targets"])
+    lines += _strict_rows(r)
     lines += ["", "For reference (not targets): the generated Python client, request to numpy arrays, and what "
               "parsing the JSON reply with `orjson.loads` costs a client. The seed (MATLAB) took 450 ms for 4000 ms "
               "through genomix JSON (Table 5.2) and 28 / 32 / 86 ms through the dedicated socket (Table 6.2).", "",
@@ -284,8 +317,12 @@ def _load(r: dict[str, Any]) -> str:
         *([] if "gateway_cpu_us_per_request" not in r else [
             "", f"CPU time per request (from /proc, the server's own, whatever else the machine runs): gateway "
             f"{r['gateway_cpu_us_per_request']:.0f} µs, bare aiohttp {r['bare_cpu_us_per_request']:.0f} µs "
-            f"(ratio {r['bare_cpu_us_per_request'] / r['gateway_cpu_us_per_request']:.2f})"
-            + ("." if "baseline" not in r else f", before {r['baseline_cpu_us_per_request']:.0f} µs.")]), ""])
+            + (f"(gateway ÷ bare aiohttp {r['cpu_ratio']:.2f}, median of the rounds' ratios; target ≤ "
+               f"{r['target_cpu_ratio']})" if "cpu_ratio" in r else
+               f"(ratio {r['bare_cpu_us_per_request'] / r['gateway_cpu_us_per_request']:.2f})")
+            + ("." if "baseline" not in r else f", before {r['baseline_cpu_us_per_request']:.0f} µs"
+               + (f" ({r['baseline_cpu_ratio']:.2f} of bare aiohttp's)." if "baseline_cpu_ratio" in r else "."))]),
+        ""])
 
 
 def _soak(r: dict[str, Any]) -> str:

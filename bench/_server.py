@@ -1,6 +1,6 @@
 """The processes a benchmark talks to: the gateway (with a probe component) and the floors.
 
-Run as ``python -m bench._server gateway|aiohttp|socket|zenoh|relay [options]``; each prints
+Run as ``python -m bench._server gateway|aiohttp|socket|socket_strict|zenoh|relay [options]``; each prints
 ``ready <port> [<port>]`` (``ready <endpoint>`` for Zenoh) once it listens, then serves until killed.
 """
 
@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import socket
+import threading
 import time
 from typing import TYPE_CHECKING, Annotated
 
@@ -178,17 +180,44 @@ async def _zenoh_relay(args: argparse.Namespace) -> None:
         session.close()
 
 
+async def _strict_floor(args: argparse.Namespace) -> None:
+    """The strict floor: each request line answered by one blocking ``sendall`` of a buffer made beforehand.
+
+    No event loop and no copy on the way: a thread per connection reads a line and hands the
+    kernel the length-prefixed blob of that size, made once per size.
+    """
+    blobs: dict[int, bytes] = {}
+    made = threading.Lock()
+
+    def serve(connection: socket.socket) -> None:
+        with connection, connection.makefile("rb") as lines:
+            for line in lines:
+                size = int(line)
+                with made:
+                    if size not in blobs:
+                        blob = np.random.default_rng(0).integers(0, 256, size, dtype=np.uint8).tobytes()
+                        blobs[size] = len(blob).to_bytes(4, "little") + blob
+                connection.sendall(blobs[size])
+
+    listener = socket.create_server(("127.0.0.1", 0))
+    print("ready", listener.getsockname()[1], flush=True)
+    while True:
+        connection, _ = await asyncio.to_thread(listener.accept)
+        connection.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        threading.Thread(target=serve, args=(connection,), daemon=True).start()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("kind", choices=["gateway", "aiohttp", "socket", "zenoh", "relay"])
+    parser.add_argument("kind", choices=["gateway", "aiohttp", "socket", "socket_strict", "zenoh", "relay"])
     parser.add_argument("--profile", metavar="FILE", help="profile with cProfile; write the stats on SIGTERM")
     parser.add_argument("--max-sessions", type=int, default=GatewayConfig.max_sessions,
                         help="the gateway's cap on sessions")
     parser.add_argument("--connect", help="the relay's Zenoh endpoint to connect to (the Zenoh floor's)")
     parser.add_argument("--record-dir", action="append", default=[], help="a directory recordings may be made in")
     args = parser.parse_args()
-    runner = {"gateway": _gateway, "aiohttp": _bare_aiohttp, "socket": _socket_floor, "zenoh": _zenoh_floor,
-              "relay": _zenoh_relay}[args.kind]
+    runner = {"gateway": _gateway, "aiohttp": _bare_aiohttp, "socket": _socket_floor, "socket_strict": _strict_floor,
+              "zenoh": _zenoh_floor, "relay": _zenoh_relay}[args.kind]
     if not args.profile:
         asyncio.run(runner(args))
         return

@@ -26,12 +26,12 @@ from .port_read import CHUNK_MS, MODULE, WINDOWS, _http_get, _start_window
 
 #: (label, file name ending, function name): the functions whose time per call is reported.
 FUNCTIONS = [
-    ("a request's bytes received (its head read, and a plain read answered)", "gateway/_connection.py",
-     "data_received"),
-    ("the head checked (request line and fields)", "gateway/_request_head.py", "parse_head"),
+    ("aiohttp: a request's bytes received and parsed (every request)", "web_protocol.py", "data_received"),
+    ("aiohttp: a request handled (its task, request object and reply; every request)", "web_protocol.py",
+     "_handle_request"),
+    ("the server's handler: a plain read answered, or the routes", "gateway/_fast_reads.py", "handle"),
+    ("a plain read answered ahead of the routes (all below but the write)", "gateway/_fast_reads.py", "reply"),
     ("the door's decision", "gateway/_door.py", "decide"),
-    ("aiohttp: parse a request head passed on", "web_protocol.py", "data_received"),
-    ("a plain read answered at the connection (all below but the write)", "gateway/_fast_reads.py", "reply"),
     ("the read's body (made ahead for a polled form: found ready)", "gateway/_routes_ports.py", "read_body"),
     ("a body made ahead, when the publication came", "gateway/_read_bodies.py", "_make_ahead"),
     ("the publication's struct with chunked arrays", "capture/_port_view.py", "chunked"),
@@ -39,8 +39,7 @@ FUNCTIONS = [
     ("a new chunk's JSON text (orjson)", "core/_chunked.py", "json"),
     ("build a binary body (list the chunks' memory)", "core/_binary.py", "encode_binary"),
     ("the gathered write (writev: the kernel's copy)", "gateway/_gather.py", "write_gathered"),
-    ("aiohttp: handle a request through the routes (/version)", "web_protocol.py", "_handle_request"),
-    ("the guard, route and handler", "gateway/_guard.py", "guard"),
+    ("the guard, route and handler (/version)", "gateway/_guard.py", "guard"),
     ("the /version handler", "gateway/_routes_admin.py", "version"),
 ]
 

@@ -184,7 +184,8 @@ class ServiceSpec:
             text = (p.info.get("doc") or "").strip().rstrip(".")
             text = f"{text}. " if text else ""
             default = f"Default: {p.info['default']!r}." if "default" in p.info else "Default: the zero of its type."
-            lines.append(f"    {p.pyname} ({t['name']}): {text}{default}{_values_note(t)}")
+            unit = f", {p.info['unit']}" if p.info.get("unit") else ""
+            lines.append(f"    {p.pyname} ({t['name']}{unit}): {text}{default}{_values_note(t)}")
         for opt, (_, _, doc) in CONTROL_OPTIONS.items():
             lines.append(f"    {self.options[opt]}: {doc}")
         lines += ["", "Returns:"]
@@ -273,7 +274,8 @@ def _values_note(t: Mapping[str, Any]) -> str:
     if t.get("kind") == "enum":
         return " One of " + ", ".join(v.rpartition("::")[2] for v in t.get("values", [])) + "."
     if t.get("kind") == "struct":
-        return " Members: " + ", ".join(f"{m['name']} ({m['type']['name']})" for m in t.get("members", [])) + "."
+        return " Members: " + ", ".join(f"{m['name']} ({m['type']['name']}{', ' + m['unit'] if m.get('unit') else ''})"
+                                        for m in t.get("members", [])) + "."
     return ""
 
 

@@ -59,11 +59,22 @@ class TypeInfo(TypedDict):
     length: NotRequired[int]
 
 
+class GridInfo(TypedDict):
+    """What the index of a sequence stands for: ``start + index * step`` in ``unit``."""
+
+    start: float
+    step: float
+    unit: str
+
+
 class MemberInfo(TypedDict):
     """A struct member, or an exception detail member."""
 
     name: str
     type: TypeInfo
+    doc: NotRequired[str]
+    unit: NotRequired[str]
+    grid: NotRequired[GridInfo]
 
 
 class ParameterInfo(TypedDict):
@@ -73,6 +84,7 @@ class ParameterInfo(TypedDict):
     dir: Literal["in", "out", "inout"]
     type: TypeInfo
     doc: str
+    unit: NotRequired[str]
     default: NotRequired[Any]
 
 

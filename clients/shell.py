@@ -9,8 +9,11 @@ above the prompt when it comes, and ``requests()`` lists every such request
 with its status.
 
 An error of the gateway or of a component prints as one line
-(``TOO_FAR_AWAY: overshoot=1.0 (GotoPosition, request demo::0)``); ``%tb``
-prints its full traceback.  Ctrl-C during a blocking call of an activity asks
+(``TOO_FAR_AWAY: overshoot=1.0 (GotoPosition, request demo::0)``), and so does
+a mistake the client refuses before sending anything
+(``TypeError: target: expected a number (double), got 'x' (MoveAbsolutePosition: nothing was sent)``):
+any error raised by the client.  ``%tb`` prints the last one's full traceback.
+Errors of the user's own code keep IPython's traceback.  Ctrl-C during a blocking call of an activity asks
 the gateway to abort the request; a function, which genom cannot abort, runs to
 its end, and the end is printed when it comes.
 """
@@ -22,9 +25,11 @@ import concurrent.futures
 import functools
 import inspect
 import keyword
+import os
 import re
 import sys
 import threading
+import traceback
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -32,7 +37,7 @@ from ._errors import GenomixError, Interrupted, RemoteError, short_name
 from ._service import USE_CLIENT_DEFAULT
 from ._sync_client import Client, Module, Request, connect
 
-__all__ = ["CallInterrupted", "ShellNamespace", "main", "one_line"]
+__all__ = ["CallInterrupted", "ShellNamespace", "main", "one_line", "raised_by_the_client"]
 
 #: Seconds the shell waits for the gateway's reply to an abort asked by Ctrl-C.
 ABORT_TIMEOUT = 10.0
@@ -42,8 +47,13 @@ Modules: {modules}
   demo.GotoPosition?          the generated documentation      load("kemar")   load a component
   demo.GotoPosition(0.5)      call and wait; Ctrl-C aborts it  requests()      the ack=True requests
   demo.GotoPosition(0.5, ack=True)   return at once; the end is printed when it comes
-  %tb                         the traceback of the last error (errors print as one line)
+  %tb                         the full traceback of the last error (the client's errors print as one line)
 """
+
+
+#: The attribute that marks an exception the client raised before sending a service (its value: the
+#: service's name), so that its line says the robot was asked nothing.
+_NOT_SENT = "_aiogenomix_not_sent"
 
 
 class CallInterrupted(KeyboardInterrupt):
@@ -64,7 +74,8 @@ def one_line(exc: BaseException, *, where: bool = True) -> str:
     if isinstance(exc, CallInterrupted):
         return str(exc)
     if not isinstance(exc, RemoteError):
-        return f"{type(exc).__name__}: {exc}"
+        refused = getattr(exc, _NOT_SENT, None) if where else None
+        return f"{type(exc).__name__}: {exc}" + (f" ({refused}: nothing was sent)" if refused else "")
     if isinstance(exc, Interrupted):
         text = f"interrupted by {exc.by or 'an unknown cause'}"
     else:
@@ -193,6 +204,11 @@ class ShellNamespace:
                 if not blocking:
                     self.acked.append(request)
                 raise self._interrupted(request, kind, announced=not blocking) from None
+            except Exception as exc:
+                if not isinstance(exc, GenomixError):
+                    # The call itself is wrong (a type, a misspelled keyword): the client refused it.
+                    setattr(exc, _NOT_SENT, service.__name__)
+                raise
             if not blocking:
                 self.acked.append(request)
                 return request
@@ -307,12 +323,32 @@ def _install_enum_completion(shell: Any, namespace: ShellNamespace) -> None:
     shell.Completer.custom_matchers.append(enum_matcher)
 
 
+def raised_by_the_client(exc: BaseException) -> bool:
+    """Whether *exc* is an error of the client: the gateway's, a component's, or a call the client refused.
+
+    That is, a :class:`GenomixError`, a Ctrl-C the shell handled, or any exception raised from
+    the client's code (a wrong argument type, a misspelled keyword, the sender thread's
+    ``concurrent.futures`` in between); an exception of the user's own code is not.
+    """
+    if isinstance(exc, (GenomixError, CallInterrupted)):
+        return True
+    return any(frame.f_code.co_filename.startswith(_CLIENT_FILES) for frame, _ in traceback.walk_tb(exc.__traceback__))
+
+
+#: Where the client's modules are (by file: under ``python -m`` this module is ``__main__``, and a call refused
+#: as its arguments are bound has no frame but the shell's wrapper).
+_CLIENT_FILES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "")
+
+
 def _install_one_line_errors(shell: Any) -> None:
-    """Print the errors of the gateway and its components, and Ctrl-C's outcome, as one line; ``%tb`` in full."""
+    """Print the client's errors, and Ctrl-C's outcome, as one line; ``%tb`` in full; others as IPython does."""
     hinted = False
 
     def show(shell: Any, etype: type[BaseException], value: BaseException, tb: Any, tb_offset: Any = None) -> None:
         nonlocal hinted
+        if not raised_by_the_client(value):
+            shell.showtraceback((etype, value, tb), tb_offset=tb_offset)
+            return
         # What %tb (and %debug) read: the full traceback stays one magic away.
         sys.last_type, sys.last_value, sys.last_traceback = etype, value, tb
         if sys.version_info >= (3, 12):
@@ -323,7 +359,7 @@ def _install_one_line_errors(shell: Any) -> None:
             hinted = True
         print(line)
 
-    shell.set_custom_exc((GenomixError, CallInterrupted), show)
+    shell.set_custom_exc((Exception, CallInterrupted), show)
 
 
 def _arguments(argv: Sequence[str] | None) -> argparse.Namespace:

@@ -6,8 +6,8 @@ Start a gateway first (the simulated binaural scene is the default sound card)::
     python examples/bass_socket_2015.py --seconds 3
 
 The script loads ``bass``, opens its dedicated socket and starts ``Acquire``,
-then asks the socket for 100 ms of frames at a time from frame 0 on
-(``Read Port - N 4410 - nfr <i>``), printing each block's frame indices, the
+then asks the socket for up to 100 ms of frames at a time from frame 1 on, the first
+captured frame (``Read Port - N 4410 - nfr <i>``), printing each block's frame indices, the
 frames lost and the level of each ear; at the end it closes the socket and
 stops the acquisition.
 """
@@ -47,7 +47,9 @@ def main() -> int:
             acquire = bass.Acquire(device="sim", sampleRate=rate, nFramesPerChunk=2205, nChunksOnPort=20,
                                    ack=True)
             got, lost = 0, 0
-            audio = FrameSocketClient("127.0.0.1", args.socket_port, max_frames=block, token=args.token)
+            # From frame 1, the first captured one: frame 0 and below are the zeros of a window still filling.
+            audio = FrameSocketClient("127.0.0.1", args.socket_port, max_frames=block, next_frame=1,
+                                      token=args.token)
             connect_until = time.monotonic() + 10
             while True:                                   # the socket opens as DedicatedSocket starts
                 try:

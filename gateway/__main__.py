@@ -10,7 +10,7 @@ import sys
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from ..components.core.runtime import add_budget_arguments, add_rig_arguments, budgets_from
+from ..components.core.runtime import add_budget_arguments, add_rig_arguments, budgets_from, parse_amount
 from ._config import GatewayConfig
 from ._signals import StopSignal, ignore_stop_signals, raise_on_stop_signals
 
@@ -75,12 +75,16 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
         "live view", "the robot's head, cameras, odometry, laser and audio in Foxglove or Lichtblick (the Foxglove "
                      "WebSocket protocol; pip install aiogenomix[foxglove])")
     view.add_argument("--foxglove", type=int, metavar="PORT", dest="foxglove_port",
-                      help="serve the live view on this port (0 for a free one; default: no view); it checks neither "
-                           "the token nor Host nor Origin")
+                      help="serve the live view on this port (0 for a free one; default: no view); it admits viewers "
+                           "as the gateway admits requests (--token as ws://HOST:PORT/?token=..., --allow-origin, "
+                           "--allowed-host)")
     view.add_argument("--foxglove-host", default=defaults.foxglove_host, metavar="ADDRESS",
                       help="address of the live view (default %(default)s: this machine only)")
-    view.add_argument("--foxglove-without-token", action="store_true",
-                      help="allow the live view on another address although --token is set (it does not check it)")
+    view.add_argument("--max-viewers", type=_at_least(int, 1), default=defaults.max_viewers, metavar="N",
+                      help="most viewers connected at once, else 429 (default %(default)s)")
+    view.add_argument("--max-viewer-bytes", type=parse_amount, default=defaults.viewer_bytes, metavar="BYTES",
+                      help="bytes one viewer may hold unsent (it does not read, or falls ever further behind) before "
+                           f"it is dropped (default {defaults.viewer_bytes // 2**20}M)")
     limits = parser.add_argument_group("limits", "what one client can hold or send")
     limits.add_argument("--header-timeout", type=_at_least(float, 0.001), default=defaults.header_timeout,
                         metavar="SECONDS", help="time a client has to send a request's line and headers, "
@@ -101,7 +105,7 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
     config = GatewayConfig(
         host=args.host, port=args.port, time_scale=args.time_scale, can=args.can, can_timeout=args.can_timeout,
         audio_device=args.audio_device, audio_socket_port=args.audio_socket_port, audio_files=args.audio_files,
-        record_dirs=args.record_dir,
+        record_dirs=args.record_dir, record_mode=args.record_mode,
         token=args.token or None, allowed_hosts=args.allowed_host, allowed_origins=args.allow_origin,
         components=args.components.split(",") if args.components else None, preload=args.load,
         header_timeout=args.header_timeout, max_url_bytes=args.max_url_bytes, session_idle=args.session_idle,
@@ -110,7 +114,7 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
         zenoh_connect=args.zenoh_connect, zenoh_listen=args.zenoh_listen, zenoh_config=args.zenoh_config,
         zenoh_scout=args.zenoh_scout, zenoh_local=args.local, zenoh_timeout=args.zenoh_timeout,
         zenoh_stale=args.zenoh_stale, foxglove_port=args.foxglove_port, foxglove_host=args.foxglove_host,
-        foxglove_without_token=args.foxglove_without_token,
+        max_viewers=args.max_viewers, viewer_bytes=args.max_viewer_bytes,
     )
     try:
         config.check()

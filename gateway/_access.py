@@ -38,8 +38,8 @@ from aiohttp import web
 
 from ._replies import SERVER_HEADER
 
-__all__ = ["AccessPolicy", "browser_refusal", "other_origin", "allow_origin", "preflight_reply", "console_policy",
-           "inline_hashes"]
+__all__ = ["AccessPolicy", "browser_refusal", "other_origin", "target_authority", "allow_origin", "preflight_reply",
+           "console_policy", "inline_hashes"]
 
 #: How many distinct Host headers the policy remembers its verdict on.
 _REMEMBERED_HOSTS = 256
@@ -97,19 +97,29 @@ class AccessPolicy:
 
     def origin_allowed(self, origin: str) -> bool:
         """Whether pages of *origin* (other than the gateway's own) may use the gateway."""
-        return "*" in self.origins or origin in self.origins
+        return "*" in self.origins or origin.rstrip("/") in self.origins  # as the operator's: file:// is file:
 
 
-def browser_refusal(policy: AccessPolicy, path: str, headers: Mapping[str, str],
-                    scheme: str = "http") -> tuple[dict[str, Any] | None, str | None]:
+def browser_refusal(policy: AccessPolicy, path: str, headers: Mapping[str, str], scheme: str = "http",
+                    host: str | None = None) -> tuple[dict[str, Any] | None, str | None]:
     """Apply *policy* to a request for *path* with *headers* (looked up by lower-case name).
+
+    Args:
+        policy: The names and origins allowed.
+        path: The request's path.
+        headers: Its header fields.
+        scheme: How it reached the gateway.
+        host: The host the request names: the authority of an absolute-form target
+            (``GET http://name/...``), which HTTP/1.1 makes the request's host whatever
+            its ``Host`` says; None to take the ``Host`` field.
 
     Returns:
         ``(error body, None)`` to refuse it (403), or ``(None, origin)`` to answer
         it, *origin* being the other-site origin the reply must carry the CORS
         headers for (None for a program, or a page of the gateway's own origin).
     """
-    host = headers.get("host")
+    if host is None:
+        host = headers.get("host")
     if not policy.host_allowed(host):
         return _forbidden(f"this gateway does not answer to the name {_shown(host or '')} "
                           "(its operator can allow it with --allowed-host)"), None
@@ -119,7 +129,7 @@ def browser_refusal(policy: AccessPolicy, path: str, headers: Mapping[str, str],
         if headers.get("sec-fetch-site", "") in ("cross-site", "same-site") and path not in _NAVIGABLE:
             return _forbidden("a request from another web site may not use this gateway"), None
         return None, None
-    if other_origin(headers, scheme) is not None:
+    if other_origin(headers, scheme, host) is not None:
         if not policy.origin_allowed(origin):
             return _forbidden(f"pages from {_shown(origin)} may not use this gateway "
                               "(its operator can allow them with --allow-origin)"), None
@@ -127,10 +137,24 @@ def browser_refusal(policy: AccessPolicy, path: str, headers: Mapping[str, str],
     return None, None
 
 
-def other_origin(headers: Mapping[str, str], scheme: str = "http") -> str | None:
-    """The ``Origin`` of a request made by a page of another origin than the gateway's own (else None)."""
+def target_authority(target: str) -> str | None:
+    """The authority (``name[:port]``) of a request target in absolute form (``http://name:port/path``), else None."""
+    scheme, separator, rest = target.partition("://")
+    if not separator or scheme.lower() not in ("http", "https"):
+        return None
+    authority = rest.split("/", 1)[0].split("?", 1)[0]
+    return authority.rpartition("@")[2]  # without user information, which HTTP/1.1 forbids there anyway
+
+
+def other_origin(headers: Mapping[str, str], scheme: str = "http", host: str | None = None) -> str | None:
+    """The ``Origin`` of a request made by a page of another origin than the gateway's own (else None).
+
+    *host* is the host the request names when it is not its ``Host`` field (see :func:`browser_refusal`).
+    """
     origin = headers.get("origin")
-    return origin if origin is not None and origin != f"{scheme}://{headers.get('host')}" else None
+    if origin is None:
+        return None
+    return origin if origin != f"{scheme}://{headers.get('host') if host is None else host}" else None
 
 
 #: What a page of an allowed origin may send (the token, JSON bodies, an EventSource's reconnect).
@@ -171,7 +195,11 @@ def inline_hashes(page: bytes, tag: str) -> str:
 
 
 def console_policy(page: bytes) -> str:
-    """The Content-Security-Policy of the console *page*: its inline script and style, nothing else."""
-    return (f"default-src 'none'; script-src {inline_hashes(page, 'script')}; style-src "
+    """The Content-Security-Policy of the console *page*: its inline script and style, and the gateway's files.
+
+    The gateway's own files are its plotting library (uPlot, served from the package); uPlot sizes its
+    elements through the CSSOM (``element.style``), which no policy restricts.
+    """
+    return (f"default-src 'none'; script-src 'self' {inline_hashes(page, 'script')}; style-src 'self' "
             f"{inline_hashes(page, 'style')}; connect-src 'self'; img-src 'self' data: blob:; base-uri 'none'; "
             "form-action 'none'; frame-ancestors 'none'")

@@ -8,7 +8,6 @@ from collections.abc import AsyncIterator, Callable
 
 import orjson
 from aiohttp import web
-from aiohttp.typedefs import Middleware
 
 from ..components.core import ComponentHost, ScaledClock
 from . import _routes_admin, _routes_docs, _routes_modules, _routes_openapi, _routes_ports, _routes_sessions
@@ -16,12 +15,13 @@ from ._access import AccessPolicy
 from ._auth import TokenCheck
 from ._config import GatewayConfig
 from ._door import Door
-from ._guard import guard_middleware
+from ._guard import MAX_BODY_BYTES, guard_middleware
 from ._foxglove import FoxgloveView
 from ._keys import (
-    CONFIG, DOOR, FOXGLOVE, GUARD, HOST, READ_BODIES, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, Shutdown,
+    CONFIG, DOOR, FOXGLOVE, HOST, READ_BODIES, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, Shutdown,
     WatchFrames,
 )
+from ._connection import ConnectionLimits, handler_arguments
 from ._read_bodies import ReadBodies
 from ._watch_wakes import WatchWakes
 from ._sessions import SessionStore
@@ -47,14 +47,14 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     config.check()
     door = Door(AccessPolicy(config.allowed_hosts, config.allowed_origins),
                 TokenCheck(config.token) if config.token else None)
-    # One middleware: the door, then errors as JSON; the gateway's own connections call it
-    # in front of the routes instead (_connection), which costs less.
-    guard = guard_middleware(door)
-    middlewares: list[Middleware] = [guard]
-    app = web.Application(middlewares=middlewares)
+    # One middleware: the door, then errors as JSON.  The limits of a connection are aiohttp's
+    # handler's, so that whatever runner serves the app applies them (``serve`` adds the
+    # refusals in JSON, the head timeout and the plain reads ahead of the routes).
+    limits = ConnectionLimits(config.max_url_bytes, config.header_timeout, config.keep_alive)
+    app = web.Application(middlewares=[guard_middleware(door)], handler_args=handler_arguments(limits),
+                          client_max_size=MAX_BODY_BYTES)
     app[CONFIG] = config
     app[DOOR] = door
-    app[GUARD] = guard
     app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)
     app[SHUTDOWN] = Shutdown()
     app[WATCH_FRAMES] = WatchFrames()
@@ -72,8 +72,10 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app.add_routes(_routes_openapi.routes)
     app.add_routes(_routes_docs.routes)
     app.cleanup_ctx.append(_host_lifetime(owns_host))
+    app.cleanup_ctx.append(_session_ends)
     if config.foxglove_port is not None:
-        app[FOXGLOVE] = FoxgloveView(config.foxglove_host, config.foxglove_port, clock=app[HOST].clock)
+        app[FOXGLOVE] = FoxgloveView(config.foxglove_host, config.foxglove_port, door, clock=app[HOST].clock,
+                                     max_viewers=config.max_viewers, viewer_bytes=config.viewer_bytes)
         app.cleanup_ctx.append(_foxglove_lifetime)
     app.on_shutdown.append(shut_down(owns_host))
     return app
@@ -103,10 +105,22 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
     return lifetime
 
 
+async def _session_ends(app: web.Application) -> AsyncIterator[None]:
+    """Sessions that end as their idle time passes, and the components told of every end (a recording stops)."""
+    sessions, host = app[SESSIONS], app[HOST]
+    sessions.add_end_listener(host.end_session)
+    expiry = asyncio.create_task(sessions.expire_on_time(), name="session expiry")
+    try:
+        yield
+    finally:
+        expiry.cancel()
+        await asyncio.gather(expiry, return_exceptions=True)
+
+
 async def _foxglove_lifetime(app: web.Application) -> AsyncIterator[None]:
     """The live view, from the start (the preloaded instances shown) to the end (after the components stop)."""
     view, host = app[FOXGLOVE], app[HOST]
-    view.start(host.instances)
+    await view.start(host.instances)
     hiding: set[asyncio.Task[None]] = set()
 
     def hide(instance: str) -> None:

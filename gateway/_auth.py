@@ -1,6 +1,7 @@
 """The gateway's token (``--token``): carried by every request, in a header or in the console's cookie.
 
-Programs send ``Authorization: Bearer <token>``.  A browser page cannot add
+Programs send ``Authorization: Bearer <token>``; the live view's viewers, which
+cannot set a header on a WebSocket, put it in the URL (``?token=``, ``_door``).  A browser page cannot add
 that header to the ``EventSource`` streams it opens, so the console trades the
 token once for a cookie: ``GET /console/login`` with the header answers with
 ``Set-Cookie`` holding a random credential of this gateway run (never the
@@ -27,11 +28,12 @@ COOKIE = "aiogenomix_console"
 LOGIN_PATH = "/console/login"
 #: Says whether a request carries credentials (``{"authorized": bool}``), so the console can ask first.
 AUTH_PATH = "/console/auth"
-#: Served without credentials: the console page, and the two requests it makes about the token
-#: (the login checks the token itself); the OpenAPI description, and Swagger UI's page and files, which
-#: read it before anyone can say the token (every operation it describes needs the token).
-OPEN_PATHS = frozenset({"/console", AUTH_PATH, LOGIN_PATH, "/openapi.json", "/docs", "/docs/swagger-ui-bundle.js",
-                        "/docs/swagger-ui.css"})
+#: Served without credentials: the console page, its scripts and style, and the two requests it makes
+#: about the token (the login checks the token itself); the OpenAPI description, and Swagger UI's page and
+#: files, which read it before anyone can say the token (every operation it describes needs the token).
+OPEN_PATHS = frozenset({"/console", "/console/plots.js", "/console/uPlot.iife.min.js", "/console/uPlot.min.css",
+                        AUTH_PATH, LOGIN_PATH,
+                        "/openapi.json", "/docs", "/docs/swagger-ui-bundle.js", "/docs/swagger-ui.css"})
 
 
 class TokenCheck:
@@ -51,6 +53,10 @@ class TokenCheck:
         # Header bytes that are not UTF-8 arrive as surrogate escapes: compare the bytes as sent.
         given = authorization.encode("utf-8", "surrogateescape")
         return hmac.compare_digest(given, self._expected)
+
+    def matches(self, token: str) -> bool:
+        """Whether *token* (given bare, as in the live view's URL) is the gateway's token."""
+        return hmac.compare_digest(b"Bearer " + token.encode("utf-8", "surrogateescape"), self._expected)
 
     def admits(self, headers: Mapping[str, str]) -> bool:
         """Whether a request with *headers* (by lower-case name) carries the token or the console's cookie."""

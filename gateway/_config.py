@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 
 from ..components.core import Budgets, HostSettings
-from ..components.core.runtime import rig_settings
+from ..components.core.runtime import MIB, rig_settings
 
 __all__ = ["GatewayConfig"]
 
@@ -31,6 +31,7 @@ class GatewayConfig:
             The file of ``audio_device`` itself is always allowed: the operator chose it.
         record_dirs: Directories a ``recorder`` may write recordings into, and captures may replay
             them from (``mcap:PATH``); none by default, so a client cannot make the gateway write its disk.
+        record_mode: The permissions of new recordings (``0o600``: their owner's only).
         token: When set, every request must carry ``Authorization: Bearer <token>``.
         allowed_hosts: Host names browsers may use for the gateway besides IP addresses,
             ``localhost`` and this machine's names (DNS-rebinding protection; ``*``: any).
@@ -58,10 +59,10 @@ class GatewayConfig:
         zenoh_local: Component names that run in the gateway even with ``zenoh`` (an explicit choice:
             a host that restarts can never be replaced by a copy in the gateway).
         foxglove_port: Serve the live view in Foxglove and Lichtblick on this TCP port (None: no view; 0: a free
-            port).  Its server checks neither the token nor Host nor Origin (decision 0032).
+            port).  It admits viewers as the gateway admits requests: Host, Origin and token (decision 0036).
         foxglove_host: The address the live view binds (the loopback address unless the operator says so).
-        foxglove_without_token: Allow the live view on a non-loopback address although the gateway has a
-            token (it does not pass through the token).
+        max_viewers: How many viewers of the live view may be connected at once (429 for one more).
+        viewer_bytes: The most bytes one viewer may hold unsent; a viewer past it is dropped.
         zenoh_timeout: Seconds a component host has to answer a query (a send gets twice that plus
             ``function_grace``), and to offer again a name it offered, before the gateway answers
             ``::genom::remote_io``.
@@ -78,6 +79,7 @@ class GatewayConfig:
     audio_socket_port: int = _RIG.audio_socket_port
     audio_files: list[str] = dataclasses.field(default_factory=list)
     record_dirs: list[str] = dataclasses.field(default_factory=list)
+    record_mode: int = _RIG.record_mode
     token: str | None = None
     allowed_hosts: list[str] = dataclasses.field(default_factory=list)
     allowed_origins: list[str] = dataclasses.field(default_factory=list)
@@ -102,7 +104,8 @@ class GatewayConfig:
     zenoh_stale: float = 2.0
     foxglove_port: int | None = None
     foxglove_host: str = "127.0.0.1"
-    foxglove_without_token: bool = False
+    max_viewers: int = 8
+    viewer_bytes: int = 32 * MIB
 
     def check(self) -> None:
         """Refuse settings that contradict each other.
@@ -112,18 +115,15 @@ class GatewayConfig:
         """
         if self.foxglove_port is not None and not 0 <= self.foxglove_port <= 65535:
             raise ValueError(f"--foxglove takes a TCP port (0 to 65535), not {self.foxglove_port}")
-        if (self.foxglove_port is not None and self.token and not self.foxglove_without_token
-                and self.foxglove_host not in ("127.0.0.1", "::1", "localhost")):
-            raise ValueError(f"the Foxglove view on {self.foxglove_host} would serve the robot's data to anyone who "
-                             "reaches it, without the gateway's token: bind it to 127.0.0.1 (the default), or say "
-                             "--foxglove-without-token")
+        if self.max_viewers < 1 or self.viewer_bytes < 1:
+            raise ValueError("--max-viewers and --max-viewer-bytes take a whole number, 1 or more")
 
     def host_settings(self) -> HostSettings:
         """The settings handed to the components: the rig, and the dedicated socket beside the HTTP port."""
         return rig_settings(can=self.can, can_timeout=self.can_timeout, audio_device=self.audio_device,
                             audio_socket_port=self.audio_socket_port, audio_socket_host=self.host,
                             audio_socket_token=self.token, audio_files=self.audio_files, budgets=self.budgets,
-                            record_dirs=self.record_dirs)
+                            record_dirs=self.record_dirs, record_mode=self.record_mode)
 
     def simulated_parts(self) -> list[str]:
         """Plain words for the parts of the rig that are simulated."""

@@ -1,30 +1,31 @@
-"""The gateway's HTTP connections: each reads its requests' heads first, answers plain reads, hands the rest on.
+"""The gateway's HTTP connections: aiohttp's own, with the refusals, limits and timeouts the protocol documents.
 
-aiohttp serves the routes; this layer sits between the socket and aiohttp's
-connection handler, as the asyncio protocol of every connection, and uses
-aiohttp only through its public faces (a ``web.Server`` makes the handler, an
-asyncio protocol like this one; the server's ``request_handler`` is wrapped).
-For every request it
+Every request is read once, by aiohttp's parser (llhttp, in C): there is no
+other reader of requests to disagree with it (docs/decisions/0037).  Each
+connection is a :class:`GatewayConnection`, aiohttp's connection handler
+(``web.RequestHandler``, made for the server the application's runner built)
+with what the gateway's protocol adds to it, in one place:
 
-* reads the head and checks it (``_request_head``): what is malformed, too
-  long or of another HTTP version is refused here, in the documented JSON
-  (``::genomix::http``), logged in one line at DEBUG; the connection then
-  closes once the client has read the refusal (a client still sending a
-  20 MB URL gets the answer, not a reset), or after :data:`LINGER` seconds;
-* answers a plain port read itself (``_fast_reads``) when aiohttp has nothing
-  of this connection in hand and the socket has nothing left to send: its
-  reply then cannot overtake another, and a client that does not read holds
-  one reply at most;
-* passes everything else to aiohttp, request by request (a body by its
-  ``Content-Length``), and counts what aiohttp has in hand: the handler
-  wrapped around the guard finishes each reply and says so
-  (:func:`answering`), so that the next plain read is answered here again.
+* **Refusals of malformed requests** in the documented JSON
+  (``::genomix::http``) with their status: 400 for a malformed request line or
+  field, an unknown method, a field that may appear once given twice; 414 for a
+  request line past ``--max-url-bytes``; 431 for a field line past
+  :data:`MAX_FIELD_LINE` bytes or more than :data:`MAX_FIELDS` fields; 505 for
+  an HTTP version other than 1.0 and 1.1 (HTTP/0.9 above all).  Each is logged
+  in one line at DEBUG, never with a traceback: the client's mistake is not the
+  gateway's fault, and a client must not be able to fill the log.  The
+  connection then closes once the client has read the refusal (a client still
+  sending a 20 MB URL gets the answer, not a reset), or after :data:`LINGER`
+  seconds.
+* **A head timeout**: a request head not complete
+  :attr:`ConnectionLimits.header_timeout` seconds after the connection opened
+  (or after the first byte that followed a reply) gets 408, and the connection
+  ends.  aiohttp waits for a head forever.
+* **The limits** (:func:`handler_arguments`): the request line, field lines and
+  their number, and the idle timeout of a kept-alive connection (aiohttp's own).
 
-It also times what aiohttp would wait for forever: a request head not
-complete :attr:`ConnectionLimits.header_timeout` seconds after the connection
-opened or after its first byte gets 408; a connection idle for
-:attr:`ConnectionLimits.keep_alive` seconds is closed (aiohttp's own idle timer
-is set beyond reach, since it cannot see the reads answered here).
+aiohttp is used through its public faces: the handler class and its
+``data_received``/``handle_error`` methods, the server's ``request_handler``.
 """
 
 from __future__ import annotations
@@ -33,23 +34,28 @@ import asyncio
 import dataclasses
 import logging
 from http import HTTPStatus
-from collections.abc import Awaitable, Callable
+from typing import Any
 
-from aiohttp import web
-from aiohttp.helpers import rfc822_formatted_time
+from aiohttp import StreamReader, web
+from aiohttp.http_exceptions import BadStatusLine, HttpProcessingError, LineTooLong
 
-from ._fast_reads import FastReads
 from ._gather import direct_socket, unsent, write_gathered
-from ._guard import Handler
-from ._replies import SERVER_HEADER, dumps
-from ._request_head import HeadRefusal, RequestHead, check_partial, head_end, parse_head
+from ._refusal_log import SERVER_LOG
+from ._replies import SERVER_HEADER, dumps, http_date
 
-__all__ = ["ConnectionLimits", "Connections", "GatewayConnection", "answering", "LINGER"]
+__all__ = ["ConnectionLimits", "GatewayConnection", "Written", "handler_arguments", "LINGER", "MAX_FIELD_LINE",
+           "MAX_FIELDS", "UNSUPPORTED_VERSION"]
 
 log = logging.getLogger(__name__)
 
 #: Seconds a refused client may still send (the rest of a huge URL) while it reads the refusal.
 LINGER = 5.0
+#: The longest field (header) line, in bytes (aiohttp's own default).
+MAX_FIELD_LINE = 8190
+#: The most fields a request may carry.
+MAX_FIELDS = 100
+#: The refusal of a request of another HTTP version than 1.0 and 1.1 (505).
+UNSUPPORTED_VERSION = "this HTTP version is not supported (HTTP/0.9 included): send HTTP/1.1 or HTTP/1.0"
 _REFUSAL_HEADERS = "".join(f"{name}: {value}\r\n" for name, value in
                            {"Content-Type": "application/json", **SERVER_HEADER}.items())
 
@@ -70,268 +76,220 @@ class ConnectionLimits:
     keep_alive: float = 75.0
 
 
-class Connections:
-    """The open connections, by the aiohttp handler each hands requests to (what a request knows)."""
+def handler_arguments(limits: ConnectionLimits) -> dict[str, Any]:
+    """The arguments of aiohttp's connection handler that set the gateway's limits.
 
-    def __init__(self) -> None:
-        self._by_handler: dict[asyncio.BaseProtocol, GatewayConnection] = {}
-
-    def add(self, handler: asyncio.BaseProtocol, connection: GatewayConnection) -> None:
-        """Record *connection*, whose requests aiohttp handles with *handler*."""
-        self._by_handler[handler] = connection
-
-    def discard(self, handler: asyncio.BaseProtocol) -> None:
-        """Forget the connection of *handler* (closed)."""
-        self._by_handler.pop(handler, None)
-
-    def of(self, request: web.BaseRequest) -> GatewayConnection | None:
-        """The connection *request* came on (None when it has closed meanwhile)."""
-        return self._by_handler.get(request.protocol)
-
-
-def answering(handler: Handler, connections: Connections) -> Callable[[web.BaseRequest],
-                                                                       Awaitable[web.StreamResponse]]:
-    """Wrap the server's *handler* so that each reply is finished, then its connection told.
-
-    A handler's reply is usually written by aiohttp after the handler returns;
-    finishing it here (``prepare``, ``write_eof``: both do nothing the second
-    time) puts every byte of it in the transport before the connection may
-    answer the next read itself.
+    Given to the application (``handler_args``) so that any runner serving it applies them,
+    and to each :class:`GatewayConnection`.
     """
-    of = connections.of
-
-    async def answer(request: web.BaseRequest) -> web.StreamResponse:
-        assert isinstance(request, web.Request)  # what an application's runner makes
-        connection = of(request)
-        try:
-            try:
-                response = await handler(request)
-            except web.HTTPException as exc:  # a redirect the guard lets through: written here as well
-                response = web.Response(status=exc.status, reason=exc.reason, text=exc.text, headers=exc.headers)
-            try:
-                if not response.prepared:
-                    await response.prepare(request)
-                await response.write_eof()
-            except ConnectionError:
-                pass  # the client left: aiohttp sees the same when it finishes the reply, and says nothing
-            return response
-        finally:
-            if connection is not None:
-                connection.answered()
-
-    return answer
+    return {"max_line_size": limits.max_url_bytes, "max_field_size": MAX_FIELD_LINE, "max_headers": MAX_FIELDS,
+            "keepalive_timeout": limits.keep_alive, "logger": SERVER_LOG}
 
 
-class GatewayConnection(asyncio.Protocol):
+class Written(web.StreamResponse):
+    """A reply whose bytes are all given (its HTTP head included), written at once when aiohttp prepares it.
+
+    The pieces go to the socket in one gathered write when the transport has nothing
+    queued (:mod:`._gather`), else to the transport.  aiohttp's writer is not used: its
+    head and framing are in the pieces already.
+
+    Args:
+        pieces: The whole reply, in order.
+        keep_alive: Whether the connection stays open after it (its head says so).
+    """
+
+    def __init__(self, pieces: list[Any], keep_alive: bool = True) -> None:
+        super().__init__()
+        self._pieces = pieces
+        self._keeps_alive = keep_alive
+
+    @property
+    def keep_alive(self) -> bool:  # noqa: D102
+        return self._keeps_alive
+
+    async def prepare(self, request: web.BaseRequest) -> None:
+        """Write the reply (aiohttp calls this once the handler has returned it)."""
+        transport = request.transport
+        if transport is None or transport.is_closing():
+            return
+        fd = direct_socket(transport)
+        written = write_gathered(fd, self._pieces) if fd is not None else 0
+        for piece in unsent(self._pieces, written):
+            transport.write(piece)
+
+    async def write_eof(self, data: bytes = b"") -> None:  # noqa: D102
+        return None
+
+
+class GatewayConnection(web.RequestHandler):
     """One HTTP connection (see the module's description).
 
     Args:
-        make_handler: Makes the aiohttp handler of the connection (the ``web.Server``).
-        connections: Where the connection is recorded while it is open.
-        fast_reads: Answers plain port reads (None: every request goes to aiohttp).
+        server: The server the application's runner made (its request handler and factory).
         limits: The connection's limits.
+        kwargs: The handler's other arguments (:func:`handler_arguments`, ``access_log``...).
     """
 
-    def __init__(self, make_handler: Callable[[], asyncio.Protocol], connections: Connections,
-                 fast_reads: FastReads | None, limits: ConnectionLimits) -> None:
-        self._inner = make_handler()
-        self._connections = connections
-        self._fast_reads = fast_reads
+    def __init__(self, server: web.Server, limits: ConnectionLimits, **kwargs: Any) -> None:
+        loop = asyncio.get_running_loop()
+        super().__init__(server, loop=loop, **{**handler_arguments(limits), **kwargs})
         self._limits = limits
-        self._loop = asyncio.get_running_loop()
-        self._transport: asyncio.Transport | None = None
-        self._buffer = b""  # the start of a request not complete yet
-        self._body_left = 0  # bytes of a body passed on still to come
-        self._in_hand = 0  # requests passed to aiohttp and not answered yet
-        self._closing = False  # refused: what the client still sends is read and dropped
-        self._refusal: HeadRefusal | None = None  # written once aiohttp has answered what it holds
+        self._event_loop = loop
+        self._refused = False  # refused: what the client still sends is dropped
         self._head_timer: asyncio.TimerHandle | None = None
-        self._idle_timer: asyncio.TimerHandle | None = None
-        self._last_reply = 0.0  # when the last reply was finished (the loop's clock)
+        self._linger: asyncio.TimerHandle | None = None
+        self._lingering: asyncio.Transport | None = None  # refused, closed after LINGER or the client's end
+        self._busy = 0  # requests in the handler
+        self._unread = False  # bytes came while a request was in the handler
+        self._head_since: float | None = None  # when the head being received began (the loop's clock)
+        self._unread_body: StreamReader | None = None  # of the last request, being read to its end by aiohttp
 
     # -- the connection ---------------------------------------------------------------------
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:  # noqa: D102
-        assert isinstance(transport, asyncio.Transport)
-        self._transport = transport
-        self._connections.add(self._inner, self)
-        self._inner.connection_made(transport)
-        self._arm_head_timer()
+        super().connection_made(transport)
+        self._time_head()  # a connection is opened to send a request: its head is timed from now
 
-    def connection_lost(self, exc: Exception | None) -> None:  # noqa: D102
-        self._cancel_timers()
-        self._connections.discard(self._inner)
-        self._transport = None
-        self._inner.connection_lost(exc)
+    def connection_lost(self, exc: BaseException | None) -> None:  # noqa: D102
+        for timer in (self._head_timer, self._linger):
+            if timer is not None:
+                timer.cancel()
+        self._head_timer = self._linger = None
+        self._lingering = None
+        super().connection_lost(exc)
+        body, self._unread_body = self._unread_body, None
+        if body is not None and not body.is_eof():
+            body.feed_eof()  # nothing more can come
 
-    def eof_received(self) -> bool | None:  # noqa: D102
-        if self._closing:
-            # The refused client read its answer and closed its side.
-            if self._transport is not None:
-                self._transport.close()
-            return None
-        return self._inner.eof_received()
-
-    def pause_writing(self) -> None:  # noqa: D102
-        self._inner.pause_writing()
-
-    def resume_writing(self) -> None:  # noqa: D102
-        self._inner.resume_writing()
-
-    # -- requests ---------------------------------------------------------------------------
+    async def shutdown(self, timeout: float | None = 15.0) -> None:
+        """Close the connection as the server stops: aiohttp's way, and a refused one still lingering at once."""
+        if self._linger is not None:
+            self._linger.cancel()
+            self._linger = None
+            if self._lingering is not None:
+                self._lingering.close()
+        await super().shutdown(timeout)
 
     def data_received(self, data: bytes) -> None:  # noqa: D102
-        if self._closing:
-            return
-        passed: list[bytes] = []
-        if self._body_left:
-            piece = data[:self._body_left]
-            passed.append(piece)
-            self._body_left -= len(piece)
-            data = data[len(piece):]
-        buffer = self._buffer + data if self._buffer else data
-        start = 0
-        try:
-            while not self._body_left:
-                # Empty lines before a request are ignored (RFC 9112, 2.2): after a body, say.
-                while buffer.startswith(b"\r\n", start):
-                    start += 2
-                if start == len(buffer):
-                    break
-                end = head_end(buffer, start)
-                if end < 0:
-                    check_partial(buffer, start, self._limits.max_url_bytes)
-                    break
-                head = parse_head(buffer, start, end)
-                start = end
-                if (not passed and not self._in_hand and self._fast_reads is not None
-                        and self._fast_reads.may_answer(head) and self._answer_fast(head)):
-                    continue
-                passed.append(head.raw)
-                self._in_hand += 1
-                if head.body_length:
-                    body = buffer[start:start + head.body_length]
-                    passed.append(body)
-                    start += len(body)
-                    self._body_left = head.body_length - len(body)
-        except HeadRefusal as refusal:
-            self._refuse(refusal)
-        self._buffer = b"" if self._closing else buffer[start:]
-        if passed:
-            self._inner.data_received(passed[0] if len(passed) == 1 else b"".join(passed))
-        if not self._closing and (self._buffer or self._body_left or self._head_timer is not None):
-            self._time_what_is_awaited()
+        if self._refused:
+            return  # the rest of a refused request, read and dropped while the client reads the refusal
+        super().data_received(data)
+        body = self._unread_body
+        if body is not None:
+            if not body.is_eof():
+                return  # the rest of the body of a request answered already: aiohttp reads it, no head yet
+            self._unread_body = None
+        if self._busy:
+            self._unread = True  # a head after the request being answered: timed once that one is
+        elif self._head_since is None:
+            self._time_head()
 
-    def answered(self) -> None:
-        """Called once aiohttp has written the whole reply to one of the requests it was given."""
-        self._in_hand -= 1
-        if self._in_hand:
-            return
-        if self._refusal is not None:
-            self._write_refusal(self._refusal)
-        elif not self._closing:
-            self._replied()
-            if self._buffer or self._head_timer is not None:
-                self._time_what_is_awaited()
+    # -- requests (told by the server's request handler: see ``_run``) ----------------------
 
-    def _answer_fast(self, head: RequestHead) -> bool:
-        """Answer *head*, a plain read (``FastReads.may_answer``), here if the socket has nothing else to send."""
-        fast_reads, transport = self._fast_reads, self._transport
-        assert fast_reads is not None
-        fd = direct_socket(transport)
-        if fd is None or transport is None:
-            return False
-        reply = fast_reads.reply(head)
-        if reply is None:
-            return False
-        written = write_gathered(fd, reply)
-        for piece in unsent(reply, written):
-            transport.write(piece)
-        self._replied()
-        return True
+    def request_began(self) -> None:
+        """A request's head is complete and its handler runs."""
+        self._busy += 1
+        self._unread = False
+        self._head_since = None
+
+    def request_ended(self, request: web.BaseRequest) -> None:
+        """The handler of *request* returned: bytes received meanwhile start the next head's time."""
+        self._busy -= 1
+        if not self._busy and self._unread:
+            self._unread = False
+            self._time_head()
+        # aiohttp reads what is left of a body nobody read (for up to its lingering time), so
+        # that the client reads the reply rather than a reset.  It does not stop when the
+        # connection is lost: :meth:`connection_lost` ends that body.
+        self._unread_body = None if request.content.is_eof() else request.content
 
     # -- refusals ---------------------------------------------------------------------------
 
-    def _refuse(self, refusal: HeadRefusal) -> None:
-        """Answer *refusal* after what aiohttp holds, then close; what the client still sends is dropped."""
-        self._closing = True
-        self._cancel_timers()
-        log.debug("refused a request from %s: %d %s", self._peer(), refusal.status, refusal.message)
-        if self._in_hand:
-            self._refusal = refusal
-        else:
-            self._write_refusal(refusal)
+    def handle_error(self, request: web.BaseRequest, status: int = 500, exc: BaseException | None = None,
+                     message: str | None = None) -> web.StreamResponse:
+        """Refuse, in the documented JSON, a request that aiohttp could not read (its own answer otherwise).
 
-    def _write_refusal(self, refusal: HeadRefusal) -> None:
-        self._refusal = None
-        transport = self._transport
-        if transport is None or transport.is_closing():
-            return
-        body = dumps({"ex": "::genomix::http", "message": refusal.message})
-        head = (f"HTTP/1.1 {refusal.status} {HTTPStatus(refusal.status).phrase}\r\n{_REFUSAL_HEADERS}"
-                f"Content-Length: {len(body)}\r\nDate: {rfc822_formatted_time()}\r\nConnection: close\r\n\r\n")
-        transport.write(head.encode() + body)
-        # Closing while the client still sends would make the kernel reset the connection, and
-        # the client would never read the answer: half-close, and close when it closes its side.
-        if transport.can_write_eof():
-            transport.write_eof()
-        self._head_timer = self._loop.call_later(LINGER, transport.close)
+        A fault of the gateway itself (no parser's refusal) keeps aiohttp's answer and its
+        logged traceback.
+        """
+        if not isinstance(exc, HttpProcessingError):
+            return super().handle_error(request, status, exc, message)
+        return self.refuse(*self._refusal(exc))
 
-    def _peer(self) -> str:
-        peer = self._transport.get_extra_info("peername") if self._transport is not None else None
-        return str(peer[0]) if isinstance(peer, tuple) else "?"
+    def refuse(self, status: int, message: str) -> web.StreamResponse:
+        """Refuse the request being read with *status* and *message* (see :meth:`_refuse`); the reply to return."""
+        self._refuse(status, message)
+        return Written([], keep_alive=False)
 
-    # -- timers -----------------------------------------------------------------------------
+    def _refusal(self, exc: HttpProcessingError) -> tuple[int, str]:
+        """The status and sentence of the refusal of a request that aiohttp's parser refused with *exc*."""
+        said = str(exc.message).strip().split("\n", 1)[0]
+        if isinstance(exc, LineTooLong):
+            if exc.args[1:2] == (self.max_field_size,):
+                return 431, f"a request header line is longer than {self.max_field_size} bytes"
+            return 414, (f"the request line (the URL with its query, input= included) is longer than "
+                         f"{self._limits.max_url_bytes} bytes, this gateway's limit")
+        if said.startswith("Too many headers"):
+            return 431, f"a request may carry at most {self.max_headers} header fields"
+        if isinstance(exc, BadStatusLine) and ("version" in said.lower() or "Expected HTTP/" in str(exc.message)):
+            return 505, UNSUPPORTED_VERSION
+        return 400, f"malformed HTTP request: {said.removeprefix('Bad status line:').strip() or 'unreadable'}"
 
-    def _time_what_is_awaited(self) -> None:
-        """Time the request being received, if any (the idle timer looks at the connection when it fires)."""
-        if self._buffer or self._body_left:
-            self._arm_head_timer()
-        elif self._head_timer is not None:
+    def _refuse(self, status: int, message: str) -> None:
+        """Answer *status* and close once the client has read it; what it still sends is dropped.
+
+        aiohttp is left without the transport, so that it does not close it at once: a
+        client still sending (a huge URL) would get a reset rather than the answer.
+        """
+        self._refused = True
+        if self._head_timer is not None:
             self._head_timer.cancel()
             self._head_timer = None
+        transport = self.transport
+        log.debug("refused a request from %s: %d %s", _peer(transport), status, message)
+        if transport is None or transport.is_closing():
+            return
+        body = dumps({"ex": "::genomix::http", "message": message})
+        head = (f"HTTP/1.1 {status} {HTTPStatus(status).phrase}\r\n{_REFUSAL_HEADERS}"
+                f"Content-Length: {len(body)}\r\nDate: {http_date()}\r\nConnection: close\r\n\r\n")
+        transport.write(head.encode() + body)
+        # Closing while the client still sends would make the kernel reset the connection, and
+        # the client would never read the answer: half-close, and close when it closes its side
+        # (asyncio closes a transport whose protocol's eof_received answers None) or after LINGER.
+        if transport.can_write_eof():
+            transport.write_eof()
+        self._linger = self._event_loop.call_later(LINGER, transport.close)
+        self._lingering = transport
+        self.transport = None
+        self.force_close()
 
-    def _arm_head_timer(self) -> None:
-        if self._head_timer is None and self._limits.header_timeout > 0:
-            self._head_timer = self._loop.call_later(self._limits.header_timeout, self._head_timed_out)
+    # -- the head timer ---------------------------------------------------------------------
+
+    def _time_head(self) -> None:
+        """Time a head from now: its first byte came, or the request before it has been answered.
+
+        One timer per connection, moved on lazily: a timer made and cancelled at every request
+        of 50 busy connections would cost asyncio more than the rest of the connection.
+        """
+        if self._limits.header_timeout <= 0 or self._refused:
+            return
+        self._head_since = self._event_loop.time()
+        if self._head_timer is None:
+            self._head_timer = self._event_loop.call_at(self._head_since + self._limits.header_timeout,
+                                                        self._head_timed_out)
 
     def _head_timed_out(self) -> None:
         self._head_timer = None
-        transport = self._transport
-        if transport is None or self._closing:
-            return
-        if self._body_left:
-            # aiohttp's handler waits for a body that does not come: nothing can be answered in order.
-            transport.close()
-        elif self._in_hand:
-            # A request is being answered: the head after it is timed once that one is.
-            self._arm_head_timer()
+        since = self._head_since
+        if self.transport is None or self._refused or since is None:
+            return  # closed, or no head being received (timed again from the next one's first byte)
+        deadline = since + self._limits.header_timeout
+        if self._event_loop.time() < deadline:
+            self._head_timer = self._event_loop.call_at(deadline, self._head_timed_out)
         else:
-            self._refuse(HeadRefusal(408, f"the request head took more than {self._limits.header_timeout:g} s"))
+            self._refuse(408, f"the request head took more than {self._limits.header_timeout:g} s")
 
-    def _replied(self) -> None:
-        """A reply is finished: the connection is idle from now until its next request.
 
-        One timer per connection, moved on lazily: a timer made and cancelled at every
-        request of 50 busy connections costs asyncio more than the rest of this layer.
-        """
-        self._last_reply = self._loop.time()
-        if self._idle_timer is None:
-            self._idle_timer = self._loop.call_at(self._last_reply + self._limits.keep_alive, self._idle_timed_out)
-
-    def _idle_timed_out(self) -> None:
-        self._idle_timer = None
-        transport = self._transport
-        if transport is None or self._in_hand or self._buffer or self._body_left:
-            return  # busy: timed again after its next reply
-        left = self._last_reply + self._limits.keep_alive - self._loop.time()
-        if left > 0:
-            self._idle_timer = self._loop.call_later(left, self._idle_timed_out)
-        else:
-            transport.close()
-
-    def _cancel_timers(self) -> None:
-        for timer in (self._head_timer, self._idle_timer):
-            if timer is not None:
-                timer.cancel()
-        self._head_timer = self._idle_timer = None
+def _peer(transport: asyncio.BaseTransport | None) -> str:
+    peer = transport.get_extra_info("peername") if transport is not None else None
+    return str(peer[0]) if isinstance(peer, tuple) else "?"

@@ -1,42 +1,50 @@
-"""Port reads answered where their request is read, without aiohttp's request machinery.
+"""Port reads answered ahead of the routes, without aiohttp's routing and response machinery.
 
 A client polling the audio window sends one small GET after another.  Timed
 inside the gateway (the 500 ms window, read back to back), about 200 µs passed
-between such a request's bytes and its reply's first byte, and about 130 µs went to
-the machinery around the read itself: waking the connection's task (and, before
-Python 3.12, starting a task per request), building the ``Request``, finding
-the route among the eight under ``/module``, the middleware, and building the
-``Response`` and its head.
+between such a request's bytes and its reply's first byte, and most of it went to
+the machinery around the read itself: finding the route among the eight under
+``/module``, the middleware, and building the ``Response`` and its head
+(docs/decisions/0021).
 
-:class:`FastReads` answers the reads that need none of it, straight from the
-connection (``_connection``): a ``GET /module/M/read/P`` over HTTP/1.1, kept
-alive, without a body, of a single out port of a loaded instance, with no
-parameters but ``format``, ``since``, ``s`` and ``_`` (plain: no percent-encoding),
-that the door (``_door``) admits as a program's request.  The body is the
-route's own (:func:`~._routes_ports.read_body`, with the same bodies kept per
-publication) and the head is the one aiohttp writes for it.  Every other
-request goes the usual way, including every one the door refuses and every
-read the routes answer with an error: refusals and errors are the routes'
-alone, and the rules are the door's alone.
+:class:`FastReads` answers the reads that need none of it, as the server's request
+handler, ahead of the application's routes (:func:`ahead_of_the_routes`): a
+``GET /module/M/read/P`` over HTTP/1.1, kept alive, of a single out port of a
+loaded instance, with no parameters but ``format``, ``since``, ``s`` and ``_``
+(plain: no percent-encoding), that the door (``_door``) admits as a program's
+request, on a connection whose socket has nothing left to send.  The request is
+aiohttp's, read by its parser like every other: there is no second reader of
+heads.  The body is the route's own (:func:`~._routes_ports.read_body`, with the
+same bodies kept per publication) and the head is the one aiohttp writes for it;
+both go to the socket in one gathered write.  Every other request goes to the
+routes, including every one the door refuses and every read the routes answer
+with an error: refusals and errors are the routes' alone, and the rules are the
+door's alone.
 """
 
 from __future__ import annotations
 
+from collections.abc import Awaitable, Callable
+
 from aiohttp import web
-from aiohttp.helpers import rfc822_formatted_time
+from aiohttp.http import HttpVersion10, HttpVersion11
 
 from ..components.core import Incremental, OutPortRuntime
-from ._door import ADMITTED, Door
-from ._gather import Buffer
+from ._connection import UNSUPPORTED_VERSION, GatewayConnection, Written
+from ._door import ADMITTED, Door, repeated_fields
+from ._gather import direct_socket
 from ._keys import DOOR, HOST, READ_BODIES
 from ._pieces import PiecesPayload
-from ._request_head import RequestHead
+from ._replies import http_date
 from ._routes_ports import READ_HEADERS, parse_since, read_body, wants_binary
 
-__all__ = ["FastReads"]
+__all__ = ["FastReads", "ahead_of_the_routes"]
 
 #: The parameters a fast read may carry (``name=`` is for multiple ports: the routes answer it).
 _PARAMETERS = frozenset({"format", "since", "s", "_"})
+_VERSIONS = frozenset({HttpVersion10, HttpVersion11})
+
+RequestHandler = Callable[[web.BaseRequest], Awaitable[web.StreamResponse]]
 
 
 class FastReads:
@@ -52,29 +60,30 @@ class FastReads:
         self._bodies = app[READ_BODIES]
         self._heads = {binary: _head_start(READ_HEADERS[binary]) for binary in (False, True)}
 
-    @staticmethod
-    def may_answer(head: RequestHead) -> bool:
-        """Whether *head* may be a plain read (a cheap look, before the socket and the door are asked)."""
-        return head.method == "GET" and head.target.startswith("/module/") and "/read/" in head.target
-
-    def reply(self, head: RequestHead) -> list[Buffer] | None:
-        """The whole reply to *head* (its HTTP head first), or None to leave the request to the routes."""
-        if head.method != "GET" or head.version != "1.1" or head.body_length:
+    def reply(self, request: web.BaseRequest) -> Written | None:
+        """The whole reply to *request*, or None to leave it to the routes."""
+        target = request.raw_path
+        # The cheapest looks first: every other request passes here on its way to the routes.
+        if ("/read/" not in target or not target.startswith("/module/") or request.method != "GET"
+                or request.version != HttpVersion11 or not request.keep_alive):
             return None
-        path, _, query = head.target.partition("?")
+        path, _, query = target.partition("?")
         parts = path.split("/")
-        if len(parts) != 5 or parts[1] != "module" or parts[3] != "read" or "%" in path or "#" in query:
+        if len(parts) != 5 or parts[3] != "read" or "%" in path or "#" in query:
             return None
         parameters = _parameters(query)
-        if parameters is None:
+        if parameters is None or request.body_exists:
             return None
-        headers = head.headers()
-        if not head.keeps_alive(headers) or self._door.decide("GET", path, parameters, headers) is not ADMITTED:
+        headers = request.headers
+        if "Expect" in headers:  # answered by the route's expect handler (100 Continue, or 417)
+            return None
+        if self._door.decide("GET", path, parameters, headers, repeated=repeated_fields(headers)) is not ADMITTED:
             return None
         fmt = parameters.get("format", "")
-        if fmt not in ("", "json", "binary"):
+        if fmt not in ("", "json", "binary") or direct_socket(request.transport) is None:
+            # Bytes still queued for the socket: the routes' writer waits for them to drain.
             return None
-        binary = wants_binary(fmt, headers.get("accept", ""))
+        binary = wants_binary(fmt, headers.get("Accept", ""))
         try:
             since = parse_since(parameters.get("since"))
             body = self._body(parts[2], parts[4], since, binary)
@@ -83,12 +92,11 @@ class FastReads:
         if body is None:
             return None
         pieces = body.pieces if isinstance(body, PiecesPayload) else (body,)
-        # The Date aiohttp writes (its helper, made once a second).
         http_head = self._heads[binary] + b"Content-Length: %d\r\nDate: %s\r\n\r\n" % (
-            sum(len(piece) for piece in pieces), rfc822_formatted_time().encode())
+            sum(len(piece) for piece in pieces), http_date().encode())
         if isinstance(body, bytes):
-            return [http_head + body]  # small: one buffer, one write
-        return [http_head, *pieces]
+            return Written([http_head + body])  # small: one buffer, one write
+        return Written([http_head, *pieces])
 
     def _body(self, instance: str, name: str, since: int | None, binary: bool) -> bytes | PiecesPayload | None:
         """The body of the read of port *name* of *instance*, or None for a port the routes answer."""
@@ -99,6 +107,27 @@ class FastReads:
         if since is not None and not isinstance(value, Incremental):
             return None
         return read_body(self._bodies, name, port, value, None, since, binary)
+
+
+def ahead_of_the_routes(fast_reads: FastReads, routes: RequestHandler) -> RequestHandler:
+    """The server's request handler: a plain read answered by *fast_reads*, anything else by *routes*.
+
+    It also tells the gateway's connection when a request's head is complete and when its
+    handler has returned (the head timeout, ``_connection``).
+    """
+    async def handle(request: web.BaseRequest) -> web.StreamResponse:
+        connection = request.protocol
+        if type(connection) is not GatewayConnection:  # served some other way
+            return fast_reads.reply(request) or await routes(request)
+        connection.request_began()
+        try:
+            if request.version not in _VERSIONS:  # HTTP/0.9: its reply would have no status line
+                return connection.refuse(505, UNSUPPORTED_VERSION)
+            return fast_reads.reply(request) or await routes(request)
+        finally:
+            connection.request_ended(request)
+
+    return handle
 
 
 def _parameters(query: str) -> dict[str, str] | None:

@@ -1,9 +1,11 @@
-"""The live view in Foxglove and Lichtblick: the loaded instances' ports served by the Foxglove SDK's server.
+"""The live view in Foxglove and Lichtblick: the loaded instances' ports, served behind the gateway's door.
 
-``--foxglove PORT`` starts the SDK's server (the Foxglove WebSocket protocol,
-``foxglove.websocket.v1``'s messages under the SDK's subprotocol name ``foxglove.sdk.v1``)
-beside the gateway.  Every out port of every loaded instance is a channel, added when the
-instance loads and closed when it unloads, in the type Foxglove's panels show:
+``--foxglove PORT`` starts the view's WebSocket server (``_foxglove_server``: the Foxglove
+WebSocket protocol, under both of its names, ``foxglove.websocket.v1`` and ``foxglove.sdk.v1``)
+beside the gateway, admitting viewers as the gateway admits requests: its Host and Origin rules
+and its token (decision 0036).  Every out port of every loaded instance is a channel, added
+when the instance loads and withdrawn when it unloads, in the type Foxglove's panels show,
+encoded by the Foxglove SDK's message types:
 
 * the head's state (``::kemar::state``): ``foxglove.JointStates``, joint ``head_yaw`` in radians;
 * camera pictures: ``foxglove.RawImage``; laser scans: ``foxglove.LaserScan``; odometry:
@@ -13,10 +15,9 @@ instance loads and closed when it unloads, in the type Foxglove's panels show:
   captured: our captures left-justify samples into 32 bits), every chunk once;
 * any other port: its JSON with its JSON Schema, as ``/read`` gives it.
 
-A port is read and encoded only while a viewer subscribes to its channel.  The SDK queues each
-viewer's messages apart and drops a slow viewer's oldest: publishing never waits for a viewer,
-and the gateway's own clients never wait for the view.  The server does not check the gateway's
-token, Host or Origin (decision 0032): it binds the loopback address unless told otherwise.
+A port is read and encoded only while a viewer subscribes to its channel, once for all of them.
+Each viewer is served at its own pace within its send budget (``_foxglove_viewer``): publishing
+never waits for a viewer, and the gateway's own clients never wait for the view.
 """
 
 from __future__ import annotations
@@ -33,25 +34,24 @@ import numpy as np
 import orjson
 
 from ..components.core import Clock, Incremental, OutPortRuntime, OverBudget, json_schema
-from ..components.core.runtime import LoadedInstance, PortUnavailable, RemoteUnreachable
+from ..components.core.runtime import MIB, LoadedInstance, PortUnavailable, RemoteUnreachable
 
 from ..components.recording import (
     AUDIO_TYPES, frames_per_chunk, head_state, number, planar_odometry, seconds_of, stamp_of,
 )
+from ._door import Door
+from ._foxglove_server import LiveChannel, LiveViewServer, protobuf_schema
 
-__all__ = ["FoxgloveView", "FoxgloveUnavailable", "BACKLOG"]
+__all__ = ["FoxgloveView", "FoxgloveUnavailable"]
 
 log = logging.getLogger(__name__)
 
-#: Messages the server queues for one viewer before it drops the oldest: about a second of the world's
-#: traffic, at most 34 MB of 256×256 pictures per viewer (the SDK's default, 1024, would be 270 MB).
-BACKLOG = 128
 _NUMPY = orjson.OPT_SERIALIZE_NUMPY | orjson.OPT_NON_STR_KEYS
 Json = Mapping[str, Any]
 
 
 class FoxgloveUnavailable(RuntimeError):
-    """The Foxglove SDK is not installed (``pip install "aiogenomix[foxglove]"``), or its server cannot start."""
+    """The Foxglove SDK is not installed (``pip install "aiogenomix[foxglove]"``), or the view cannot listen."""
 
 
 def _stamp(data: Json, fallback: float) -> float:
@@ -59,59 +59,47 @@ def _stamp(data: Json, fallback: float) -> float:
     return stamp_of(data) or fallback
 
 
-class _Channel:
-    """One port shown in the view: its SDK channel and how its data becomes a message."""
+class _Shown:
+    """One port shown in the view: its channel, and how its data becomes a message's bytes."""
 
-    def __init__(self, channel: Any, convert: Callable[[Json, float], Any] | None, audio: bool = False) -> None:
+    def __init__(self, channel: LiveChannel, encode: Callable[[Json, float], bytes] | None,
+                 audio: bool = False) -> None:
         self.channel = channel
-        self.convert = convert
+        self.encode = encode
         self.audio = audio
-        #: Set when a viewer subscribes: it gets the port's current data at once, not at its next publication.
-        self.subscribed = asyncio.Event()
-
-
-class _Subscriptions:
-    """The SDK's server listener: tells the view, on its event loop, which channel a viewer subscribed to."""
-
-    def __init__(self, loop: asyncio.AbstractEventLoop, notify: Callable[[int], None]) -> None:
-        self._loop, self._notify = loop, notify
-
-    def on_subscribe(self, client: Any, channel: Any) -> None:
-        # Called on one of the SDK's threads.
-        self._loop.call_soon_threadsafe(self._notify, int(channel.id))
-
-    def on_unsubscribe(self, client: Any, channel: Any) -> None:
-        """Nothing to do: the channel's subscribers are asked at each publication (``has_sinks``)."""
 
 
 class FoxgloveView:
-    """The Foxglove WebSocket server of a gateway, showing the ports of its loaded instances.
+    """The live view of a gateway, showing the ports of its loaded instances in Foxglove and Lichtblick.
 
     Args:
         address: The address to bind (the loopback address unless the operator says otherwise).
         port: The TCP port (0 picks a free one).
+        door: The gateway's door: viewers are admitted by its rules and token.
         name: The server's name, shown by the viewer.
         clock: The rig's clock, which stamps data that carries no time (``bass``'s audio, pictures)
             as the rig stamps the rest (default: this machine's time).
+        max_viewers: How many viewers may be connected at once (``--max-viewers``).
+        viewer_bytes: The most bytes one viewer may hold unsent (``--max-viewer-bytes``).
     """
 
-    def __init__(self, address: str, port: int, name: str = "aiogenomix", clock: Clock | None = None) -> None:
+    def __init__(self, address: str, port: int, door: Door, name: str = "aiogenomix", clock: Clock | None = None,
+                 max_viewers: int = 8, viewer_bytes: int = 32 * MIB) -> None:
         self.address, self.requested_port, self.name = address, port, name
         self._wall: Callable[[], float] = clock.wall if clock is not None else time.time
         self._fox: Any = None
-        self._context: Any = None
-        self._server: Any = None
+        self._server = LiveViewServer(door, name, max_viewers, viewer_bytes)
+        self._started = False
         self._followers: dict[str, list[asyncio.Task[None]]] = {}
-        self._channels: dict[str, list[Any]] = {}
-        self._shown: dict[int, _Channel] = {}
+        self._channels: dict[str, list[LiveChannel]] = {}
 
     @property
     def port(self) -> int:
         """The TCP port the server listens on (0 before :meth:`start`)."""
-        return int(self._server.port) if self._server is not None else 0
+        return self._server.port
 
-    def start(self, instances: Mapping[str, LoadedInstance]) -> None:
-        """Start the server and show the ports of *instances* (call on the event loop).
+    async def start(self, instances: Mapping[str, LoadedInstance]) -> None:
+        """Start the server and show the ports of *instances*.
 
         Raises:
             FoxgloveUnavailable: when the SDK is missing or the server cannot listen.
@@ -122,26 +110,22 @@ class FoxgloveView:
             raise FoxgloveUnavailable('the Foxglove view needs the Foxglove SDK: pip install "aiogenomix[foxglove]"'
                                       ) from exc
         self._fox = foxglove
-        self._context = foxglove.Context()
         try:
-            listener: Any = _Subscriptions(asyncio.get_running_loop(), self._subscribed)  # the SDK's ServerListener
-            self._server = foxglove.start_server(name=self.name, host=self.address, port=self.requested_port,
-                                                 context=self._context, server_listener=listener,
-                                                 message_backlog_size=BACKLOG)
-        except Exception as exc:  # the SDK raises its own error types for an address it cannot bind
+            await self._server.start(self.address, self.requested_port)
+        except OSError as exc:
             raise FoxgloveUnavailable(f"the Foxglove view cannot listen on {self.address}:{self.requested_port}: "
-                                      f"{exc}") from exc
+                                      f"{exc.strerror or exc}") from exc
+        self._started = True
         log.info("Foxglove view listening on ws://%s:%d", self.address, self.port)
         for component in instances.values():
             self.show(component)
 
     async def stop(self) -> None:
-        """Stop following the ports, close the channels, stop the server (idempotent)."""
+        """Stop following the ports, withdraw the channels, close the viewers, stop the server (idempotent)."""
         for instance in list(self._followers):
             await self.hide(instance)
-        server, self._server = self._server, None
-        if server is not None:
-            await asyncio.to_thread(server.stop)
+        self._started = False
+        await self._server.stop()
 
     # -- instances come and go ------------------------------------------------------------------
 
@@ -156,7 +140,7 @@ class FoxgloveView:
             log.exception("the Foxglove view cannot show %s", component.instance)
 
     def _show(self, component: LoadedInstance) -> None:
-        if self._server is None or component.instance in self._followers:
+        if not self._started or component.instance in self._followers:
             return
         tasks, channels = [], []
         for described in component.description().get("ports", []):
@@ -166,17 +150,11 @@ class FoxgloveView:
             if not isinstance(port, OutPortRuntime):
                 continue
             topic = f"/{component.instance}/{described['name']}"
-            shown = self._channel_for(topic, described, component.instance)
-            self._shown[int(shown.channel.id())] = shown
+            shown = self._channel_for(topic, described)
             channels.append(shown.channel)
             tasks.append(asyncio.create_task(self._follow(port, shown), name=f"foxglove {topic}"))
         self._followers[component.instance] = tasks
         self._channels[component.instance] = channels
-
-    def _subscribed(self, channel_id: int) -> None:
-        shown = self._shown.get(channel_id)
-        if shown is not None:
-            shown.subscribed.set()
 
     async def hide(self, instance: str) -> None:
         """Close the channels of an unloaded instance."""
@@ -184,26 +162,31 @@ class FoxgloveView:
         for task in tasks:
             task.cancel()
         await asyncio.gather(*tasks, return_exceptions=True)
-        for channel in self._channels.pop(instance, []):
-            self._shown.pop(int(channel.id()), None)
-            with contextlib.suppress(Exception):
-                channel.close()
+        self._server.remove_channels(self._channels.pop(instance, []))
 
     # -- how each kind of port is shown -------------------------------------------------------
 
-    def _channel_for(self, topic: str, described: Json, instance: str) -> _Channel:
+    def _typed(self, topic: str, message: Any, make: Callable[[Json, float], Any] | None,
+               audio: bool = False) -> _Shown:
+        """A port shown as one of Foxglove's message types (protobuf, with the SDK's schema)."""
+        schema = message.get_schema()
+        channel = self._server.add_channel(topic, "protobuf", schema.name, schema.encoding,
+                                           protobuf_schema(schema.data), latest_only=not audio)
+        encode = None if make is None else (lambda data, stamp: make(data, stamp).encode())
+        return _Shown(channel, encode, audio)
+
+    def _channel_for(self, topic: str, described: Json) -> _Shown:
         fox: Any = self._fox
-        channels, messages = fox.channels, fox.messages
-        context = self._context
+        messages = fox.messages
         kind = str(described["type"].get("name", ""))
         if kind in AUDIO_TYPES:
-            return _Channel(channels.RawAudioChannel(topic, context=context), None, audio=True)
+            return self._typed(topic, messages.RawAudio, None, audio=True)
         if kind == "::kemar::state":
             def head(data: Json, stamp: float) -> Any:
                 state = head_state(data)  # radians, as the recording's JointState
                 return messages.JointStates(timestamp=_time(fox, stamp), joints=[messages.JointState(
                     name="head_yaw", position=state.position, velocity=state.velocity)])
-            return _Channel(channels.JointStatesChannel(topic, context=context), head)
+            return self._typed(topic, messages.JointStates, head)
         if kind == "::subscriber::sensor_msgs__Image":
             frame = described["name"]
 
@@ -213,7 +196,7 @@ class FoxgloveView:
                 return messages.RawImage(timestamp=_time(fox, stamp), frame_id=frame, width=int(data["width"]),
                                          height=int(data["height"]), encoding=str(data["encoding"]),
                                          step=int(data["step"]), data=raw)
-            return _Channel(channels.RawImageChannel(topic, context=context), image)
+            return self._typed(topic, messages.RawImage, image)
         if kind == "::subscriber::sensor_msgs__LaserScan":
             def scan(data: Json, stamp: float) -> Any:
                 header = data.get("header") or {}
@@ -221,7 +204,7 @@ class FoxgloveView:
                     timestamp=_time(fox, stamp), frame_id=str(header.get("frame_id", "")),
                     start_angle=number(data.get("angle_min")), end_angle=number(data.get("angle_max")),
                     ranges=[number(r) for r in data.get("ranges", [])])
-            return _Channel(channels.LaserScanChannel(topic, context=context), scan)
+            return self._typed(topic, messages.LaserScan, scan)
         if kind == "::world::odometry":
             def odometry(data: Json, stamp: float) -> Any:
                 # foxglove.Odometry's velocities are in body_frame_id, as the recording's nav_msgs/Odometry.
@@ -233,7 +216,7 @@ class FoxgloveView:
                     timestamp=_time(fox, stamp), frame_id="map", body_frame_id="base_footprint", pose=pose,
                     linear_velocity=messages.Vector3(x=moved.forward, y=moved.leftward, z=0),
                     angular_velocity=messages.Vector3(x=0, y=0, z=moved.turn))
-            return _Channel(channels.OdometryChannel(topic, context=context), odometry)
+            return self._typed(topic, messages.Odometry, odometry)
         if kind == "::subscriber::geometry_msgs__PoseStamped":
             def posed(data: Json, stamp: float) -> Any:
                 pose = data.get("pose") or {}
@@ -242,28 +225,27 @@ class FoxgloveView:
                     timestamp=_time(fox, stamp), frame_id=str((data.get("header") or {}).get("frame_id", "")),
                     pose=messages.Pose(position=messages.Vector3(**{k: number(at.get(k)) for k in "xyz"}),
                                        orientation=messages.Quaternion(**{k: number(turn.get(k)) for k in "xyzw"})))
-            return _Channel(channels.PoseInFrameChannel(topic, context=context), posed)
+            return self._typed(topic, messages.PoseInFrame, posed)
         schema = json_schema(described["type"], title=topic, doc=str(described.get("doc") or ""))
-        channel = fox.Channel(topic, message_encoding="json", context=context, schema=fox.Schema(
-            name=kind or topic, encoding="jsonschema", data=orjson.dumps(schema)))
-        return _Channel(channel, None)
+        channel = self._server.add_channel(topic, "json", kind or topic, "jsonschema", orjson.dumps(schema).decode())
+        return _Shown(channel, None)
 
-    async def _follow(self, port: OutPortRuntime[Any], shown: _Channel) -> None:
+    async def _follow(self, port: OutPortRuntime[Any], shown: _Shown) -> None:
         delivered = port.version
         since: int | None = None
         channel = shown.channel
         subscribed: asyncio.Future[Any] | None = None
         try:
             while True:
-                if port.version <= delivered and not shown.subscribed.is_set():
+                if port.version <= delivered and not channel.subscribed.is_set():
                     if subscribed is None or subscribed.done():
-                        subscribed = asyncio.ensure_future(shown.subscribed.wait())
+                        subscribed = asyncio.ensure_future(channel.subscribed.wait())
                     # The next publication, or a new viewer (who gets the current data at once).
                     await asyncio.wait([port.next_publication(), subscribed], return_when=asyncio.FIRST_COMPLETED)
                     continue
-                shown.subscribed.clear()
+                channel.subscribed.clear()
                 delivered = port.version
-                if not channel.has_sinks() or (port.version == 0 and not shown.audio):
+                if not channel.watched or (port.version == 0 and not shown.audio):
                     since = None  # nobody watches: nothing read, nothing encoded
                     continue
                 try:
@@ -272,25 +254,23 @@ class FoxgloveView:
                     continue  # not current (a sensor down, a silent host): shown again at the next publication
                 now = self._wall()
                 if shown.audio:
-                    since = self._log_audio(channel, port, value, since, now)
+                    since = self._send_audio(channel, port, value, since, now)
                     continue
                 data = port.type.encode(value)
                 stamp = _stamp(data, now) if isinstance(data, Mapping) else now
-                if shown.convert is not None:
-                    channel.log(shown.convert(data, stamp), log_time=int(stamp * 1e9))
-                else:
-                    channel.log(orjson.dumps(data, option=_NUMPY), log_time=int(stamp * 1e9))
+                payload = shown.encode(data, stamp) if shown.encode is not None else orjson.dumps(data, option=_NUMPY)
+                self._server.publish(channel, int(stamp * 1e9), payload)
         except asyncio.CancelledError:
             raise
         except Exception:
-            log.exception("the Foxglove view stopped showing %s", channel.topic())
+            log.exception("the Foxglove view stopped showing %s", channel.topic)
         finally:
             if subscribed is not None:
                 subscribed.cancel()
 
-    def _log_audio(self, channel: Any, port: OutPortRuntime[Any], value: Any, since: int | None,
-                   now: float) -> int | None:
-        """Log the audio published since *since* (the newest chunk when None); return the new index."""
+    def _send_audio(self, channel: LiveChannel, port: OutPortRuntime[Any], value: Any, since: int | None,
+                    now: float) -> int | None:
+        """Send the audio published since *since* (the newest chunk when None); return the new index."""
         if not isinstance(value, Incremental):
             return None
         newest = value.index
@@ -315,8 +295,9 @@ class FoxgloveView:
             with contextlib.suppress(ValueError):
                 stamp = start_of_capture + (start + lost) * frames_per_chunk(left.size, newest - start - lost) / rate
         fox = self._fox
-        channel.log(fox.messages.RawAudio(timestamp=_time(fox, stamp), data=stereo.tobytes(), format="pcm-s16",
-                                          sample_rate=rate, number_of_channels=2), log_time=int(now * 1e9))
+        message = fox.messages.RawAudio(timestamp=_time(fox, stamp), data=stereo.tobytes(), format="pcm-s16",
+                                        sample_rate=rate, number_of_channels=2)
+        self._server.publish(channel, int(now * 1e9), message.encode())
         return newest
 
 

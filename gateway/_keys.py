@@ -7,7 +7,6 @@ import weakref
 from typing import Any
 
 from aiohttp import web
-from aiohttp.typedefs import Middleware
 
 from ..components.core import ComponentHost, OutPortRuntime
 from ._config import GatewayConfig
@@ -18,7 +17,7 @@ from ._sessions import SessionStore
 from ._unloads import Unloads
 from ._watch_wakes import WatchWakes
 
-__all__ = ["CONFIG", "DOOR", "FOXGLOVE", "GUARD", "HOST", "READ_BODIES", "SESSIONS", "SHUTDOWN", "UNLOADS",
+__all__ = ["CONFIG", "DOOR", "FOXGLOVE", "HOST", "READ_BODIES", "SESSIONS", "SHUTDOWN", "UNLOADS",
            "WATCH_FRAMES", "WATCH_WAKES", "Shutdown", "WatchFrames"]
 
 CONFIG = web.AppKey("config", GatewayConfig)
@@ -31,7 +30,6 @@ FOXGLOVE = web.AppKey("foxglove", FoxgloveView)
 DOOR = web.AppKey("door", Door)
 #: The guard middleware (the door, then errors as JSON), which the gateway's connections call in front
 #: of the routes instead.
-GUARD: web.AppKey[Middleware] = web.AppKey("guard")
 
 
 class Shutdown:

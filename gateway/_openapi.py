@@ -65,6 +65,8 @@ def _service_operations(instance: str, info: Json, service: Json, schemas: JsonS
         schema = schemas.input(p["type"])
         schema = {"allOf": [schema]} if "$ref" in schema else dict(schema)
         schema["description"] = p.get("doc") or p["type"]["name"]
+        if p.get("unit"):
+            schema["x-unit"] = p["unit"]
         if "default" in p:
             schema["default"] = p["default"]
         properties[p["name"]] = schema
@@ -74,7 +76,7 @@ def _service_operations(instance: str, info: Json, service: Json, schemas: JsonS
     output = schemas.ref(f"{ident}_Output", {
         "type": "object", "description": f"The outputs of {instance}.{service['name']}",
         "required": [p["name"] for p in outs],
-        "properties": {p["name"]: schemas.output(p["type"]) for p in outs}})
+        "properties": {p["name"]: JsonSchemas.described(schemas.output(p["type"]), p) for p in outs}})
     status = schemas.ref(f"{ident}_Status", {
         "type": "object", "description": f"The status of a request of {instance}.{service['name']}",
         "required": ["id", "status"],

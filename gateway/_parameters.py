@@ -19,9 +19,12 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
-__all__ = ["ENDPOINT_PARAMETERS", "POST_PARAMETERS", "REPEATABLE", "endpoint_of", "parameter_refusal"]
+__all__ = ["ENDPOINT_PARAMETERS", "POST_PARAMETERS", "REPEATABLE", "LIVE_VIEW", "endpoint_of", "parameter_refusal"]
 
 _EVERYWHERE = frozenset({"s", "_"})
+#: The live view's WebSocket (on a port of its own, ``--foxglove``), as the door knows it whatever the path
+#: a viewer connects to: it takes the token, for viewers that cannot send a header.
+LIVE_VIEW = "/foxglove"
 
 #: The parameters of each endpoint, besides ``s`` and ``_`` (keys: see :func:`endpoint_of`).
 ENDPOINT_PARAMETERS: dict[str, frozenset[str]] = {
@@ -30,6 +33,9 @@ ENDPOINT_PARAMETERS: dict[str, frozenset[str]] = {
     "/console": frozenset(),
     "/console/auth": frozenset(),
     "/console/login": frozenset(),
+    "/console/plots.js": frozenset(),
+    "/console/uPlot.iife.min.js": frozenset(),
+    "/console/uPlot.min.css": frozenset(),
     "/favicon.ico": frozenset(),
     "/openapi.json": frozenset(),
     "/docs": frozenset(),
@@ -50,6 +56,8 @@ ENDPOINT_PARAMETERS: dict[str, frozenset[str]] = {
     "/module/read": frozenset({"name", "format", "since"}),
     "/module/watch": frozenset({"name", "since"}),
 }
+#: What the door checks: the HTTP endpoints, and the live view.
+_TAKES = {**ENDPOINT_PARAMETERS, LIVE_VIEW: frozenset({"token"})}
 #: The parameters of the endpoints that take a ``POST`` (its body is the input: no ``input`` in the query).
 POST_PARAMETERS: dict[str, frozenset[str]] = {"/module/send": frozenset({"oneway"})}
 #: Parameters that may be given more than once (``argv=-i&argv=demo2``).
@@ -63,7 +71,7 @@ _SHOWN = 8
 def endpoint_of(path: str) -> str | None:
     """The endpoint a (decoded) *path* asks for: ``/module/send`` for ``/module/demo/send/GotoPosition``.
 
-    None for a path that is no endpoint (the routes answer it 404).
+    None for a path that is no endpoint (the routes answer it 404).  :data:`LIVE_VIEW` is the live view.
     """
     parts = path.split("/", 4)
     if len(parts) < 2:
@@ -75,7 +83,7 @@ def endpoint_of(path: str) -> str | None:
         key = f"/{first}" if len(parts) >= 3 else None
     else:
         key = path
-    return key if key in ENDPOINT_PARAMETERS else None
+    return key if key in _TAKES else None
 
 
 def parameter_refusal(path: str, names: Iterable[str], method: str = "GET") -> dict[str, Any] | None:
@@ -88,7 +96,7 @@ def parameter_refusal(path: str, names: Iterable[str], method: str = "GET") -> d
     if key is None:
         return None
     if method in ("GET", "HEAD"):
-        takes = ENDPOINT_PARAMETERS[key]
+        takes = _TAKES[key]
     elif key in POST_PARAMETERS and method == "POST":
         takes = POST_PARAMETERS[key]
     else:

@@ -68,12 +68,16 @@ def body_of(pieces: Sequence[Buffer], content_type: str) -> bytes | PiecesPayloa
 class PiecesPayload(payload.Payload):
     """A reply body of immutable pieces, written in order and never joined.
 
-    When the connection has nothing queued, the HTTP head and every piece go
-    straight to the socket in one gathered write (:mod:`._gather`), and what the
-    socket does not take goes to the transport, which sends it as the socket
-    drains: nothing is copied on the way but by the kernel (and, on Python 3.11,
-    by the transport for what it queues).  Otherwise the pieces go through
-    aiohttp's writer, after what it holds.
+    Plain port reads are answered ahead of the routes with their head and pieces in
+    one gathered write (``_fast_reads``); this payload is the routes' form of the same
+    body.  Its first piece goes through aiohttp's writer, with the HTTP head the writer
+    holds until then; when the connection then has nothing queued, the other pieces
+    go straight to the socket in one gathered write (:mod:`._gather`), and what the
+    socket does not take goes to the transport, which sends it as the socket drains:
+    nothing is copied on the way but by the kernel (and, on Python 3.11, by the
+    transport for what it queues).  Otherwise they go through aiohttp's writer, after
+    what it holds.  The routes never compress these replies nor frame them in chunks
+    (a ``Content-Length`` is set): the pieces are the bytes of the body.
 
     Args:
         pieces: The body's pieces, in order: bytes, or byte-format memoryviews of
@@ -99,55 +103,30 @@ class PiecesPayload(payload.Payload):
         pieces = self._pieces
         if not pieces:
             return
+        # aiohttp's StreamWriter takes drain=; the abstract writer it is typed as does not say so.
+        await writer.write(pieces[0], drain=False)  # type: ignore[call-arg]  # with the head
+        rest = pieces[1:]
         transport = getattr(writer, "transport", None)
-        fd = direct_socket(transport) if _plain(writer) else None
-        head = _take_http_head(writer) if fd is not None else None
-        if fd is None or head is None or transport is None:
-            # The transport has bytes queued (a pipelined reply before this one) or is not a
-            # plain socket: everything goes through aiohttp's writer, as any body.
-            for piece in pieces:
-                # aiohttp's StreamWriter takes drain=; the abstract writer it is typed as does not say so.
+        fd = direct_socket(transport) if rest and not getattr(writer, "chunked", True) else None
+        if fd is None or transport is None:
+            # The transport has bytes queued (the head and first piece, or a reply before this
+            # one) or is not a plain socket: everything goes through aiohttp's writer.
+            for piece in rest:
                 await writer.write(piece, drain=False)  # type: ignore[call-arg]
             return
-        # The HTTP head and the whole body in one system call: one wake-up of the reader.
-        buffers = [head, *pieces]
-        written = write_gathered(fd, buffers)
-        _account(writer, self._nbytes)
-        if written == len(head) + self._nbytes:
-            return
+        written = write_gathered(fd, rest)
+        _account(writer, written)
         # What the socket did not take goes to the transport, which sends it as the socket
         # drains (aiohttp waits for that at the end of the reply, as for any body).
-        for piece in unsent(buffers, written):
+        for piece in unsent(rest, written):
             if transport.is_closing():  # the reader went away: what aiohttp's writer raises then
                 raise ConnectionResetError("the connection closed while the reply was written")
             transport.write(piece)
+            _account(writer, len(piece))
 
     def decode(self, encoding: str = "utf-8", errors: str = "strict") -> str:
         """The body as text (for logs and tests)."""
         return b"".join(self._pieces).decode(encoding, errors)
-
-
-def _plain(writer: AbstractStreamWriter) -> bool:
-    # Bytes written beside aiohttp's writer must be the body as it is: no chunked framing,
-    # no compression (the port routes ask for neither; a Content-Length excludes chunks).
-    return not getattr(writer, "chunked", True) and getattr(writer, "_compress", None) is None
-
-
-def _take_http_head(writer: AbstractStreamWriter) -> bytes | None:
-    """The HTTP head aiohttp holds until the body's first write, taken to go out with the body.
-
-    aiohttp (3.12 and later) keeps the serialised head in its writer and joins it with
-    the first body write.  Taken here, it goes out in the same ``writev`` as the body.
-    None when this aiohttp does not hold it (it was sent already, or is kept otherwise):
-    the body then goes through the writer, which sends the head first.
-    """
-    head = getattr(writer, "_headers_buf", None)
-    if not isinstance(head, bytes) or getattr(writer, "_headers_written", True):
-        return None
-    writer._headers_buf = None  # type: ignore[attr-defined]
-    writer._headers_written = True  # type: ignore[attr-defined]
-    writer.output_size += len(head)  # as aiohttp counts a head it writes
-    return head
 
 
 def _account(writer: AbstractStreamWriter, sent: int) -> None:

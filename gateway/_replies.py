@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import importlib.metadata
+import time
+from email.utils import formatdate
 from typing import Any
 
 import orjson
 from aiohttp import web
 
-__all__ = ["json_reply", "text_reply", "dumps", "SERVER_VERSION", "SERVER_HEADER"]
+__all__ = ["json_reply", "text_reply", "dumps", "http_date", "SERVER_VERSION", "SERVER_HEADER"]
 
 _OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 
@@ -35,3 +37,15 @@ def json_reply(obj: Any, status: int = 200) -> web.Response:
 def text_reply(text: str, status: int = 200) -> web.Response:
     """A ``text/plain`` UTF-8 reply (Content-Length counts bytes, not characters)."""
     return web.Response(status=status, body=text.encode(), headers=_TEXT)
+
+
+_date: tuple[int, str] = (0, "")
+
+
+def http_date() -> str:
+    """The ``Date`` of a reply written now (RFC 9110's IMF-fixdate), made once a second."""
+    global _date
+    now = int(time.time())
+    if _date[0] != now:
+        _date = (now, formatdate(now, usegmt=True))
+    return _date[1]

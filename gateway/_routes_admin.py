@@ -1,7 +1,8 @@
-"""Routes about the gateway itself: ``/``, ``/version``, ``/load``, ``/unload`` and ``/usage``."""
+"""Routes about the gateway itself: ``/``, ``/version``, ``/load``, ``/unload``, ``/usage`` and the console."""
 
 from __future__ import annotations
 
+import functools
 import math
 import pathlib
 import shlex
@@ -18,13 +19,24 @@ from ._errors import BadQuery, LoadForbidden
 from ._keys import CONFIG, DOOR, HOST, SESSIONS
 from ._replies import SERVER_HEADER, SERVER_VERSION, json_reply, text_reply
 
-__all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "FEATURES", "WHERE_HEADER"]
+__all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "FEATURES", "WHERE_HEADER", "CONSOLE_ASSETS"]
 
 #: The header of a load's reply that says where the instance runs (JSON: ``runs``, ``host``, ``endpoints``...).
 WHERE_HEADER = "Aiogenomix-Where"
 
 #: The genomixd release whose protocol this gateway speaks (clients check it at connection).
 GENOMIX_PROTOCOL_VERSION = "1.7.3"
+
+#: Where the console's scripts and style are served: its plots, and the plotting library they draw with.
+CONSOLE_ASSET_PATH = "/console/"
+_HERE = pathlib.Path(__file__).parent
+#: The console's files, by name: where each is in the package (gateway/vendor/uplot/README.md says where
+#: uPlot comes from), and its type.
+CONSOLE_ASSETS = {
+    "plots.js": (_HERE / "console_plots.js", "application/javascript; charset=utf-8"),
+    "uPlot.iife.min.js": (_HERE / "vendor" / "uplot" / "uPlot.iife.min.js", "application/javascript; charset=utf-8"),
+    "uPlot.min.css": (_HERE / "vendor" / "uplot" / "uPlot.min.css", "text/css; charset=utf-8"),
+}
 
 #: What this gateway offers beyond genomix (clients use the fast paths only when listed).
 FEATURES = ["wait", "binary", "since", "watch", "console"]
@@ -68,7 +80,7 @@ def clock_reading(clock: Clock) -> dict[str, Any]:
     return {"wall": clock.wall(), "scale": scale if math.isfinite(scale) else None, "kind": type(clock).__name__}
 
 
-_CONSOLE = (pathlib.Path(__file__).parent / "console.html").read_bytes()
+_CONSOLE = (_HERE / "console.html").read_bytes()
 #: Only the console's own script and style may run in its page.
 _CONSOLE_POLICY = console_policy(_CONSOLE)
 
@@ -78,6 +90,22 @@ async def console(request: web.Request) -> web.Response:
     """A browser console: modules, services with forms built from /info, ports, live events."""
     return web.Response(body=_CONSOLE, headers={"Content-Type": "text/html; charset=utf-8",
                                                 "Content-Security-Policy": _CONSOLE_POLICY, **SERVER_HEADER})
+
+
+@routes.get(CONSOLE_ASSET_PATH + "{asset}")
+async def console_asset(request: web.Request) -> web.Response:
+    """A script or style of the console: its plots, or the plotting library (uPlot, in the package: no CDN)."""
+    name = request.match_info["asset"]
+    if name not in CONSOLE_ASSETS:
+        raise web.HTTPNotFound()
+    # Fetched again with each page (some 60 kB from the gateway itself): never an older gateway's plots.
+    return web.Response(body=_console_asset(name), headers={"Content-Type": CONSOLE_ASSETS[name][1],
+                                                            "Cache-Control": "no-cache", **SERVER_HEADER})
+
+
+@functools.cache
+def _console_asset(name: str) -> bytes:
+    return CONSOLE_ASSETS[name][0].read_bytes()
 
 
 @routes.get(LOGIN_PATH)

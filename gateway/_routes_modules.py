@@ -14,6 +14,7 @@ from aiohttp import web
 
 from ..components.core.runtime import LoadedInstance
 from ._errors import BadQuery, UnsupportedBody
+from ._guard import expect_body
 from ._input import parse_input
 from ._keys import HOST, SESSIONS, SHUTDOWN
 from ._replies import json_reply, text_reply
@@ -43,7 +44,7 @@ async def send(request: web.Request) -> web.Response:
     return await _send(request, parse_input(request.query.get("input")))
 
 
-@routes.post("/module/{module}/send/{service}")
+@routes.post("/module/{module}/send/{service}", expect_handler=expect_body)
 async def send_with_body(request: web.Request) -> web.Response:
     """Send a request whose input is the JSON body (``Content-Type: application/json``); as the GET form else.
 

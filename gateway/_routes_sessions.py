@@ -68,8 +68,8 @@ async def listen(request: web.Request) -> web.StreamResponse:
                 continue
             data = listener.take()
             if data:
-                await stream.write(data)
-            if listener.closed or listener.overflowed:
+                await stream.write(data)  # waits while the connection's buffer is full
+            if listener.ended:
                 break
     except ConnectionError:
         pass  # the client went away: nothing to report to anyone

@@ -5,7 +5,6 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
-import functools
 import os
 import socket
 import sys
@@ -18,10 +17,8 @@ from ..components.core import ComponentHost
 from ._app import create_app
 from ._config import GatewayConfig
 from ._errors import GatewayError
-from ._connection import ConnectionLimits, Connections, GatewayConnection, answering
-from ._fast_reads import FastReads
-from ._keys import GUARD
-from ._request_head import MAX_FIELD_LINE
+from ._connection import ConnectionLimits, GatewayConnection
+from ._fast_reads import FastReads, ahead_of_the_routes
 from ._shutdown import HANDLER_GRACE
 from ._signals import STOP_SIGNALS, signal_name
 
@@ -48,41 +45,31 @@ class ListenError(GatewayError, OSError):
         return f"cannot listen on {self.host}:{self.port}: {self.reason}"
 
 
-#: aiohttp's idle timeout, out of reach: the gateway's connections time idleness themselves (they see
-#: the reads answered without aiohttp).
-_AIOHTTP_KEEP_ALIVE = 1e9
-
-
 @contextlib.asynccontextmanager
 async def serve(config: GatewayConfig, host: ComponentHost | None = None) -> AsyncIterator[str]:
     """Serve the gateway while the context is open; yield its base URL (with the real port).
 
-    Each connection's protocol is a :class:`~._connection.GatewayConnection` in
-    front of aiohttp's, and the guard is the server's request handler in front
-    of the routes rather than a middleware (which costs every request a frame).
+    The application is :func:`~._app.create_app`'s, as a test or an embedder builds it.
+    Each connection is a :class:`~._connection.GatewayConnection` (aiohttp's own, with
+    the gateway's refusals and head timeout), and plain port reads are answered ahead of
+    the routes (:mod:`._fast_reads`).
 
     Args:
         config: The gateway configuration (``port=0`` picks a free port).
         host: Serve this component host instead of building one from *config*.
     """
     app = create_app(config, host)
-    guard = app[GUARD]
-    app.middlewares.remove(guard)
-    runner = web.AppRunner(app, handle_signals=False, access_log=None, shutdown_timeout=HANDLER_GRACE,
-                           keepalive_timeout=_AIOHTTP_KEEP_ALIVE, max_line_size=config.max_url_bytes,
-                           max_field_size=MAX_FIELD_LINE)
+    runner = web.AppRunner(app, handle_signals=False, access_log=None, shutdown_timeout=HANDLER_GRACE)
     await runner.setup()
     listener: asyncio.Server | None = None
     try:
         server = runner.server
         assert server is not None
-        connections = Connections()
-        server.request_handler = answering(functools.partial(guard, handler=server.request_handler), connections)
-        fast_reads = FastReads(app)
+        server.request_handler = ahead_of_the_routes(FastReads(app), server.request_handler)
         limits = ConnectionLimits(config.max_url_bytes, config.header_timeout, config.keep_alive)
         try:
             listener = await asyncio.get_running_loop().create_server(
-                lambda: GatewayConnection(server, connections, fast_reads, limits), config.host, config.port)
+                lambda: GatewayConnection(server, limits, access_log=None), config.host, config.port)
         except OSError as exc:
             raise ListenError(config.host, config.port, exc) from exc
         bound_host, bound_port = listener.sockets[0].getsockname()[:2]
@@ -158,8 +145,9 @@ async def _serve_until_signalled(config: GatewayConfig) -> None:
             if config.foxglove_port is not None:
                 host = f"[{config.foxglove_host}]" if ":" in config.foxglove_host else config.foxglove_host
                 shown_port = config.foxglove_port or "<free port, in the log>"
-                print(f"  Foxglove view ws://{host}:{shown_port} (in Foxglove or Lichtblick: open a connection, "
-                      "Foxglove WebSocket)", flush=True)
+                token = "/?token=<the token>" if config.token else ""
+                print(f"  Foxglove view ws://{host}:{shown_port}{token} (in Foxglove or Lichtblick: open a "
+                      "connection, Foxglove WebSocket)", flush=True)
             taken = _port_taken(config.host, config.audio_socket_port)
             if taken:
                 print(f"aiogenomix gateway: warning: the audio socket port {config.audio_socket_port} is taken "

@@ -12,46 +12,48 @@ unnoticed.
 Any client may name a session, so what sessions hold is bounded: a session
 nobody listens to is forgotten after an idle time (its requests run on and keep
 their status; only its undelivered events go), and there is a cap on their
-number.  Names are checked: at most 128 characters, none of them a control
-character or a line separator.
+number.  Names are checked: at most 128 characters, none of them a character no
+client's name may hold (the core's ``NAME_FORBIDDEN``: control characters, line
+separators, bidirectional controls).
 """
 
 from __future__ import annotations
 
 import asyncio
 import itertools
-import re
 import time
 from collections import OrderedDict, deque
 from collections.abc import Callable
 
 import orjson
 
+from ..components.core import NAME_FORBIDDEN, forbidden_in_name
 from ..components.core.runtime import RequestStatus
 from ._errors import BadQuery, NoSuchSession, TooManySessions
 from ._sse import FINAL_ID, event_id, format_event
 
-__all__ = ["Listener", "Session", "SessionStore", "check_session_name", "MAX_NAME_LENGTH", "NAME_FORBIDDEN"]
+__all__ = ["Listener", "Event", "Session", "SessionStore", "check_session_name", "MAX_NAME_LENGTH", "NAME_FORBIDDEN",
+           "WRITE_SLICE"]
 
 _JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 
 #: The longest session name, in characters.
 MAX_NAME_LENGTH = 128
-#: What a session name may not hold: control characters (C0, DEL, C1) and Unicode's line and paragraph
-#: separators.  A name travels back in events and logs, where a line end or a NUL would forge lines.
-#: (The same class is the name's pattern in /openapi.json, so that generated names are always taken.)
-NAME_FORBIDDEN = "\x00-\x1f\x7f-\x9f\u2028\u2029"
-_FORBIDDEN = re.compile(f"[{NAME_FORBIDDEN}]")
+#: The most bytes of events a listen stream writes at once (a replay of many events goes out in slices).
+WRITE_SLICE = 16 * 1024
 
 
 def check_session_name(name: str) -> str:
     """Return *name* if it can name a session.
 
     Raises:
-        BadQuery: for control characters or line separators, or more than 128 characters.
+        BadQuery: for a character no client's name may hold (``NAME_FORBIDDEN``: control characters,
+            line separators, bidirectional controls), or more than 128 characters.
     """
-    if _FORBIDDEN.search(name):
-        raise BadQuery(f"session name {_shown(name)} holds control characters or line separators")
+    forbidden = forbidden_in_name(name)
+    if forbidden is not None:
+        raise BadQuery(f"session name {_shown(name)} holds {forbidden}: control characters, line separators and "
+                       "bidirectional controls are refused")
     if len(name) > MAX_NAME_LENGTH:
         raise BadQuery(f"session name {_shown(name)} is longer than {MAX_NAME_LENGTH} characters")
     return name
@@ -64,6 +66,10 @@ def _shown(name: str) -> str:
 
 class Listener:
     """One open listen stream: a bounded buffer of framed events.
+
+    The frames are the session's own (made once per event, in both forms): a listener holds
+    references, never copies, so that a storm of listens replaying the session's latest events
+    costs a pointer per event each, not the events again.
 
     Args:
         limit: How many undelivered events it may hold before it is dropped.
@@ -82,14 +88,14 @@ class Listener:
         self.overflowed = False
         self.closed = False
 
-    def offer(self, frame: bytes, number: int) -> None:
-        """Queue the framed event *number* of its session (never blocks)."""
+    def offer(self, event: Event) -> None:
+        """Queue one event of its session, in the listener's form (never blocks)."""
         if self.closed:
             return
         if len(self.frames) >= self.limit:
             self.overflowed = True
         else:
-            self.frames.append(event_id(number) + frame if self.standard else frame)
+            self.frames.append(event.standard if self.standard else event.frame)
         self.ready.set()
 
     def quit(self, session: str) -> None:
@@ -105,12 +111,42 @@ class Listener:
         self.closed = True
         self.ready.set()
 
-    def take(self) -> bytes:
-        """Everything queued, joined into one write."""
-        data = b"".join(self.frames)
-        self.frames.clear()
-        self.ready.clear()
-        return data
+    @property
+    def ended(self) -> bool:
+        """Whether the stream is over: closed or overflowed, and nothing is left to write."""
+        return (self.closed or self.overflowed) and not self.frames
+
+    def take(self, most: int = WRITE_SLICE) -> bytes:
+        """The next frames, joined into one write of at most *most* bytes (or one frame, if larger).
+
+        A replay of the session's latest events goes out in such slices, each written when the
+        connection has taken the one before: a listen that dies in the middle held one slice.
+        """
+        frames = self.frames
+        taken = [frames.popleft()] if frames else []
+        size = len(taken[0]) if taken else 0
+        while frames and size + len(frames[0]) <= most:
+            size += len(frames[0])
+            taken.append(frames.popleft())
+        if not frames:
+            self.ready.clear()
+        return taken[0] if len(taken) == 1 else b"".join(taken)
+
+
+class Event:
+    """An event of a session, framed once in each form.
+
+    Attributes:
+        number: Its number in the session (the standard form's ``id``).
+        frame: genomix's form.
+        standard: The standard form (``id:`` line first).
+    """
+
+    __slots__ = ("number", "frame", "standard")
+
+    def __init__(self, frame: bytes, number: int) -> None:
+        self.number, self.frame = number, frame
+        self.standard = event_id(number) + frame
 
 
 class Session:
@@ -125,8 +161,8 @@ class Session:
     def __init__(self, name: str, backlog: int = 1000, listener_limit: int = 10000) -> None:
         self.name = name
         self.listeners: set[Listener] = set()
-        #: The latest events, with their numbers (the oldest go first).
-        self.recent: deque[tuple[bytes, int]] = deque(maxlen=backlog)
+        #: The latest events (the oldest go first).
+        self.recent: deque[Event] = deque(maxlen=backlog)
         #: The number of the session's last event (a standard stream's event ids).
         self.events = 0
         #: The number of the last event offered to a listener: those after it wait for one.
@@ -139,11 +175,12 @@ class Session:
         """Send a framed event to every live listener, and keep it among the latest (see :meth:`attach`)."""
         self.prune()
         self.events += 1
-        self.recent.append((frame, self.events))
+        event = Event(frame, self.events)
+        self.recent.append(event)
         if self.listeners:
             self.offered = self.events
         for listener in self.listeners:
-            listener.offer(frame, self.events)
+            listener.offer(event)
 
     def attach(self, alive: Callable[[], bool] = lambda: True, standard: bool = False,
                last_id: str | None = None) -> Listener:
@@ -154,9 +191,9 @@ class Session:
         """
         listener = Listener(self.listener_limit, alive, standard)
         after = self._resumed_after(last_id)
-        for frame, number in self.recent:
-            if number > after:
-                listener.offer(frame, number)
+        for event in self.recent:
+            if event.number > after:
+                listener.offer(event)
         self.offered = self.events
         self.listeners.add(listener)
         return listener
@@ -213,6 +250,7 @@ class SessionStore:
         self.idle_timeout = idle_timeout
         self.max_sessions = max_sessions
         self.clock = clock
+        self._end_listeners: list[Callable[[str], None]] = []
 
     def __len__(self) -> int:
         self.expire()
@@ -278,9 +316,26 @@ class SessionStore:
                 return
             self._forget(name)
 
+    def add_end_listener(self, listener: Callable[[str], None]) -> None:
+        """Call *listener* with the name of each session that ends: stopped, or expired (not at shutdown)."""
+        self._end_listeners.append(listener)
+
+    async def expire_on_time(self) -> None:
+        """Expire sessions as their idle time passes, not only when a client next comes (runs until cancelled).
+
+        What ends with a session (a recording of it) must not wait for a client that may never come:
+        the sessions are looked at every tenth of the idle time, at most every 5 s.
+        """
+        period = min(max(self.idle_timeout / 10, 0.01), 5.0)
+        while True:
+            await asyncio.sleep(period)
+            self.expire()
+
     def _forget(self, name: str) -> None:
         del self._sessions[name]
         self._idle.pop(name, None)
+        for listener in self._end_listeners:
+            listener(name)
 
     def _live(self, name: str) -> Session | None:
         session = self._sessions.get(name)

@@ -84,6 +84,8 @@ class GenomixEventStream(EventStream):
     """
 
     standard = False
+    # Private to aiohttp (pinned by the range ./run test checks at both ends, docs/decisions/0037): aiohttp
+    # has no public way to send an HTTP/1.1 body of unknown length unchunked; such a switch would replace it.
     _length_check = False
 
 

@@ -92,9 +92,15 @@ class ProgressLine:
 
     @staticmethod
     def text(counts: RecordingCounts, elapsed: float) -> str:
-        """``12.5 s  4.4 MB  501 messages  0 frames lost  0 coalesced``."""
-        return (f"{elapsed:7.1f} s  {_size(counts.bytes):>9}  {counts.messages} messages  "
-                f"{counts.lost_frames} frames lost  {counts.coalesced} coalesced")
+        """``12.5 s  501 messages, 480 in the file (4.4 MB), 21 to come  0 frames lost  0 coalesced``.
+
+        The file grows a compressed chunk at a time: the messages of the chunk being gathered (and
+        those the writer has not taken yet) are said to come, so that a size standing still while
+        messages are recorded does not read as nothing written.
+        """
+        written = counts.messages - counts.queued
+        return (f"{elapsed:7.1f} s  {counts.messages} messages, {written} in the file ({_size(counts.bytes)}), "
+                f"{counts.queued} to come  {counts.lost_frames} frames lost  {counts.coalesced} coalesced")
 
     def __call__(self, counts: RecordingCounts, elapsed: float) -> None:
         if self.tty:
@@ -144,7 +150,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if arguments[:1] == ["export"]:
             args = _export_parser().parse_args(arguments[1:])
-            for exported in export_recording(args.recording, args.output, overwrite=args.overwrite):
+            def unfinished(said: str) -> None:
+                print(f"aiogenomix-record: {said}", file=sys.stderr, flush=True)
+
+            for exported in export_recording(args.recording, args.output, overwrite=args.overwrite,
+                                             notice=unfinished):
                 unit = "frames" if exported.path.suffix == ".wav" else "rows"
                 print(f"{exported.path}: {exported.what} ({exported.rows} {unit})")
             return 0

@@ -137,8 +137,9 @@ async def record_over_http(url: str, ports: Sequence[str], output: str, *, durat
         described = [await _describe(client, name) for name in dict.fromkeys(ports)]
         rig = RigClock(client)
         await rig.now()
-        stream, path = await asyncio.to_thread(create_recording, output, None)
-        recording = Recording.open(stream, path, {
+        created = await asyncio.to_thread(create_recording, output, None)
+        path = created.path
+        recording = Recording.open(created.stream, path, {
             "recorder": "aiogenomix-record (over HTTP)", "gateway": client.url,
             "ports": ",".join(f"{i}/{p}" for i, p, _ in described), "clock": rig.kind,
             **({"session": session} if session else {})})

@@ -296,6 +296,11 @@ class ComponentExporter:
         if operation == "release":
             stopped = await self.let_go(gateway, via=via, by="kill")
             return ok_reply({"ended": [_status_with_serial(request) for request in stopped]})
+        if operation == "session_ended":
+            # Sessions are a gateway's: another gateway's session of the same name is another session.
+            await component.session_ended(str(payload.get("session", "")),
+                                          sent_by=lambda request: self._owners.get(request) == gateway)
+            return ok_reply(None)
         request_id = str(payload.get("id", ""))
         if operation == "status":
             return ok_reply(_status_with_serial(self._owned(request_id, gateway)))
@@ -359,7 +364,17 @@ class ComponentExporter:
         kept for whoever reads it next.  Its other requests then belong to no gateway: the first
         gateway that asks for one (its status, an abort, a clean) adopts it, and hears its events.
         When it sent the last motion, what that motion left going stops too (``stop_motions``).
+        Its sessions ended with it: the component hears of each that sent a request that runs.
         """
+        def sent_by(request: Request) -> bool:
+            return self._owners.get(request) == gateway
+
+        for session in dict.fromkeys(r.session for r in self.component.requests.running() if sent_by(r)):
+            if session is not None:
+                try:
+                    await self.component.session_ended(session, sent_by=sent_by)
+                except Exception as exc:  # noqa: BLE001  # a fault of the component: said, and the rest goes on
+                    _throttled.error("%s: the end of session %r failed: %s", self.instance, session, exc, exc=exc)
         return await self.let_go(gateway, via=None, by="gateway_gone")
 
     async def let_go(self, gateway: str, *, via: str | None, by: str) -> list[Request]:

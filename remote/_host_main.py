@@ -108,7 +108,7 @@ async def serve(args: argparse.Namespace, stop: asyncio.Event) -> None:
     settings = rig_settings(can=args.can, can_timeout=args.can_timeout, audio_device=args.audio_device,
                             audio_socket_port=args.audio_socket_port, audio_socket_host=args.audio_socket_host,
                             audio_socket_token=args.token, audio_files=args.audio_files,
-                            record_dirs=args.record_dir, budgets=args.budgets)
+                            record_dirs=args.record_dir, record_mode=args.record_mode, budgets=args.budgets)
     host = ComponentHost(clock=ScaledClock(args.time_scale), settings=settings)
     node: HostNode | None = None
     closing: set[asyncio.Task[None]] = set()

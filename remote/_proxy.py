@@ -340,6 +340,16 @@ class RemoteInstance:
         if self._gone:
             raise RemoteUnreachable(f"{self.instance} is gone: its host {self.offer.host} no longer answers")
 
+    async def session_ended(self, session: str) -> None:
+        """Tell the host that this gateway's session *session* ended (nothing to tell when this proxy sent nothing)."""
+        if not (self._started and self._sent) or self._gone:
+            return
+        try:
+            await self._ask("session_ended", {"session": session}, self.timeouts.control, "session end")
+        except (ComponentError, zenoh.ZError) as exc:
+            log.warning("%s: the end of session %r did not reach its host %s (%s): its requests of that session go "
+                        "on there", self.instance, session, self.offer.host, exc)
+
     # -- lifetime -------------------------------------------------------------------------------
 
     async def start(self) -> None:

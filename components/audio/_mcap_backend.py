@@ -21,13 +21,14 @@ recordings (``--record-dir``), reached without following links.
 from __future__ import annotations
 
 import asyncio
+import logging
 from collections.abc import Iterator, Sequence
 from typing import Self
 
 import numpy as np
 import numpy.typing as npt
 
-from ..core import Clock
+from ..core import Clock, ThrottledLog
 from ..recording import AudioChunk, NotARecording, PathRefused as RecordingPathRefused, RecordingError
 from ..recording import RecordingReader, open_recording
 from ._backend import CaptureBackend, Chunk, SourceOptions
@@ -35,6 +36,9 @@ from ._errors import FormatRefused, SceneError
 from ._paths import PathRefused
 
 __all__ = ["RecordingBackend"]
+
+#: A client may name an unfinished recording again and again: said a few times a minute.
+log = ThrottledLog(logging.getLogger(__name__))
 
 
 class RecordingBackend(CaptureBackend):
@@ -104,6 +108,8 @@ class RecordingBackend(CaptureBackend):
             raise SceneError(str(exc)) from exc
         try:
             reader = RecordingReader(stream, repr(self.path))
+            if reader.unfinished is not None:
+                log.warning("%s: %s", self.device, reader.unfinished.said)
             self._chunks = reader.audio(self.port)
             first = next(self._chunks, None)
         except NotARecording as exc:

@@ -105,7 +105,8 @@ class Basc(Component, name="basc", version="1.0"):
             self._blocks_memory.release()
         await super().on_stop()
 
-    @activity(task=read, interrupts=("GetBlocks",), throws=(e_noData, e_nomem), validate=_validate_blocks)
+    @activity(task=read, interrupts=("GetBlocks",), throws=(e_noData, e_nomem), validate=_validate_blocks,
+              progress="Blocks.blocks")
     async def GetBlocks(
         self,
         nBlocks: Annotated[ULong, "Amount of blocks, 0 for unlimited"] = 1,

@@ -12,7 +12,7 @@ from ..audio import (
 )
 from ..core import (
     Component, ComponentHost, Out, OutPort, OverBudget, Reservation, String, Task, ThrottledLog, ULong, activity,
-    function,
+    function, Unit,
 )
 from ._history import AudioSnapshot, ChunkHistory
 from ._socket_server import FrameSocketServer
@@ -138,11 +138,11 @@ class Bass(Component, name="bass", version="1.0"):
         return backend
 
     @activity(task=capture, interrupts=("Acquire",), validate=_validate_acquire,
-              throws=(e_nomem, e_device, e_hwparams, e_swparams))
+              throws=(e_nomem, e_device, e_hwparams, e_swparams), progress="Audio.lastFrameIndex")
     async def Acquire(
         self,
         device: Annotated[String, "ALSA name of the sound device"] = "hw:1,0",
-        sampleRate: Annotated[ULong, "Sample rate in Hz"] = 44100,
+        sampleRate: Annotated[ULong, Unit("Hz"), "Sample rate in Hz"] = 44100,
         nFramesPerChunk: Annotated[ULong, "Chunk size in frames"] = 2205,
         nChunksOnPort: Annotated[ULong, "Port size in chunks"] = 20,
     ) -> None:

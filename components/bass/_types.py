@@ -8,7 +8,7 @@ from typing import Annotated, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import GenomException, String, ULong, ULongLong, idl_struct
+from ..core import GenomException, String, ULong, ULongLong, Unit, idl_struct
 
 __all__ = ["AudioPortData", "Samples", "DeviceList", "e_nomem", "e_nodevice", "e_device", "e_hwparams",
            "e_swparams", "e_socket"]
@@ -34,7 +34,7 @@ class AudioPortData:
     (``since=k``) holds frames ``k + 1 … lastFrameIndex`` that the port still has.
     """
 
-    sampleRate: Annotated[ULong, "Sample rate in Hz"] = 0
+    sampleRate: Annotated[ULong, Unit("Hz"), "Sample rate in Hz"] = 0
     nChunksOnPort: Annotated[ULong, "Chunks on the port"] = 0
     nFramesPerChunk: Annotated[ULong, "Frames in a chunk"] = 0
     lastFrameIndex: Annotated[ULongLong, "Index of the newest frame, the last of left and right (the first "

@@ -17,7 +17,7 @@ from ..binaural import (
 from ..binaural import Window as WindowName
 from ..capture import PortData
 from ..core import (
-    Component, Double, InPortRuntime, InPort, Out, OutPort, Task, ULong, activity, function, redeclare,
+    Component, Double, InPortRuntime, InPort, Out, OutPort, Task, ULong, activity, function, redeclare, Unit,
 )
 from ..kemarcapture import KemarPortData
 from ..recording import AUDIO_TYPES
@@ -167,8 +167,8 @@ class Binauloc(Component, name="binauloc", version="1.0"):
     @function(interrupts=ANALYSES, throws=(e_setup,), validate=_validate_setup)
     def Setup(
         self,
-        sampleRate: Annotated[ULong, "Sample rate in Hz of the connected port (0: whatever it is)"] = 0,
-        maxFrequency: Annotated[Double, "Highest frequency analysed, Hz"] = 5000.0,
+        sampleRate: Annotated[ULong, Unit("Hz"), "Sample rate in Hz of the connected port (0: whatever it is)"] = 0,
+        maxFrequency: Annotated[Double, Unit("Hz"), "Highest frequency analysed, Hz"] = 5000.0,
         frameSize: Annotated[ULong, "Samples per analysis frame (a power of two)"] = 1024,
         overlap: Annotated[ULong, "Samples each frame shares with the next (frames start frameSize - overlap "
                                   "apart)"] = 512,
@@ -188,7 +188,7 @@ class Binauloc(Component, name="binauloc", version="1.0"):
 
     @activity(task=localize, interrupts=ANALYSES, throws=(e_setup, e_noData, e_rate), validate=_validate_seconds)
     async def LearnNoise(
-        self, seconds: Annotated[Double, "Seconds of noise (the sources silent) to learn from"] = 2.0,
+        self, seconds: Annotated[Double, Unit("s"), "Seconds of noise (the sources silent) to learn from"] = 2.0,
     ) -> Annotated[ULong, Out("nFrames", "Analysis frames learnt from")]:
         """Learn the noise's spatial covariance from the next seconds of audio, the sources silent.
 
@@ -218,7 +218,7 @@ class Binauloc(Component, name="binauloc", version="1.0"):
             raise e_setup(what=str(exc)) from exc
         return learner.frames
 
-    @activity(task=localize, interrupts=ANALYSES, throws=(e_setup, e_noData, e_rate))
+    @activity(task=localize, interrupts=ANALYSES, throws=(e_setup, e_noData, e_rate), progress="Azimuths.estimate")
     async def LocalizeSources(
         self, nEstimates: Annotated[ULong, "Estimates to make before ending (0: until Stop)"] = 0,
     ) -> Annotated[ULong, Out("nEstimates", "Estimates made")]:
@@ -249,12 +249,13 @@ class Binauloc(Component, name="binauloc", version="1.0"):
 
     # A motion: it turns the head, so a component host stops it when the gateway that asked is gone.
     @activity(motion=True, task=localize, interrupts=ANALYSES, throws=(e_setup, e_noData, e_rate, e_noHead, e_head),
-              validate=_validate_face)
+              validate=_validate_face, progress="Azimuths.estimate")
     async def FaceSource(
         self,
-        turn: Annotated[Double, "Degrees each look turns the head from the start, the source's side first"] = 30.0,
-        velocity: Annotated[Double, "Head speed, deg/s"] = 60.0,
-        look: Annotated[Double, "Seconds of audio heard from each head azimuth"] = 0.5,
+        turn: Annotated[Double, Unit("deg"),
+                         "Degrees each look turns the head from the start, the source's side first"] = 30.0,
+        velocity: Annotated[Double, Unit("deg/s"), "Head speed, deg/s"] = 60.0,
+        look: Annotated[Double, Unit("s"), "Seconds of audio heard from each head azimuth"] = 0.5,
         confidence: Annotated[Double, "Posterior probability within 10 degrees that settles it"] = 0.9,
         maxTurns: Annotated[ULong, "Looks from other azimuths before settling whatever the confidence"] = 4,
     ) -> Annotated[SourceData, Out("source", "The source found, and where the head ended")]:

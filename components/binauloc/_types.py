@@ -9,7 +9,7 @@ from typing import Annotated, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import Boolean, Double, GenomException, String, ULong, ULongLong, idl_enum, idl_struct
+from ..core import Boolean, Double, GenomException, Grid, String, ULong, ULongLong, Unit, idl_enum, idl_struct
 
 __all__ = ["Window", "AzimuthsData", "SourceData", "LogLikelihood", "e_setup", "e_noData", "e_rate", "e_noHead",
            "e_head"]
@@ -36,15 +36,19 @@ class Window(enum.Enum):
 class AzimuthsData:
     """One estimate of the dominant source's direction, as the Two!Ears decision layer read ``Azimuths``."""
 
-    azimuth: Annotated[Double, "Most likely azimuth, radians in the head frame (positive = left), (-pi, pi]"] = 0.0
+    azimuth: Annotated[Double, Unit("rad"),
+                       "Most likely azimuth, radians in the head frame (positive = left), (-pi, pi]"] = 0.0
     confidence: Annotated[Double, "Posterior probability within 10 degrees of it (0.5: a front/back tie)"] = 0.0
     frameIndex: Annotated[ULongLong, "The last frame it rests on, numbered as the connected port numbers them "
                                      "(bass: lastFrameIndex; capture: frames since the capture started)"] = 0
     nFrames: Annotated[ULong, "Analysis frames it rests on"] = 0
-    headAzimuth: Annotated[Double, "The head's azimuth in the room at frameIndex, radians (null: unknown)"] = 0.0
-    roomAzimuth: Annotated[Double, "azimuth + headAzimuth: the source in the room, radians (null: unknown)"] = 0.0
+    headAzimuth: Annotated[Double, Unit("rad"),
+                           "The head's azimuth in the room at frameIndex, radians (null: unknown)"] = 0.0
+    roomAzimuth: Annotated[Double, Unit("rad"),
+                           "azimuth + headAzimuth: the source in the room, radians (null: unknown)"] = 0.0
     estimate: Annotated[ULong, "Its number since LocalizeSources or FaceSource started (from 1)"] = 0
-    logLikelihood: Annotated[LogLikelihood, "Log-likelihood of each head-frame azimuth 0, 1, ..., 359 degrees"] = \
+    logLikelihood: Annotated[LogLikelihood, Grid(0, 1, "deg"),
+                             "Log-likelihood of each head-frame azimuth 0, 1, ..., 359 degrees"] = \
         dataclasses.field(default_factory=_no_likelihood)
 
 
@@ -52,14 +56,15 @@ class AzimuthsData:
 class SourceData:
     """The source FaceSource found: estimates at several head azimuths combined in the room."""
 
-    roomAzimuth: Annotated[Double, "The source's azimuth in the room, radians (positive = left)"] = 0.0
+    roomAzimuth: Annotated[Double, Unit("rad"), "The source's azimuth in the room, radians (positive = left)"] = 0.0
     confidence: Annotated[Double, "Posterior probability within 10 degrees of it"] = 0.0
-    headAzimuth: Annotated[Double, "Where the head is now, radians in the room"] = 0.0
+    headAzimuth: Annotated[Double, Unit("rad"), "Where the head is now, radians in the room"] = 0.0
     faced: Annotated[Boolean, "Whether the head faces the source (false when it lies beyond the head's limits)"] = \
         False
     turns: Annotated[ULong, "Head azimuths looked from besides the first"] = 0
     estimates: Annotated[ULong, "Estimates combined"] = 0
-    logLikelihood: Annotated[LogLikelihood, "Log-likelihood of each room azimuth 0, 1, ..., 359 degrees"] = \
+    logLikelihood: Annotated[LogLikelihood, Grid(0, 1, "deg"),
+                             "Log-likelihood of each room azimuth 0, 1, ..., 359 degrees"] = \
         dataclasses.field(default_factory=_no_likelihood)
 
 

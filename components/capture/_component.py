@@ -13,7 +13,7 @@ from ..audio import (
 )
 from ..core import (
     Component, ComponentHost, OutPort, OverBudget, Reservation, String, Task, ThrottledLog, ULong, activity, attribute,
-    function,
+    function, Unit,
 )
 from ._types import (
     ALREADY_CAPTURING, DEVICE_ERROR, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, NO_SUCH_DEVICE, SOCKET_ERROR,
@@ -191,12 +191,12 @@ class Capture(Component, name="capture", version="1.1"):
         return backend
 
     @activity(task=retrieve_data, throws=(INVALID_CHUNK_TIME, ERROR_SEQUENCE_ENOMEM, NO_SUCH_DEVICE, DEVICE_ERROR,
-                                          ALREADY_CAPTURING), validate=_validate_start)
+                                          ALREADY_CAPTURING), validate=_validate_start, progress="Port.index")
     async def StartCapture(
         self,
         device: Annotated[String, "Name of the sound device"] = "hw:1,0",
-        transfer_rate: Annotated[ULong, "Sample rate in Hz"] = 44100,
-        chunk_time: Annotated[ULong, "Size of transfer chunks in milliseconds"] = 50,
+        transfer_rate: Annotated[ULong, Unit("Hz"), "Sample rate in Hz"] = 44100,
+        chunk_time: Annotated[ULong, Unit("ms"), "Size of transfer chunks in milliseconds"] = 50,
         Port_chunks: Annotated[ULong, "Size of the Port in number of chunks"] = 20,
     ) -> None:
         """Capture from a sound device and publish the newest chunks on Port, until StopCapture.

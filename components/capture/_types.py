@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import core
-from ..core import Boolean, GenomException, String, ULong, ULongLong, idl_struct
+from ..core import Boolean, GenomException, String, ULong, ULongLong, Unit, idl_struct
 
 __all__ = [
     "Timestamp", "PortData", "CaptureConfig", "CaptureStatus", "Samples", "DeviceList",
@@ -41,7 +41,7 @@ class PortData:
     ``j`` of chunk ``i`` was captured at ``ts + ((i - 1) * chunk frames + j) / transfer_rate``.
     """
 
-    transfer_rate: Annotated[ULong, "Sample rate in Hz"] = 0
+    transfer_rate: Annotated[ULong, Unit("Hz"), "Sample rate in Hz"] = 0
     nbframes: Annotated[ULong, "Frames in left (and in right): Port_chunks chunks of frames"] = 0
     index: Annotated[ULong, "Chunks captured so far: the index of the newest chunk (the last one of left)"] = 0
     ts: Annotated[Timestamp, "When the capture started (it does not change while it runs): frame j of chunk i "
@@ -57,8 +57,8 @@ class CaptureConfig:
     """The outputs of GetCaptureConfig: the parameters of the current (or last) capture."""
 
     device: Annotated[String, "Name of the sound device"] = ""
-    transfer_rate: Annotated[ULong, "Sample rate in Hz"] = 0
-    chunk_time: Annotated[ULong, "Size of transfer chunks in milliseconds"] = 0
+    transfer_rate: Annotated[ULong, Unit("Hz"), "Sample rate in Hz"] = 0
+    chunk_time: Annotated[ULong, Unit("ms"), "Size of transfer chunks in milliseconds"] = 0
     Port_chunks: Annotated[ULong, "Size of the Port in number of chunks"] = 0
 
 

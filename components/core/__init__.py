@@ -16,6 +16,7 @@ from ._exceptions import (
 )
 from ._host import ComponentHost, LoadError
 from ._log_limits import ThrottledLog
+from ._names import NAME_FORBIDDEN, forbidden_in_name
 from ._json_schema import JsonSchemas, json_schema, schema_name
 from ._settings import HostSettings
 from ._ports import ComputedOutPort, Incremental, InPort, InPortRuntime, OutPort, OutPortRuntime
@@ -24,8 +25,8 @@ from ._services import Out, activity, attribute, function, redeclare
 from ._tasks import Task
 from ._timestamp import Timestamp
 from ._types import (
-    Boolean, Bound, Char, DescribedType, Double, Float, Length, Long, LongLong, Octet, Short, String, ULong,
-    ULongLong, UShort, array, idl_enum, idl_struct, optional, sequence, string,
+    Boolean, Bound, Char, DescribedType, Double, Float, Grid, Length, Long, LongLong, Octet, Short, String, ULong,
+    ULongLong, Unit, UShort, array, idl_enum, idl_struct, optional, sequence, string,
 )
 
 __all__ = [
@@ -33,6 +34,8 @@ __all__ = [
     "Component", "ComponentHost", "HostSettings", "LoadError",
     # Bounds of what clients can make a component hold, and the log lines they can cause
     "Budgets", "OverBudget", "Ledger", "Ledgers", "Reservation", "ThrottledLog",
+    # What a name a client gives may hold (session names, recording paths)
+    "NAME_FORBIDDEN", "forbidden_in_name",
     # Services
     "function", "activity", "attribute", "redeclare", "Out",
     # Ports and tasks
@@ -42,6 +45,8 @@ __all__ = [
     # Data types
     "idl_struct", "idl_enum", "Bound", "Length", "Boolean", "Octet", "Char", "Short", "UShort", "Long", "ULong",
     "LongLong", "ULongLong", "Float", "Double", "String", "sequence", "array", "optional", "string", "Timestamp",
+    # Units of numbers, and what the index of a sequence stands for
+    "Unit", "Grid",
     # The type of a port known by its description only (another process's, a recording's)
     "DescribedType",
     # JSON Schemas of /info types (for recordings, live views, API documents)

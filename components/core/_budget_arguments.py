@@ -49,7 +49,11 @@ def add_budget_arguments(group: argparse._ArgumentGroup, defaults: Budgets) -> N
     for name in Budgets.names():
         unit = Budgets.unit(name)
         default = getattr(defaults, name)
-        shown = f"{default // 2**20}M" if unit == "bytes" and default % 2**20 == 0 else str(default)
+        shown = str(default)
+        for step, suffix in ((2**30, "G"), (2**20, "M")):
+            if unit == "bytes" and default % step == 0:
+                shown = f"{default // step}{suffix}"
+                break
         group.add_argument(Budgets.flag(name), dest=f"budget_{name}", type=_amount(unit), default=default,
                            metavar="BYTES" if unit == "bytes" else unit.upper(),
                            help=f"{Budgets.doc(name)} (default {shown})")

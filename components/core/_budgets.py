@@ -26,7 +26,8 @@ GIB = 2**30
 
 #: The name of one bound (a field of :class:`Budgets`).
 BoundName = Literal["port_bytes", "audio_bytes", "socket_clients", "socket_client_bytes", "socket_bytes",
-                    "block_frames", "world_bytes", "render_bytes"]
+                    "block_frames", "world_bytes", "render_bytes", "recording_bytes", "record_dir_bytes",
+                    "recordings", "recording_seconds"]
 
 
 def _bound(default: int, flag: str, unit: str, doc: str) -> Any:
@@ -67,6 +68,15 @@ class Budgets:
         world_bytes: The render memory of one ``world`` (about 192 MiB and 128 bytes a camera pixel:
             ~700 MiB at 2048x2048).  A larger ``-size`` is refused at load.
         render_bytes: The render memory of every world of the host together.
+        recording_bytes: One recording's file (``recorder``'s ``Start``), its summary included: the
+            recording ends, readable, before the chunk that would pass it.
+        record_dir_bytes: The files in one ``--record-dir`` directory together, the recordings being
+            written included (measured when a recording starts there and none is being written).  A
+            ``Start`` into a directory that holds this much is refused; a recording that would pass
+            it ends, readable.
+        recordings: Recordings running at once on the host (every ``recorder`` instance together).
+        recording_seconds: One recording's runtime seconds: a ``duration`` longer than this is
+            refused, and a recording until ``Stop`` ends here.
     """
 
     port_bytes: int = _bound(64 * MIB, "--max-port-bytes", "bytes", "one audio port (Port, Audio)")
@@ -80,6 +90,13 @@ class Budgets:
     block_frames: int = _bound(2**22, "--max-block-frames", "frames", "the largest block of basc's GetBlocks")
     world_bytes: int = _bound(1 * GIB, "--max-world-bytes", "bytes", "render memory of one world")
     render_bytes: int = _bound(2 * GIB, "--max-render-bytes", "bytes", "render memory of every world together")
+    # An hour of binaural audio is 1.3 GB; cameras add several GB an hour.
+    recording_bytes: int = _bound(4 * GIB, "--max-recording-bytes", "bytes", "one recording's file")
+    record_dir_bytes: int = _bound(16 * GIB, "--max-record-dir-bytes", "bytes",
+                                   "the files of one --record-dir together, recordings being written included")
+    recordings: int = _bound(4, "--max-recordings", "recordings", "recordings running at once")
+    recording_seconds: int = _bound(4 * 3600, "--max-recording-seconds", "seconds",
+                                    "one recording's runtime seconds (a recording until Stop ends there)")
 
     def __post_init__(self) -> None:
         for field in dataclasses.fields(self):
@@ -263,9 +280,11 @@ class Ledgers:
         audio: Audio ports and ``basc`` blocks (``audio_bytes``).
         sockets: Unsent replies of the dedicated sockets (``socket_bytes``).
         render: The render processes of the worlds (``render_bytes``).
+        recordings: The recordings running (``recordings``), one each.
     """
 
     def __init__(self, budgets: Budgets) -> None:
         self.audio = Ledger("audio_bytes", budgets.audio_bytes, budgets.flag("audio_bytes"))
         self.sockets = Ledger("socket_bytes", budgets.socket_bytes, budgets.flag("socket_bytes"))
         self.render = Ledger("render_bytes", budgets.render_bytes, budgets.flag("render_bytes"))
+        self.recordings = Ledger("recordings", budgets.recordings, budgets.flag("recordings"), "recordings")

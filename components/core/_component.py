@@ -12,6 +12,7 @@ import asyncio
 import datetime
 import inspect
 import logging
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Annotated, Any, ClassVar, TypeVar
 
 from ._exceptions import (
@@ -41,6 +42,28 @@ log = logging.getLogger(__name__)
 _unexpected = ThrottledLog(log)
 
 _STANDARD_SERVICES = ("abort_activity", "connect_port", "connect_service", "kill")
+
+
+def _check_progress(spec: ServiceSpec, ports: dict[str, PortSpec], owner: str) -> None:
+    """Check that a service's ``progress`` names an out port of the component and a member of its type.
+
+    Raises:
+        TypeError: naming the component, the service and what is missing.
+    """
+    assert spec.progress is not None
+    port_name, *path = spec.progress.split(".")
+    port = ports.get(port_name)
+    if port is None or port.direction != "out":
+        outs = ", ".join(name for name, p in ports.items() if p.direction == "out")
+        raise TypeError(f"{owner}, service {spec.name}: progress={spec.progress!r} names no out port "
+                        f"(out ports: {outs})")
+    described = port.type.describe()
+    for name in path:
+        members = {m["name"]: m["type"] for m in described.get("members", [])}
+        if name not in members:
+            raise TypeError(f"{owner}, service {spec.name}: progress={spec.progress!r}: {described['name']} has no "
+                            f"member {name!r} (members: {', '.join(members) or 'none'})")
+        described = members[name]
 
 
 class Component:
@@ -116,6 +139,8 @@ class Component:
             if spec.validate is not None:
                 # Caught here rather than as an error at the first request of the service.
                 check_validate_hook(spec, owner)
+            if spec.progress is not None:
+                _check_progress(spec, ports, owner)
 
     def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
         self.host = host
@@ -241,6 +266,23 @@ class Component:
         at once and leaves the robot moving (a speed command: ``morse_kemar``'s ``Rotate``).  By
         default nothing: a component whose motions stop when their request ends needs none.
         """
+
+    async def on_session_end(self, session: str, requests: list[Request]) -> None:
+        """Hook: the gateway's session *session* ended while *requests* it sent to this instance ran.
+
+        A session ends when its client stops it (``/session/stop``) or is gone: nobody listened to it
+        and no client used it for the gateway's ``--session-idle``; all of a gateway's sessions end
+        when the gateway that runs them vanishes.  By default nothing: a request goes on whoever sent
+        it, as in genomix.  A component whose work belongs to its client ends it here (the
+        recorder stops a recording of that session, unless it was asked to outlive it).
+        """
+
+    async def session_ended(self, session: str, sent_by: Callable[[Request], bool] | None = None) -> None:
+        """The host's seam: *session* ended; hand its running requests (those *sent_by* one gateway) to the hook."""
+        requests = [r for r in self.requests.running()
+                    if r.session == session and (sent_by is None or sent_by(r))]
+        if requests:
+            await self.on_session_end(session, requests)
 
     # -- requests -------------------------------------------------------------------------
 

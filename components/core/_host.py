@@ -316,6 +316,26 @@ class ComponentHost:
         self._background.add(task)
         task.add_done_callback(self._background.discard)
 
+    def end_session(self, session: str) -> None:
+        """The gateway's session *session* ended: tell every instance, in the background.
+
+        An instance whose running requests came from that session may end them
+        (:meth:`Component.on_session_end <aiogenomix.components.core.Component.on_session_end>`:
+        the recorder stops a recording of it); an instance of another process hears it through
+        its proxy.  A failure is logged, never raised: the session is over whatever an instance does.
+        """
+        task = asyncio.create_task(self._end_session(session), name=f"session {session} ended")
+        self._background.add(task)
+        task.add_done_callback(self._background.discard)
+
+    async def _end_session(self, session: str) -> None:
+        for name, instance in list(self._instances.items()):
+            try:
+                await instance.session_ended(session)
+            except Exception as exc:  # noqa: BLE001  # the others are told all the same
+                log.warning("%s: the end of session %r was not handled: %s: %s", name, session,
+                            type(exc).__name__, exc)
+
     # -- shared resources and events ---------------------------------------------------------
 
     @overload

@@ -80,6 +80,9 @@ class LoadedInstance(Protocol):
     async def clean(self, request_id: str) -> None:
         """Forget the ended request *request_id* (raises ``RequestRunning`` for one that runs)."""
 
+    async def session_ended(self, session: str) -> None:
+        """The gateway's session *session* ended (stopped, expired): its requests that run may end with it."""
+
     async def start(self) -> None:
         """Start serving (the host calls it once, when it loads the instance)."""
 

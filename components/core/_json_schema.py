@@ -7,6 +7,9 @@ recording's JSON channels (a self-contained schema per channel, its structs unde
 (:meth:`IdlType.describe`), so a component host, a recorder on another machine or a
 client holding only ``/info`` makes the same schemas.
 
+A number's unit, where its component declares one, is the schema's ``x-unit`` (``"deg"``): JSON
+Schema keeps keywords it does not know as annotations, and OpenAPI takes ``x-`` extensions anywhere.
+
 Data comes in two directions that genom3 writes differently:
 
 * **input** (what a service accepts): enums by full or short name, booleans, members optional,
@@ -127,11 +130,21 @@ class JsonSchemas:
         return self.input(t)
 
     @staticmethod
-    def _member(member: Mapping[str, Any], schema_of: Any) -> Json:
-        schema: Json = schema_of(member["type"])
-        if member.get("doc") and "$ref" not in schema:
+    def described(schema: Json, member: Mapping[str, Any]) -> Json:
+        """*schema* with what the ``/info`` *member* (or parameter) says of it: its doc, its unit (``x-unit``).
+
+        A reference is left as it is (a struct member has no unit; its doc would hide the struct's).
+        """
+        if "$ref" in schema:
+            return schema
+        if member.get("doc"):
             schema = {**schema, "description": member["doc"]}
+        if member.get("unit"):
+            schema = {**schema, "x-unit": member["unit"]}
         return schema
+
+    def _member(self, member: Mapping[str, Any], schema_of: Any) -> Json:
+        return self.described(schema_of(member["type"]), member)
 
 
 def json_schema(description: Mapping[str, Any], *, direction: str = "output", title: str | None = None,

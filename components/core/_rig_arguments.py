@@ -20,11 +20,25 @@ def _positive(text: str) -> float:
     return value
 
 
+def _record_mode(text: str) -> int:
+    """An octal mode of recordings: ``600``, ``0640``, ``0o644``."""
+    digits = text.strip().lower().removeprefix("0o")
+    try:
+        mode = int(digits, 8) if digits.isascii() and digits.isdigit() else -1
+    except ValueError:
+        mode = -1
+    if mode < 0 or mode & ~0o666 or mode & 0o600 != 0o600:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a recording's mode: octal read and write bits, the "
+                                         "owner's both among them (600, 640, 644)")
+    return mode
+
+
 def add_rig_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the options of the components' hardware and clock to *parser*, wherever they run.
 
     They are ``--log-level``, ``--can``, ``--can-timeout``, ``--audio-device``, ``--audio-socket-port``,
-    ``--audio-files``, ``--record-dir`` and ``--time-scale``, with the defaults of :class:`HostSettings`.
+    ``--audio-files``, ``--record-dir``, ``--record-mode`` and ``--time-scale``, with the defaults of
+    :class:`HostSettings`.
     """
     parser.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error"])
     parser.add_argument("--can", default=_DEFAULTS.can,
@@ -41,13 +55,17 @@ def add_rig_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--record-dir", action="append", default=[], metavar="DIR",
                         help="a directory the recorder component may write recordings into, and captures may "
                              "replay them from (mcap:PATH) (repeatable; default: none, recordings are refused)")
+    parser.add_argument("--record-mode", type=_record_mode, default=_DEFAULTS.record_mode, metavar="MODE",
+                        help="permissions of new recordings, in octal (default 600: their owner's only, as they "
+                             "hold microphones and cameras; 640 lets the files' group read them)")
     parser.add_argument("--time-scale", type=float, default=1.0,
                         help="runtime seconds per real second, for faster simulations (default %(default)s)")
 
 
 def rig_settings(*, can: str, can_timeout: float, audio_device: str, audio_socket_port: int,
                  audio_socket_host: str, audio_socket_token: str | None, audio_files: list[str],
-                 record_dirs: list[str] | None = None, budgets: Budgets | None = None) -> HostSettings:
+                 record_dirs: list[str] | None = None, record_mode: int = _DEFAULTS.record_mode,
+                 budgets: Budgets | None = None) -> HostSettings:
     """The settings of a rig given on a command line (the file of ``--audio-device`` is always allowed).
 
     The operator chose that file, so it is readable even when ``--audio-files`` names no directory.
@@ -57,4 +75,4 @@ def rig_settings(*, can: str, can_timeout: float, audio_device: str, audio_socke
     return HostSettings(can=can, can_timeout=can_timeout, audio_device=audio_device,
                         audio_socket_port=audio_socket_port, audio_socket_host=audio_socket_host,
                         audio_socket_token=audio_socket_token, audio_files=(*audio_files, *operator_file),
-                        record_dirs=tuple(record_dirs or ()), budgets=budgets or Budgets())
+                        record_dirs=tuple(record_dirs or ()), record_mode=record_mode, budgets=budgets or Budgets())

@@ -20,7 +20,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Annotated, Any, Literal, Protocol, TypeVar, overload
 
 from ._exceptions import GenomException, InputError
-from ._types import IdlType, idl_type
+from ._types import IdlType, idl_type, notes_of
 
 if TYPE_CHECKING:
     from ._tasks import Task
@@ -62,6 +62,7 @@ class ParamSpec:
         type: Its IDL type.
         doc: Its documentation.
         default: Its default (a Python value), or :data:`NO_DEFAULT`.
+        unit: Its unit (``Annotated[Double, Unit("deg")]``), or "" when it has none.
     """
 
     name: str
@@ -69,11 +70,14 @@ class ParamSpec:
     type: IdlType
     doc: str = ""
     default: Any = NO_DEFAULT
+    unit: str = ""
 
     def describe(self, default: Any = NO_DEFAULT) -> dict[str, Any]:
         """The ``/info`` description of this parameter (*default* replaces the declared one)."""
         described: dict[str, Any] = {"name": self.name, "dir": self.direction, "type": self.type.describe(),
                                      "doc": self.doc}
+        if self.unit:
+            described["unit"] = self.unit
         if default is NO_DEFAULT:
             default = self.default
         if default is not NO_DEFAULT:
@@ -97,6 +101,8 @@ class ServiceSpec:
     task: str | None = None
     #: Whether the activity moves hardware: its host stops it when the client that started it vanishes.
     motion: bool = False
+    #: Where the activity's progress is published: ``"Port.member"`` of an out port of its component.
+    progress: str | None = None
     #: How the return value maps to outputs: "none", "single" or "fields".
     output_style: str = "none"
     #: Whether the method is a coroutine function (plain ones run inline).
@@ -171,12 +177,16 @@ class ServiceSpec:
             if p.direction == "in" and p.name in outputs:
                 described["dir"] = "inout"
             params.append(described)
-        return {"name": self.name, "kind": self.kind, "doc": self.doc, "task": self.task,
-                "parameters": params, "interrupts": list(self.interrupts)}
+        described = {"name": self.name, "kind": self.kind, "doc": self.doc, "task": self.task,
+                     "parameters": params, "interrupts": list(self.interrupts)}
+        if self.progress:
+            described["progress"] = self.progress
+        return described
 
 
-def _doc_of(metadata: Sequence[Any]) -> str:
-    return next((m for m in metadata if isinstance(m, str)), "")
+def _doc_and_unit(hint: Any) -> tuple[str, str]:
+    notes = notes_of(hint)
+    return notes.get("doc", ""), notes.get("unit", "")
 
 
 def _split_doc(func: Callable[..., Any]) -> str:
@@ -190,15 +200,16 @@ def _outputs_of(annotation: Any) -> tuple[tuple[ParamSpec, ...], str]:
     if typing.get_origin(annotation) is Annotated:
         out = next((m for m in annotation.__metadata__ if isinstance(m, Out)), None)
         if out is not None:
-            return (ParamSpec(out.name, "out", idl_type(annotation), out.doc),), "single"
+            unit = _doc_and_unit(annotation)[1]
+            return (ParamSpec(out.name, "out", idl_type(annotation), out.doc, unit=unit),), "single"
     base = typing.get_args(annotation)[0] if typing.get_origin(annotation) is Annotated else annotation
     if dataclasses.is_dataclass(base) and not hasattr(base, "__idl_type__"):
         hints = typing.get_type_hints(base, include_extras=True)
         params = []
         for field in dataclasses.fields(base):
             hint = hints[field.name]
-            doc = _doc_of(hint.__metadata__) if typing.get_origin(hint) is Annotated else ""
-            params.append(ParamSpec(field.name, "out", idl_type(hint), doc))
+            doc, unit = _doc_and_unit(hint)
+            params.append(ParamSpec(field.name, "out", idl_type(hint), doc, unit=unit))
         return tuple(params), "fields"
     raise TypeError(
         f"return annotation {annotation!r}: use None, Annotated[T, Out('name')] or a dataclass of outputs"
@@ -226,13 +237,13 @@ def _build_spec(func: Callable[..., Any], declaration: _Declaration) -> ServiceS
         if name not in hints:
             raise TypeError(f"parameter {name!r} needs a type annotation")
         hint = hints[name]
-        doc = _doc_of(hint.__metadata__) if typing.get_origin(hint) is Annotated else ""
+        doc, unit = _doc_and_unit(hint)
         default = NO_DEFAULT if param.default is param.empty else param.default
         try:
             param_type = idl_type(hint)
         except TypeError as exc:
             raise TypeError(f"parameter {name!r}: {exc}") from None
-        inputs.append(ParamSpec(name, "in", param_type, doc, default))
+        inputs.append(ParamSpec(name, "in", param_type, doc, default, unit))
     outputs, style = _outputs_of(hints.get("return", inspect.Signature.empty))
     task = options.get("task")
     return ServiceSpec(
@@ -247,13 +258,14 @@ def _build_spec(func: Callable[..., Any], declaration: _Declaration) -> ServiceS
         validate=options.get("validate"),
         task=getattr(task, "name", task),
         motion=bool(options.get("motion", False)),
+        progress=options.get("progress"),
         output_style=style,
         is_async=inspect.iscoroutinefunction(func),
     )
 
 
 #: The options every service decorator takes.
-_OPTIONS = ("name", "doc", "interrupts", "throws", "validate", "task", "motion")
+_OPTIONS = ("name", "doc", "interrupts", "throws", "validate", "task", "motion", "progress")
 
 
 def _check_options(owner: str, kind: ServiceKind, options: Mapping[str, Any]) -> None:
@@ -287,6 +299,13 @@ def _check_options(owner: str, kind: ServiceKind, options: Mapping[str, Any]) ->
     if motion and kind != "activity":
         # A function or attribute ends within the function grace: there is no motion left to stop.
         raise TypeError(f"{owner}: only an @activity can be a motion (motion=True), not an @{kind}")
+    progress = options.get("progress")
+    if progress is not None and not (isinstance(progress, str) and all(p.isidentifier() for p in progress.split("."))):
+        raise TypeError(f"{owner}: @{kind} option 'progress' names an out port and a member, \"Port.member\", "
+                        f"not {progress!r}")
+    if progress is not None and kind != "activity":
+        # A function or attribute ends within the function grace: there is no progress to follow.
+        raise TypeError(f"{owner}: only an @activity has a progress to follow, not an @{kind}")
 
 
 class ServiceDecorator(Protocol):
@@ -306,6 +325,7 @@ class ServiceDecorator(Protocol):
         validate: Callable[..., Any] | None = None,
         task: Task | str | None = None,
         motion: bool = False,
+        progress: str | None = None,
     ) -> Callable[[_F], _F]: ...
 
 
@@ -322,6 +342,10 @@ _OPTIONS_DOC = """
         motion: The activity moves hardware (a head, a base): a component host stops it when the
             gateway that started it vanishes (its process died, or its link stayed cut past Zenoh's
             lease), as a dead-man switch would.  Other activities (a capture, a recording) go on.
+        progress: Where the activity's progress can be followed while it runs: ``"Port.member"`` (or
+            ``"Port"``) of an out port of the component, such as ``"currentState.position"`` for a head's
+            moves (``/info`` says it; the console shows it beside the running request).  Checked when the
+            class is created.
 
     Raises:
         TypeError: for an unknown option (``interupts``) or an option of the wrong shape.
@@ -338,6 +362,7 @@ _DECORATOR_SIGNATURE = inspect.Signature([
     inspect.Parameter("validate", _KEYWORD, default=None, annotation="Callable[..., Any] | None"),
     inspect.Parameter("task", _KEYWORD, default=None, annotation="Task | str | None"),
     inspect.Parameter("motion", _KEYWORD, default=False, annotation="bool"),
+    inspect.Parameter("progress", _KEYWORD, default=None, annotation="str | None"),
 ], return_annotation="Any")
 
 
@@ -379,6 +404,7 @@ def redeclare(
     validate: Callable[..., Any] | None = None,
     task: Task | str | None = None,
     motion: bool | None = None,
+    progress: str | None = None,
 ) -> Callable[[Callable[..., Any]], _F]:
     """Declare a new implementation of a service declared by a base class (a merged component's).
 
@@ -404,6 +430,7 @@ def redeclare(
         validate: Its validate hook (default: the original's).
         task: The Task it runs in (default: the original's).
         motion: Whether it moves hardware (default: the original's).
+        progress: Where its progress is published (default: the original's).
 
     Raises:
         TypeError: when *service* declares no service, for an option of the wrong
@@ -415,7 +442,7 @@ def redeclare(
         raise TypeError(f"redeclare: {getattr(service, '__qualname__', service)!r} declares no service "
                         "(decorate it with @function, @activity or @attribute)")
     given = {"name": name, "doc": doc, "interrupts": interrupts, "throws": throws, "validate": validate,
-             "task": task, "motion": motion}
+             "task": task, "motion": motion, "progress": progress}
     changes = {key: value for key, value in given.items() if value is not None}
 
     def attach(f: Callable[..., Any]) -> _F:

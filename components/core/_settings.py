@@ -18,7 +18,8 @@ class HostSettings:
 
     Each setting has one default, here; the gateway and a component host fill them from their
     command line (``--can``, ``--can-timeout``, ``--audio-device``, ``--audio-files``,
-    ``--record-dir``, ``--audio-socket-port``...).  A component reads them as ``self.host.settings.can``.
+    ``--record-dir``, ``--record-mode``, ``--audio-socket-port``...).  A component reads them as
+    ``self.host.settings.can``.
 
     Attributes:
         can: The KEMAR head's CAN bus: ``virtual`` (a simulated drive in-process) or
@@ -33,6 +34,9 @@ class HostSettings:
         record_dirs: The directories a recorder may write recordings into, and from which captures
             may replay them (``mcap:PATH``); None allows any path (a host built in code, whose author
             chose its files).  The gateway passes its ``--record-dir``: none unless the operator names one.
+        record_mode: The permissions of a new recording (``--record-mode``): its owner's only by
+            default, since it holds microphones and cameras; read and write bits only, the owner's
+            both among them (``0o640`` lets the file's group read it).
         audio_socket_host: The address the dedicated audio socket binds.
         audio_socket_port: The TCP port of the dedicated audio socket (0 picks a free one).
         audio_socket_token: When set, a client of the dedicated socket must first send ``Token <token>``.
@@ -47,6 +51,7 @@ class HostSettings:
     audio_device: str = "sim"
     audio_files: tuple[str, ...] | None = None
     record_dirs: tuple[str, ...] | None = None
+    record_mode: int = 0o600
     audio_socket_host: str = "127.0.0.1"
     audio_socket_port: int = 8081
     audio_socket_token: str | None = None
@@ -65,6 +70,11 @@ class HostSettings:
             raise ValueError(f"can_timeout must be a positive number of seconds, not {self.can_timeout!r}")
         if not 0 <= self.audio_socket_port <= 65535:
             raise ValueError(f"audio_socket_port must be a TCP port (0 to 65535), not {self.audio_socket_port!r}")
+        mode = self.record_mode
+        if isinstance(mode, bool) or not isinstance(mode, int) or mode & ~0o666 or mode & 0o600 != 0o600:
+            shown = f"{mode:o}" if isinstance(mode, int) else repr(mode)
+            raise ValueError(f"record_mode (--record-mode) has read and write bits only, the owner's both among "
+                             f"them (600, 640, 644), not {shown}")
         if not isinstance(self.budgets, Budgets):
             raise TypeError(f"budgets are a Budgets, not {type(self.budgets).__name__}")
         # A list given by a caller is kept as a tuple: the settings stay frozen all the way down.

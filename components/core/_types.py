@@ -25,8 +25,8 @@ from ._exceptions import InputError
 __all__ = [
     "IdlType", "Scalar", "StringType", "EnumType", "StructType", "SequenceType", "ArrayType",
     "OptionalType", "DescribedType", "idl_type", "idl_struct", "idl_enum", "sequence", "array", "optional", "string",
-    "Bound", "Length", "Boolean", "Octet", "Char", "Short", "UShort", "Long", "ULong", "LongLong", "ULongLong",
-    "Float", "Double", "String",
+    "Bound", "Length", "Unit", "Grid", "notes_of", "Boolean", "Octet", "Char", "Short", "UShort", "Long", "ULong",
+    "LongLong", "ULongLong", "Float", "Double", "String",
 ]
 
 
@@ -284,24 +284,20 @@ class StructType(IdlType):
         return dict(self.members)
 
     @functools.cached_property
-    def member_docs(self) -> dict[str, str]:
-        """The documented members: ``Annotated[T, "what it is"]`` in the struct's declaration."""
+    def member_notes(self) -> dict[str, dict[str, Any]]:
+        """What the declaration says of each member besides its type: ``doc``, ``unit`` and ``grid``, when given.
+
+        ``Annotated[Double, Unit("deg"), "Head azimuth"]`` notes ``{"unit": "deg", "doc": "Head azimuth"}``.
+        """
         hints = typing.get_type_hints(self.cls, include_extras=True)
-        docs = {}
-        for name, hint in hints.items():
-            if typing.get_origin(hint) is Annotated:
-                doc = next((m for m in hint.__metadata__ if isinstance(m, str)), "")
-                if doc:
-                    docs[name] = doc
-        return docs
+        return {name: notes_of(hint) for name, hint in hints.items()}
 
     def describe(self) -> dict[str, Any]:
-        docs = self.member_docs
+        notes = self.member_notes
         return {
             "name": self.name,
             "kind": "struct",
-            "members": [{"name": n, "type": t.describe(), **({"doc": docs[n]} if n in docs else {})}
-                        for n, t in self.members],
+            "members": [{"name": n, "type": t.describe(), **notes.get(n, {})} for n, t in self.members],
         }
 
     def decode(self, value: Any, path: str) -> Any:
@@ -522,6 +518,73 @@ class Length:
         if isinstance(base, SequenceType) and not isinstance(base, ArrayType) and base.bound is None:
             return ArrayType(base.element, self.size, base.numpy)
         raise TypeError(f"Length({self.size}) applies to list[...] and NDArray[...], not to {base.name}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Unit:
+    """Annotation metadata: the unit of a number, or of each number of a sequence.
+
+    ``position: Annotated[Double, Unit("deg"), "Head azimuth"]`` says the member is in degrees:
+    ``/info`` gives it as the member's (or the parameter's) ``unit``, the OpenAPI document as
+    ``x-unit``, and the console labels its axes with it.  Symbols are plain ASCII, as MATLAB and
+    Tcl users type them: ``deg``, ``deg/s``, ``rad``, ``m``, ``m/s``, ``s``, ``Hz``, ``dBFS``.
+    """
+
+    symbol: str
+
+    def __post_init__(self) -> None:
+        if not self.symbol or not self.symbol.isascii() or not self.symbol.isprintable():
+            raise TypeError(f"Unit({self.symbol!r}): a unit is a non-empty printable ASCII symbol (deg, m/s)")
+
+
+@dataclasses.dataclass(frozen=True)
+class Grid:
+    """Annotation metadata: what the index of a sequence stands for, ``start + index * step`` in *unit*.
+
+    ``Annotated[NDArray[np.float64], Grid(0, 1, "deg")]`` is a value for each azimuth 0°, 1°, … (a
+    log-likelihood per direction): ``/info`` gives it as the member's ``grid``,
+    ``{"start": 0, "step": 1, "unit": "deg"}``, and the console draws such a sequence of angles as a ring.
+    """
+
+    start: float
+    step: float
+    unit: str
+
+    def __post_init__(self) -> None:
+        Unit(self.unit)
+        if not (math.isfinite(self.start) and math.isfinite(self.step) and self.step != 0):
+            raise TypeError(f"{self!r}: start and step are finite numbers, and step is not 0")
+
+    def describe(self) -> dict[str, Any]:
+        """The ``/info`` form: ``{"start", "step", "unit"}``."""
+        return {"start": self.start, "step": self.step, "unit": self.unit}
+
+
+def notes_of(hint: Any) -> dict[str, Any]:
+    """What the annotation metadata of a member or parameter says besides its type, as ``/info`` gives it.
+
+    ``{"doc": ..., "unit": ..., "grid": {...}}``, each only when declared: the first string is the doc,
+    a :class:`Unit` the unit, a :class:`Grid` the grid.
+
+    Raises:
+        TypeError: when a member declares two units or two grids.
+    """
+    if typing.get_origin(hint) is not Annotated:
+        return {}
+    metadata = hint.__metadata__
+    notes: dict[str, Any] = {}
+    doc = next((m for m in metadata if isinstance(m, str)), "")
+    if doc:
+        notes["doc"] = doc
+    units = {m.symbol for m in metadata if isinstance(m, Unit)}
+    grids = [m for m in metadata if isinstance(m, Grid)]
+    if len(units) > 1 or len(grids) > 1:
+        raise TypeError(f"{hint!r} declares more than one unit or grid")
+    if units:
+        notes["unit"] = units.pop()
+    if grids:
+        notes["grid"] = grids[0].describe()
+    return notes
 
 
 def string(bound: int) -> Any:

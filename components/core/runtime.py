@@ -6,6 +6,7 @@ a host of components (the gateway, a remote component host, a test) does.
 
 from ._binary import BINARY_CONTENT_TYPE, BINARY_MAGIC, encode_binary
 from ._budget_arguments import add_budget_arguments, budgets_from, parse_amount
+from ._budgets import MIB, size_text
 from ._describe import describe
 from ._error_bodies import REMOTE_IO, error_body, message_of
 from ._exceptions import (
@@ -41,6 +42,8 @@ __all__ = [
     "RemoteRefusal", "error_body", "message_of", "REMOTE_IO", "names_hint",
     # The command line of a rig (the gateway's and a component host's)
     "add_rig_arguments", "rig_settings", "add_budget_arguments", "budgets_from", "parse_amount",
+    # Amounts of bytes, as the budgets count and say them
+    "MIB", "size_text",
 ]
 
 _show_as_public(globals(), __all__, __name__, __name__.rsplit(".", 1)[0])

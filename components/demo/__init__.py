@@ -8,7 +8,7 @@ from typing import Annotated
 
 from ..core import (
     Component, Double, GenomException, OutPort, Out, String, Task, activity, attribute, function, idl_enum,
-    idl_struct,
+    idl_struct, Unit,
 )
 
 __all__ = ["Demo", "Speed", "State", "TOO_FAR_AWAY", "INVALID_VALUE", "TRACK_END", "SPEEDS"]
@@ -34,8 +34,8 @@ SPEEDS = {Speed.SLOW: 0.1, Speed.MEDIUM: 0.2, Speed.FAST: 0.4}
 class State:
     """Where the robot is and how fast it goes."""
 
-    position: Double = 0.0
-    speed: Double = 0.0
+    position: Annotated[Double, Unit("m"), "Position on the track"] = 0.0
+    speed: Annotated[Double, Unit("m/s"), "Speed along the track"] = 0.0
 
 
 class TOO_FAR_AWAY(GenomException):
@@ -110,14 +110,14 @@ class Demo(Component, name="demo", version="1.1"):
                 self.Mobile.publish(self.state)
 
     @activity(task=motion, interrupts=("GotoPosition", "MoveDistance"), throws=(TOO_FAR_AWAY, INVALID_VALUE),
-              validate=_validate_goto, motion=True)
-    async def GotoPosition(self, posRef: Annotated[Double, "Goto position in m"] = 0.0) -> None:
+              validate=_validate_goto, motion=True, progress="Mobile.position")
+    async def GotoPosition(self, posRef: Annotated[Double, Unit("m"), "Goto position in m"] = 0.0) -> None:
         """Move the robot to an absolute position on the track."""
         await self._drive_to(posRef)
 
     @activity(task=motion, interrupts=("GotoPosition", "MoveDistance"), throws=(TOO_FAR_AWAY, INVALID_VALUE),
-              validate=_validate_move, motion=True)
-    async def MoveDistance(self, distRef: Annotated[Double, "Distance in m"] = 0.0) -> None:
+              validate=_validate_move, motion=True, progress="Mobile.position")
+    async def MoveDistance(self, distRef: Annotated[Double, Unit("m"), "Distance in m"] = 0.0) -> None:
         """Move the robot by a distance from where it is."""
         await self._drive_to(self.state.position + distRef)
 
@@ -135,9 +135,9 @@ class Demo(Component, name="demo", version="1.1"):
         """Get the speed of the motions."""
         return self.speed_ref
 
-    @activity(task=motion, throws=(INVALID_VALUE,), validate=_validate_monitor)
+    @activity(task=motion, throws=(INVALID_VALUE,), validate=_validate_monitor, progress="Mobile.position")
     async def Monitor(
-        self, monitor: Annotated[Double, "Position to watch in m"] = 0.0
+        self, monitor: Annotated[Double, Unit("m"), "Position to watch in m"] = 0.0
     ) -> Annotated[State, Out("state", "The state of the robot when it crossed the position")]:
         """Wait until the robot reaches or crosses a position, and report its state then."""
         side = self.state.position - monitor

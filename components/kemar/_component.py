@@ -10,7 +10,7 @@ from typing import Annotated
 
 from ..audio import HeadAzimuth
 from ..binaural import TurnableHead
-from ..core import Component, ComponentHost, Double, Out, OutPort, Task, activity, function
+from ..core import Component, ComponentHost, Double, Out, OutPort, Task, activity, function, Unit
 from ._driver import HarmonicaDriver
 from ._errors import (
     BusError,
@@ -226,7 +226,8 @@ class Kemar(Component, name="kemar", version="1.0"):
 
     # ------------------------------------------------------------------ services
 
-    @activity(motion=True, task=motion, interrupts=MOTIONS, throws=(HOMING_FAILED, *_BUS_THROWS))
+    @activity(motion=True, task=motion, interrupts=MOTIONS, throws=(HOMING_FAILED, *_BUS_THROWS),
+              progress="currentState.position")
     async def Homing(self) -> None:
         """Find both limit switches, centre the head between them and make that azimuth 0 (speed: 100 deg/s)."""
         with _as_genom_exceptions():
@@ -246,7 +247,8 @@ class Kemar(Component, name="kemar", version="1.0"):
         """Stop publishing the head state (interrupts CurrentPosition)."""
 
     @function(throws=(INVALID_VELOCITY, BUS_ERROR))
-    def SetVelocity(self, velocity: Annotated[Double, "Speed of position control in deg/s"] = 100.0) -> None:
+    def SetVelocity(
+            self, velocity: Annotated[Double, Unit("deg/s"), "Speed of position control in deg/s"] = 100.0) -> None:
         """Set the speed of the next position moves (Homing sets it back to 100 deg/s)."""
         self._check_velocity(velocity)
         head = self.head()
@@ -256,11 +258,13 @@ class Kemar(Component, name="kemar", version="1.0"):
             raise INVALID_VELOCITY(velocity=velocity, maximum=self.config.max_speed_deg) from None
 
     @activity(motion=True, task=motion, interrupts=MOTIONS, validate=_validate_move,
-              throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS))
+              throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS),
+              progress="currentState.position")
     async def MoveAbsolutePosition(
         self,
-        target: Annotated[Double, "Azimuth in degrees (positive = left), kept 0.5 deg inside the limits"] = 0.0,
-        velocity: Annotated[Double, "Speed in deg/s; 0 = the current speed (SetVelocity)"] = 0.0,
+        target: Annotated[Double, Unit("deg"),
+                          "Azimuth in degrees (positive = left), kept 0.5 deg inside the limits"] = 0.0,
+        velocity: Annotated[Double, Unit("deg/s"), "Speed in deg/s; 0 = the current speed (SetVelocity)"] = 0.0,
     ) -> MoveOutcome:
         """Turn the head to an azimuth and wait until it is there (or at the limit, when it is beyond)."""
         head = self.head()
@@ -269,11 +273,12 @@ class Kemar(Component, name="kemar", version="1.0"):
         return MoveOutcome(position=state.position, limited=head.clamp(target) != target)
 
     @activity(motion=True, task=motion, interrupts=MOTIONS, validate=_validate_move,
-              throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS))
+              throws=(NOT_HOMED, INVALID_TARGET, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS),
+              progress="currentState.position")
     async def MoveRelativePosition(
         self,
-        target: Annotated[Double, "Degrees to turn from the present azimuth (positive = left)"] = 0.0,
-        velocity: Annotated[Double, "Speed in deg/s; 0 = the current speed (SetVelocity)"] = 0.0,
+        target: Annotated[Double, Unit("deg"), "Degrees to turn from the present azimuth (positive = left)"] = 0.0,
+        velocity: Annotated[Double, Unit("deg/s"), "Speed in deg/s; 0 = the current speed (SetVelocity)"] = 0.0,
     ) -> MoveOutcome:
         """Turn the head by an angle from where it is (the final azimuth is kept inside the limits)."""
         head = self.head()
@@ -283,16 +288,19 @@ class Kemar(Component, name="kemar", version="1.0"):
         return MoveOutcome(position=state.position, limited=head.clamp(start + target) != start + target)
 
     @activity(motion=True, task=motion, interrupts=MOTIONS,
-              throws=(NOT_HOMED, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS), validate=_validate_speed_control)
+              throws=(NOT_HOMED, INVALID_VELOCITY, MOTION_STOPPED, *_BUS_THROWS), validate=_validate_speed_control,
+              progress="currentState.position")
     async def ControlInSpeed(
-        self, velocity: Annotated[Double, "Angular speed in deg/s (positive = left); 0 stops the head"] = 0.0
+        self,
+        velocity: Annotated[Double, Unit("deg/s"), "Angular speed in deg/s (positive = left); 0 stops the head"] = 0.0,
     ) -> None:
         """Turn the head at a constant speed until 0 is asked or it comes 3 degrees from a limit."""
         with _as_genom_exceptions():
             await self.head().control_in_speed(velocity)
 
     @function(throws=_BUS_THROWS)
-    async def GetPosition(self) -> Annotated[Double, Out("position", "Head azimuth in degrees (positive = left)")]:
+    async def GetPosition(
+            self) -> Annotated[Double, Unit("deg"), Out("position", "Head azimuth in degrees (positive = left)")]:
         """Read the head azimuth from the drive (before Homing, the zero is wherever the head was at power-up)."""
         with _as_genom_exceptions():
             return await self.head().read_position()

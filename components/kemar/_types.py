@@ -7,7 +7,7 @@ import dataclasses
 from .. import core
 from typing import Annotated
 
-from ..core import Boolean, Double, GenomException, Long, String, idl_struct
+from ..core import Boolean, Double, GenomException, Long, String, Unit, idl_struct
 
 __all__ = [
     "Timestamp",
@@ -34,10 +34,10 @@ class Timestamp(core.Timestamp):
 class KemarState:
     """The head: azimuth (deg, positive = left), speed (deg/s), the limits found by Homing (deg), and when."""
 
-    position: Annotated[Double, "Head azimuth in degrees (positive = left)"] = 0.0
-    speed: Annotated[Double, "Angular speed in deg/s (positive = left)"] = 0.0
-    maxLeft: Annotated[Double, "Left limit found by Homing, degrees (0 before Homing)"] = 0.0
-    maxRight: Annotated[Double, "Right limit found by Homing, degrees (0 before Homing)"] = 0.0
+    position: Annotated[Double, Unit("deg"), "Head azimuth in degrees (positive = left)"] = 0.0
+    speed: Annotated[Double, Unit("deg/s"), "Angular speed in deg/s (positive = left)"] = 0.0
+    maxLeft: Annotated[Double, Unit("deg"), "Left limit found by Homing, degrees (0 before Homing)"] = 0.0
+    maxRight: Annotated[Double, Unit("deg"), "Right limit found by Homing, degrees (0 before Homing)"] = 0.0
     timestamp: Annotated[Timestamp, "When the drive was read"] = dataclasses.field(default_factory=Timestamp)
 
 
@@ -49,7 +49,7 @@ class MoveOutcome:
     sign that the target was out of reach.
     """
 
-    position: Annotated[Double, "Azimuth reached, in degrees (positive = left)"] = 0.0
+    position: Annotated[Double, Unit("deg"), "Azimuth reached, in degrees (positive = left)"] = 0.0
     limited: Annotated[Boolean, "The target was beyond a limit: the head stopped half a degree inside it"] = False
 
 

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import dataclasses
 
-from typing import TypeAlias
+from typing import Annotated, TypeAlias
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..capture import PortData
-from ..core import Boolean, Double, ULong, idl_struct
+from ..core import Boolean, Double, ULong, Unit, idl_struct
 
 __all__ = ["KemarPortData", "MoveIndexes", "Positions"]
 
@@ -27,7 +27,8 @@ def _no_positions() -> np.ndarray:
 class KemarPortData(PortData):
     """The capture port plus the head position (degrees) at the end of each chunk, oldest first."""
 
-    positions: Positions = dataclasses.field(default_factory=_no_positions)
+    positions: Annotated[Positions, Unit("deg"), "Head azimuth at the end of each chunk, oldest first"] = \
+        dataclasses.field(default_factory=_no_positions)
 
 
 @idl_struct("kemarcapture::position_audio_indexes_movement")
@@ -39,7 +40,7 @@ class MoveIndexes:
     """
 
     startIndex: ULong = 0
-    startPosition: Double = 0.0
+    startPosition: Annotated[Double, Unit("deg")] = 0.0
     endIndex: ULong = 0
-    endPosition: Double = 0.0
+    endPosition: Annotated[Double, Unit("deg")] = 0.0
     arrived: Boolean = False

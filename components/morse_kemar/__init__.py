@@ -2,9 +2,10 @@
 
 As in the seed, it writes speed commands on ``RobotMotion`` (a Twist, angular.z in rad/s) and reads the
 head's pose on ``RobotPose``; its services take degrees and deg/s, positive to the left, like ``kemar``.
-While it is loaded, a capture of the simulated scene hears the world's sound-source markers, from where
-its KEMAR stands, turning with its head (it provides the host's ``HeadAzimuth`` and ``SoundScene``), and
-active listening may turn its head (it provides a ``TurnableHead``).
+While it is loaded, a capture of the simulated scene hears the world's sound-source markers in the world's
+room (its walls' reflections and reverberation), from where its KEMAR stands, turning with its head (it
+provides the host's ``HeadAzimuth`` and ``SoundScene``), and active listening may turn its head (it
+provides a ``TurnableHead``).
 """
 
 from __future__ import annotations
@@ -14,8 +15,10 @@ from typing import Annotated
 
 from ..audio import HeadAzimuth, SoundScene
 from ..binaural import TurnableHead
-from ..core import Component, Double, GenomException, InPort, OutPort, String, Task, activity
-from ..world import KEMAR_LIMIT, KEMAR_ORIGIN, Image, PoseStamped, Twist, Vector3, attach, marker_scene
+from ..core import Component, Double, GenomException, InPort, OutPort, String, Task, Unit, activity
+from ..world import (
+    KEMAR_EAR_HEIGHT, KEMAR_LIMIT, KEMAR_ORIGIN, Image, PoseStamped, Twist, Vector3, attach, marker_scene,
+)
 
 __all__ = ["MorseKemar", "INVALID_VALUE", "WIRING", "yaw_of"]
 
@@ -91,8 +94,8 @@ class MorseKemar(Component, name="morse_kemar", version="1.0"):
         self.frames = 0
         await attach(self, WIRING)
         self._read_position()
-        # The simulated sound scene hears the world's markers and turns with this head.
-        self.provide(SoundScene, SoundScene(marker_scene(*KEMAR_ORIGIN)))
+        # The simulated sound scene hears the world's markers in the world's room and turns with this head.
+        self.provide(SoundScene, SoundScene(marker_scene((*KEMAR_ORIGIN, KEMAR_EAR_HEIGHT))))
         self.provide(HeadAzimuth, HeadAzimuth(self._pose_azimuth))
         # Active listening (binauloc's FaceSource) turns this head through MoveAbsolutePosition.
         limit = math.degrees(KEMAR_LIMIT) - LIMIT_MARGIN
@@ -145,7 +148,9 @@ class MorseKemar(Component, name="morse_kemar", version="1.0"):
             await self.ReceiveImage.tick()
 
     @activity(motion=True, task=Motion, interrupts=MOTIONS, throws=(INVALID_VALUE,), validate=_validate_rotate)
-    async def Rotate(self, z: Annotated[Double, "Angular speed in deg/s (positive = left); 0 stops"] = 0.0) -> None:
+    async def Rotate(
+        self, z: Annotated[Double, Unit("deg/s"), "Angular speed in deg/s (positive = left); 0 stops"] = 0.0,
+    ) -> None:
         """Send one speed command: the head turns at *z* deg/s until told otherwise or a limit stops it."""
         self.RobotMotion.publish(_twist(z))
 
@@ -172,8 +177,8 @@ class MorseKemar(Component, name="morse_kemar", version="1.0"):
     @activity(motion=True, task=Motion, interrupts=MOTIONS, throws=(INVALID_VALUE,), validate=_validate_move)
     async def MoveAbsolutePosition(
         self,
-        target: Annotated[Double, "Azimuth in degrees (positive = left), kept 0.5 deg inside ±90"] = 0.0,
-        velocity: Annotated[Double, "Speed in deg/s"] = 100.0,
+        target: Annotated[Double, Unit("deg"), "Azimuth in degrees (positive = left), kept 0.5 deg inside ±90"] = 0.0,
+        velocity: Annotated[Double, Unit("deg/s"), "Speed in deg/s"] = 100.0,
     ) -> None:
         """Turn the head to an azimuth and wait until it is there."""
         await self._go(target, velocity)
@@ -181,15 +186,16 @@ class MorseKemar(Component, name="morse_kemar", version="1.0"):
     @activity(motion=True, task=Motion, interrupts=MOTIONS, throws=(INVALID_VALUE,), validate=_validate_move)
     async def MoveRelativePosition(
         self,
-        target: Annotated[Double, "Degrees to turn from the present azimuth (positive = left)"] = 0.0,
-        velocity: Annotated[Double, "Speed in deg/s"] = 100.0,
+        target: Annotated[Double, Unit("deg"), "Degrees to turn from the present azimuth (positive = left)"] = 0.0,
+        velocity: Annotated[Double, Unit("deg/s"), "Speed in deg/s"] = 100.0,
     ) -> None:
         """Turn the head by an angle from where it is (the final azimuth is kept inside the limits)."""
         await self._go(self._read_position() + target, velocity)
 
     @activity(motion=True, task=Motion, interrupts=MOTIONS, throws=(INVALID_VALUE,), validate=_validate_speed)
     async def ControlInSpeed(
-        self, velocity: Annotated[Double, "Angular speed in deg/s (positive = left); 0 stops the head"] = 0.0
+        self,
+        velocity: Annotated[Double, Unit("deg/s"), "Angular speed in deg/s (positive = left); 0 stops the head"] = 0.0,
     ) -> None:
         """Turn the head at a constant speed until 0 is asked or it comes 3 degrees from a limit."""
         stop_at = math.degrees(KEMAR_LIMIT) - SPEED_MARGIN

@@ -5,8 +5,8 @@ that turned them into ROS action goals, and ends when the robot, seen on the wor
 and odometry, is there (within a tolerance) — not when the goal was sent.
 
 The Two!Ears project mounted the KEMAR's binaural head on top of the PR2's head (seed section 8.1.4):
-while ``pr2`` is loaded, a capture of the simulated scene hears the world's sound-source markers from
-that head, wherever the base drives, turning with the base's heading and the head's pan.
+while ``pr2`` is loaded, a capture of the simulated scene hears the world's sound-source markers in the
+world's room from that head, wherever the base drives, turning with the base's heading and the head's pan.
 """
 
 from __future__ import annotations
@@ -20,11 +20,11 @@ import numpy as np
 
 from ..audio import HeadAzimuth, SoundScene
 from ..core import (
-    Component, Double, GenomException, InPort, InPortRuntime, OutPort, OutPortRuntime, String, Task, activity,
+    Component, Double, GenomException, InPort, InPortRuntime, OutPort, OutPortRuntime, String, Task, activity, Unit,
 )
 from ..world import (
     ARM_JOINTS, HEAD_LIMITS, ROOM, TORSO_RANGE, HeadCommand, Image, JointState, LeftArmCommand,
-    Odometry, PositionCommand, RightArmCommand, TorsoCommand, arm_limits, attach, marker_azimuths, marker_scene,
+    Odometry, PositionCommand, RightArmCommand, TorsoCommand, arm_limits, attach, marker_scene,
 )
 
 __all__ = ["Pr2", "INVALID_TORSO", "INVALID_VALUE", "WIRING"]
@@ -47,6 +47,9 @@ BASE_STILL = 0.02
 #: Where the head pans, behind the base's centre in its frame (m): the torso lift link at -0.05 m
 #: and the head pan link 0.017 m behind it, as in the world's model.
 HEAD_PAN_X = -0.067
+#: Height of the KEMAR head's ears on the PR2's head, the torso down (m): the head cameras' height
+#: plus the binaural head mounted above them (seed 8.1.4).
+KEMAR_HEAD_HEIGHT = 1.35
 
 
 class INVALID_TORSO(GenomException):
@@ -103,8 +106,8 @@ class Pr2(Component, name="pr2", version="1.0"):
         """Load the world if needed, wire the ports, and let the simulated scene hear from the head."""
         self.frames = 0
         await attach(self, WIRING)
-        # The sources move relative to a head carried by the base: their azimuths are read at every chunk.
-        heard = SoundScene(marker_scene(*self.head_position()), azimuths=lambda: marker_azimuths(*self.head_position()))
+        # The head is carried through the room by the base: where it is is read at every chunk.
+        heard = SoundScene(marker_scene(self.ears()), listener=self.ears)
         self.provide(SoundScene, heard)
         self.provide(HeadAzimuth, HeadAzimuth(self.head_azimuth))
 
@@ -120,6 +123,15 @@ class Pr2(Component, name="pr2", version="1.0"):
         """The head's azimuth in the room: the base's heading plus the head's pan (degrees, positive = left)."""
         odom = self.Odom.read()
         return math.degrees((odom.w if odom is not None else 0.0) + self._pan())
+
+    def ears(self) -> tuple[float, float, float]:
+        """Where the KEMAR head on the PR2's head is in the room: (x, y, z) in metres, the torso lift included."""
+        x, y = self.head_position()
+        state = self.JointStates.read()
+        lift = 0.0
+        if state is not None and "torso_lift_joint" in state.name:
+            lift = float(state.position[list(state.name).index("torso_lift_joint")])
+        return (x, y, KEMAR_HEAD_HEIGHT + lift)
 
     def head_position(self) -> tuple[float, float]:
         """Where the head pans in the room, (x, y) in metres, from the base's odometry."""
@@ -199,9 +211,9 @@ class Pr2(Component, name="pr2", version="1.0"):
               motion=True)
     async def move_head(
         self,
-        pan: Annotated[Double, "Head pan in rad (positive = left, -2.857 to 2.857)"] = 0.0,
-        tilt: Annotated[Double, "Head tilt in rad (positive = down, -0.371 to 1.296)"] = 0.0,
-        time_to_finish: Annotated[Double, "Seconds the motion should take"] = 1.0,
+        pan: Annotated[Double, Unit("rad"), "Head pan in rad (positive = left, -2.857 to 2.857)"] = 0.0,
+        tilt: Annotated[Double, Unit("rad"), "Head tilt in rad (positive = down, -0.371 to 1.296)"] = 0.0,
+        time_to_finish: Annotated[Double, Unit("s"), "Seconds the motion should take"] = 1.0,
     ) -> None:
         """Turn the head to a pan and tilt, and wait until it is there (goals outside the limits stop at them)."""
         self.Port_head.publish(HeadCommand(pan, tilt, time_to_finish))
@@ -215,7 +227,7 @@ class Pr2(Component, name="pr2", version="1.0"):
         self,
         x: Annotated[Double, "x in the room, m"] = 0.0,
         y: Annotated[Double, "y in the room, m"] = 0.0,
-        w: Annotated[Double, "Heading in rad, counter-clockwise from x"] = 0.0,
+        w: Annotated[Double, Unit("rad"), "Heading in rad, counter-clockwise from x"] = 0.0,
     ) -> None:
         """Drive the base to a pose of the room and wait until it is there (a new goal interrupts the last)."""
         self.Port_gotoposition.publish(PositionCommand(x, y, w))
@@ -248,14 +260,14 @@ class Pr2(Component, name="pr2", version="1.0"):
     @activity(motion=True, task=PublishPort, interrupts=("move_l_arm",), throws=(INVALID_VALUE,))
     async def move_l_arm(
         self,
-        l_shoulder_pan_joint: Annotated[Double, "rad, -0.715 to 2.285"] = 0.0,
-        l_shoulder_lift_joint: Annotated[Double, "rad, -0.524 to 1.396"] = 0.0,
-        l_upper_arm_roll_joint: Annotated[Double, "rad, -0.8 to 3.9"] = 0.0,
-        l_elbow_flex_joint: Annotated[Double, "rad, -2.321 to 0"] = 0.0,
-        l_forearm_roll_joint: Annotated[Double, "rad, continuous"] = 0.0,
-        l_wrist_flex_joint: Annotated[Double, "rad, -2.18 to 0"] = 0.0,
-        l_wrist_roll_joint: Annotated[Double, "rad, continuous"] = 0.0,
-        time_to_finish: Annotated[Double, "Seconds the motion should take"] = 1.0,
+        l_shoulder_pan_joint: Annotated[Double, Unit("rad"), "rad, -0.715 to 2.285"] = 0.0,
+        l_shoulder_lift_joint: Annotated[Double, Unit("rad"), "rad, -0.524 to 1.396"] = 0.0,
+        l_upper_arm_roll_joint: Annotated[Double, Unit("rad"), "rad, -0.8 to 3.9"] = 0.0,
+        l_elbow_flex_joint: Annotated[Double, Unit("rad"), "rad, -2.321 to 0"] = 0.0,
+        l_forearm_roll_joint: Annotated[Double, Unit("rad"), "rad, continuous"] = 0.0,
+        l_wrist_flex_joint: Annotated[Double, Unit("rad"), "rad, -2.18 to 0"] = 0.0,
+        l_wrist_roll_joint: Annotated[Double, Unit("rad"), "rad, continuous"] = 0.0,
+        time_to_finish: Annotated[Double, Unit("s"), "Seconds the motion should take"] = 1.0,
     ) -> None:
         """Move the left arm's seven joints and wait until they are there (goals outside the limits stop at them)."""
         values = (l_shoulder_pan_joint, l_shoulder_lift_joint, l_upper_arm_roll_joint, l_elbow_flex_joint,
@@ -265,14 +277,14 @@ class Pr2(Component, name="pr2", version="1.0"):
     @activity(motion=True, task=PublishPort, interrupts=("move_r_arm",), throws=(INVALID_VALUE,))
     async def move_r_arm(
         self,
-        r_shoulder_pan_joint: Annotated[Double, "rad, -2.285 to 0.715"] = 0.0,
-        r_shoulder_lift_joint: Annotated[Double, "rad, -0.524 to 1.396"] = 0.0,
-        r_upper_arm_roll_joint: Annotated[Double, "rad, -3.9 to 0.8"] = 0.0,
-        r_elbow_flex_joint: Annotated[Double, "rad, -2.321 to 0"] = 0.0,
-        r_forearm_roll_joint: Annotated[Double, "rad, continuous"] = 0.0,
-        r_wrist_flex_joint: Annotated[Double, "rad, -2.18 to 0"] = 0.0,
-        r_wrist_roll_joint: Annotated[Double, "rad, continuous"] = 0.0,
-        time_to_finish: Annotated[Double, "Seconds the motion should take"] = 1.0,
+        r_shoulder_pan_joint: Annotated[Double, Unit("rad"), "rad, -2.285 to 0.715"] = 0.0,
+        r_shoulder_lift_joint: Annotated[Double, Unit("rad"), "rad, -0.524 to 1.396"] = 0.0,
+        r_upper_arm_roll_joint: Annotated[Double, Unit("rad"), "rad, -3.9 to 0.8"] = 0.0,
+        r_elbow_flex_joint: Annotated[Double, Unit("rad"), "rad, -2.321 to 0"] = 0.0,
+        r_forearm_roll_joint: Annotated[Double, Unit("rad"), "rad, continuous"] = 0.0,
+        r_wrist_flex_joint: Annotated[Double, Unit("rad"), "rad, -2.18 to 0"] = 0.0,
+        r_wrist_roll_joint: Annotated[Double, Unit("rad"), "rad, continuous"] = 0.0,
+        time_to_finish: Annotated[Double, Unit("s"), "Seconds the motion should take"] = 1.0,
     ) -> None:
         """Move the right arm's seven joints and wait until they are there (goals outside the limits stop at them)."""
         values = (r_shoulder_pan_joint, r_shoulder_lift_joint, r_upper_arm_roll_joint, r_elbow_flex_joint,
@@ -283,8 +295,8 @@ class Pr2(Component, name="pr2", version="1.0"):
               validate=controlTorso)
     async def move_torso(
         self,
-        torso: Annotated[Double, "Torso lift in m, 0 to 0.31"] = 0.0,
-        time_to_finish: Annotated[Double, "Seconds the motion should take"] = 1.0,
+        torso: Annotated[Double, Unit("m"), "Torso lift in m, 0 to 0.31"] = 0.0,
+        time_to_finish: Annotated[Double, Unit("s"), "Seconds the motion should take"] = 1.0,
     ) -> None:
         """Raise or lower the torso and wait until it is there."""
         self.Port_torso.publish(TorsoCommand(torso, time_to_finish))

@@ -8,14 +8,16 @@ import math
 from typing import Annotated, Any
 
 from ..core import (
-    Component, ComponentHost, Double, Incremental, Out, OutPort, OutPortRuntime, String, Task, activity, function,
+    Boolean, Component, ComponentHost, Double, Incremental, Out, OutPort, OutPortRuntime, OverBudget, String, Task,
+    activity, function,
 )
 from ..recording import (
-    AudioRecorder, ImageRecorder, JsonRecorder, PathRefused, Recording, RecordingCounts, RecordingError,
-    WriteFailed, create_recording,
+    DEFAULT_CHUNK_SIZE, AudioRecorder, ImageRecorder, JsonRecorder, NewRecording, PathRefused, QuotaReached,
+    RecordingCounts, RecordingError, RecordQuotas, Recording, WriteFailed, create_recording,
 )
 from ._types import (
-    ALREADY_RECORDING, BAD_RECORDING, NO_SUCH_PORT, PATH_REFUSED, WRITE_FAILED, PortCounts, PortList, RecorderStatus,
+    ALREADY_RECORDING, BAD_RECORDING, NO_SUCH_PORT, OVER_BUDGET, PATH_REFUSED, WRITE_FAILED, PortCounts, PortList,
+    RecorderStatus,
 )
 
 __all__ = ["Recorder"]
@@ -24,8 +26,12 @@ log = logging.getLogger(__name__)
 
 #: Runtime seconds between two publications of the Status port while recording.
 STATUS_PERIOD = 0.5
+#: The least room a recording starts with: its first records and one chunk.
+LEAST_BYTES = DEFAULT_CHUNK_SIZE + (64 << 10)
 #: What a read gives while the component has withdrawn the port's data.
 _WITHDRAWN = object()
+#: How a recording until Stop that reached ``--max-recording-seconds`` ended.
+_LONGEST = "over budget: --max-recording-seconds"
 
 
 class Recorder(Component, name="recorder", version="1.0"):
@@ -34,8 +40,16 @@ class Recorder(Component, name="recorder", version="1.0"):
     ``Start`` records the ports it is given (``instance/port``) into a new file under a directory
     the operator allowed (``--record-dir``), until ``Stop``, its ``duration`` or a full disk; the
     ``Status`` port says how far it is.  Every audio frame is recorded once, read by index; other
-    ports as their publications come, counting those replaced before they were read.  A recording
-    goes on when the client or gateway that started it goes away (it runs next to the hardware).
+    ports as their publications come, counting those replaced before they were read.
+
+    A recording sent in a session ends with that session (its client stopped it, or went away
+    and it expired after ``--session-idle``) unless ``Start`` asks it to outlive it; one sent in
+    no session, or asked to outlive it, goes on when its client goes (it runs next to the
+    hardware).  Every recording is bounded by the host's budgets: recordings at once
+    (``--max-recordings``), runtime seconds (``--max-recording-seconds``), bytes of its file
+    (``--max-recording-bytes``) and of its directory (``--max-record-dir-bytes``).  Files are
+    created readable by their owner only (``--record-mode``), and replies name them within their
+    record directory, never by their path on the host.
     """
 
     record = Task(doc="Follows the recorded ports and hands their data to the writer thread")
@@ -48,8 +62,11 @@ class Recorder(Component, name="recorder", version="1.0"):
         self._began = 0.0
         self._ended = ""
         self._final = RecorderStatus()
-        #: Set by Stop while a recording runs (from the moment Start is sent); cleared when it has ended.
+        #: Set by Stop (or the end of the recording's session) while a recording runs (from the moment
+        #: Start is sent); cleared when it has ended.
         self._stop = asyncio.Event()
+        #: How the recording ends when _stop is set.
+        self._stop_reason = "stopped"
 
     async def on_start(self) -> None:
         await super().on_start()
@@ -87,7 +104,7 @@ class Recorder(Component, name="recorder", version="1.0"):
         assert isinstance(runtime, OutPortRuntime)
         return runtime, described
 
-    async def _validate_start(self, path: str, ports: list[str], duration: float) -> None:
+    async def _validate_start(self, path: str, ports: list[str], duration: float, outlive_session: bool) -> None:
         running = [r for r in self.requests.running() if r.service.name == "Start"]
         if running:
             raise ALREADY_RECORDING(path=self._path or running[0].inputs["path"])
@@ -96,75 +113,127 @@ class Recorder(Component, name="recorder", version="1.0"):
         if not (math.isfinite(duration) and duration >= 0):
             raise BAD_RECORDING(path=path, what=f"duration is a number of seconds, 0 or more (0: until Stop), "
                                                 f"not {duration}")
+        budgets = self.host.settings.budgets
+        if duration > budgets.recording_seconds:
+            flag = budgets.flag("recording_seconds")
+            raise OVER_BUDGET(path=path, flag=flag, bytes=0, seconds=0.0,
+                              what=f"a duration of {duration:g} s is longer than the {budgets.recording_seconds} s "
+                                   f"of {flag}")
         for name in ports:
             await self._port(name)
 
     # -- services ---------------------------------------------------------------------------------
 
-    # Not a motion (decision 28): a recording goes on when the gateway that started it vanishes.
+    # Not a motion (decision 28): a recording goes on when the gateway that started it vanishes, unless it
+    # belongs to a session of that gateway (on_session_end).
     @activity(task=record, validate=_validate_start,
-              throws=(PATH_REFUSED, NO_SUCH_PORT, ALREADY_RECORDING, BAD_RECORDING, WRITE_FAILED))
+              throws=(PATH_REFUSED, NO_SUCH_PORT, ALREADY_RECORDING, BAD_RECORDING, WRITE_FAILED, OVER_BUDGET))
     async def Start(
         self,
         path: Annotated[String, "The new file, ending in .mcap: relative to the allowed directory, or in it"],
         ports: Annotated[PortList, "The ports to record, as instance/port (kemarcapture/Port, kemar/currentState)"],
-        duration: Annotated[Double, "Runtime seconds to record (0: until Stop)"] = 0.0,
+        duration: Annotated[Double, "Runtime seconds to record (0: until Stop, at most --max-recording-seconds)"]
+        = 0.0,
+        outlive_session: Annotated[Boolean, "Go on when the session that sent Start ends (its client stopped it or "
+                                            "went away); by default the recording stops with it"] = False,
     ) -> Annotated[RecorderStatus, Out("status", "What was recorded, and how it ended")]:
-        """Record ports into a new MCAP file until Stop, the duration, or a full disk.
+        """Record ports into a new MCAP file until Stop, the duration, the end of its session, or a full disk.
 
-        Ends done with what was recorded; a disk that fills up ends it in WRITE_FAILED, and the
-        file keeps what was written before, readable.
+        Ends done with what was recorded; a disk that fills up ends it in WRITE_FAILED, a budget of
+        the host in OVER_BUDGET, and the file keeps what was written before, readable.
         """
         try:
             return await self._record(path, ports, duration)
         finally:
             # A Stop sent at any time while this Start ran (before its file was open too) was for it.
             self._stop.clear()
+            self._stop_reason = "stopped"
 
     async def _record(self, path: str, ports: list[str], duration: float) -> RecorderStatus:
         followed = [(name, *await self._port(name)) for name in dict.fromkeys(ports)]
         try:
+            running = self.host.ledgers.recordings.reserve(1, self.instance, f"a recording ({path})")
+        except OverBudget as exc:
+            raise OVER_BUDGET(path=path, flag=exc.flag, bytes=0, seconds=0.0,
+                              what=f"{exc.held} recordings run on this host, the most {exc.flag} allows: stop one "
+                                   f"first") from exc
+        with running:
+            created = await self._create(path)
+            recording = Recording.open(created.stream, created.path, {
+                "recorder": f"{self.instance} (aiogenomix recorder component)",
+                "ports": ",".join(n for n, *_ in followed),
+                "clock": f"{type(self.clock).__name__} x{self.clock.scale:g}"}, quota=created.quota)
+            self._recording, self._path, self._began, self._ended = recording, created.name, self.clock.now(), ""
+            log.info("%s: recording %s into %s", self.instance, ", ".join(n for n, *_ in followed), created.path)
+            tasks = [asyncio.create_task(self._follow(port, recording.add_port(name, described)),
+                                         name=f"{self.instance} records {name}")
+                     for name, port, described in followed]
+            tasks.append(asyncio.create_task(self._publish_status(), name=f"{self.instance} status"))
+            ended = "stopped"
+            try:
+                ended = await self._until_the_end(recording, tasks, duration)
+            except asyncio.CancelledError:
+                ended = "interrupted"
+                raise
+            finally:
+                for task in tasks:
+                    task.cancel()
+                await asyncio.gather(*tasks, return_exceptions=True)
+                counts = await asyncio.shield(self._close(recording, ended))
+        self._raise_if_cut_short(recording, ended, counts)
+        return self.status()
+
+    async def _create(self, path: str) -> NewRecording:
+        """The new recording file *path*, in the operator's directories, with its quota of bytes.
+
+        Raises:
+            PATH_REFUSED, BAD_RECORDING, OVER_BUDGET: no file is made.
+        """
+        settings = self.host.settings
+        quotas = self.host.shared(RecordQuotas, lambda: RecordQuotas(settings.budgets))
+        try:
             # The disk is part of the rig: a simulated clock waits for it (as for a device opening).
             with self.clock.holding():
-                stream, real = await asyncio.to_thread(create_recording, path, self.host.settings.record_dirs)
+                return await asyncio.to_thread(create_recording, path, settings.record_dirs, settings.record_mode,
+                                               quotas=quotas, least=LEAST_BYTES)
         except PathRefused as exc:
             raise PATH_REFUSED(path=path, what=str(exc)) from exc
         except RecordingError as exc:
             raise BAD_RECORDING(path=path, what=str(exc)) from exc
-        recording = Recording.open(stream, real, {
-            "recorder": f"{self.instance} (aiogenomix recorder component)", "ports": ",".join(n for n, *_ in followed),
-            "clock": f"{type(self.clock).__name__} x{self.clock.scale:g}"})
-        self._recording, self._path, self._began, self._ended = recording, real, self.clock.now(), ""
-        log.info("%s: recording %s into %s", self.instance, ", ".join(n for n, *_ in followed), real)
-        tasks = [asyncio.create_task(self._follow(port, recording.add_port(name, described)),
-                                     name=f"{self.instance} records {name}")
-                 for name, port, described in followed]
-        tasks.append(asyncio.create_task(self._publish_status(), name=f"{self.instance} status"))
-        ended = "stopped"
-        try:
-            ended = await self._until_the_end(recording, tasks, duration)
-        except asyncio.CancelledError:
-            ended = "interrupted"
-            raise
-        finally:
-            for task in tasks:
-                task.cancel()
-            await asyncio.gather(*tasks, return_exceptions=True)
-            counts = await asyncio.shield(self._close(recording, ended))
-        if recording.writer.failure is not None:
-            failure = recording.writer.failure
-            raise WRITE_FAILED(path=real, what=failure.strerror or str(failure), bytes=counts.bytes,
-                               seconds=self.clock.now() - self._began)
-        return self.status()
+        except OverBudget as exc:
+            raise OVER_BUDGET(path=path, what=str(exc), flag=exc.flag, bytes=0, seconds=0.0) from exc
+
+    def _raise_if_cut_short(self, recording: Recording, ended: str, counts: RecordingCounts) -> None:
+        """Raise the exception of a recording a full disk or a budget ended.
+
+        Raises:
+            OVER_BUDGET: for a budget of the host.
+            WRITE_FAILED: for the disk.
+        """
+        failure, seconds = recording.writer.failure, self.clock.now() - self._began
+        if isinstance(failure, QuotaReached):
+            raise OVER_BUDGET(path=self._path, what=str(failure.over), flag=failure.over.flag, bytes=counts.bytes,
+                              seconds=seconds)
+        if failure is not None:
+            raise WRITE_FAILED(path=self._path, what=failure.strerror or str(failure), bytes=counts.bytes,
+                               seconds=seconds)
+        if ended == _LONGEST:
+            budgets = self.host.settings.budgets
+            flag = budgets.flag("recording_seconds")
+            raise OVER_BUDGET(path=self._path, flag=flag, bytes=counts.bytes, seconds=seconds,
+                              what=f"the recording reached the {budgets.recording_seconds} s of {flag} (a recording "
+                                   f"until Stop ends there)")
 
     async def _until_the_end(self, recording: Recording, tasks: list[asyncio.Task[None]], duration: float) -> str:
-        """Wait for Stop, the duration, a write failure or a follower's failure; say which."""
+        """Wait for Stop (or the session's end), the duration, a write failure or a follower's failure; say which."""
         ends: dict[asyncio.Future[Any], str] = {
             asyncio.ensure_future(self._stop.wait()): "stopped",
             asyncio.ensure_future(recording.writer.failed.wait()): "write failed",
         }
         if duration > 0:
             ends[asyncio.ensure_future(self.clock.sleep(duration))] = "duration"
+        else:
+            ends[asyncio.ensure_future(self.clock.sleep(self.host.settings.budgets.recording_seconds))] = _LONGEST
         try:
             done, _ = await asyncio.wait([*ends, *tasks], return_when=asyncio.FIRST_COMPLETED)
         finally:
@@ -175,7 +244,8 @@ class Recorder(Component, name="recorder", version="1.0"):
                 exc = task.exception()
                 log.error("%s: %s failed", self.instance, task.get_name(), exc_info=exc)
                 return f"failed: {type(exc).__name__}: {exc}"
-        return next((why for waiter, why in ends.items() if waiter in done), "stopped")
+        why = next((why for waiter, why in ends.items() if waiter in done), "stopped")
+        return self._stop_reason if why == "stopped" else why
 
     async def _close(self, recording: Recording, ended: str) -> RecordingCounts:
         try:
@@ -183,7 +253,8 @@ class Recorder(Component, name="recorder", version="1.0"):
                 counts = await recording.close(ended)
         except WriteFailed as exc:
             counts = recording.counts()
-            ended = f"write failed: {exc.strerror or exc}"
+            budget = isinstance(recording.writer.failure, QuotaReached)
+            ended = f"{'over budget' if budget else 'write failed'}: {exc.strerror or exc}"
         self._ended = ended
         self._final = self._status_of(recording, active=False)
         self._recording = None
@@ -191,6 +262,15 @@ class Recorder(Component, name="recorder", version="1.0"):
         log.info("%s: %s ended (%s): %d bytes, %d messages, %d frames lost", self.instance, recording.path, ended,
                  counts.bytes, counts.messages, counts.lost_frames)
         return counts
+
+    async def on_session_end(self, session: str, requests: list[Any]) -> None:
+        """Stop a recording sent in *session* (which ended), unless its Start asked it to outlive it."""
+        for request in requests:
+            if request.service.name == "Start" and not request.inputs.get("outlive_session"):
+                log.info("%s: the session %r that started %s ended: the recording stops", self.instance, session,
+                         request.id)
+                self._stop_reason = f"session {session} ended"
+                self._stop.set()
 
     @function
     async def Stop(self) -> None:

@@ -8,7 +8,7 @@ from typing import Annotated
 from ..core import Boolean, Double, GenomException, String, ULongLong, idl_struct
 
 __all__ = ["PortCounts", "RecorderStatus", "PortList", "PATH_REFUSED", "NO_SUCH_PORT", "ALREADY_RECORDING",
-           "WRITE_FAILED", "BAD_RECORDING"]
+           "WRITE_FAILED", "BAD_RECORDING", "OVER_BUDGET"]
 
 PortList = list[String]
 
@@ -32,7 +32,7 @@ class RecorderStatus:
     """Where the recording is, or how the last one ended."""
 
     recording: Annotated[Boolean, "Whether a recording runs"] = False
-    path: Annotated[String, "The file (full path on the recorder's host)"] = ""
+    path: Annotated[String, "The file, as named within its record directory (--record-dir)"] = ""
     elapsed: Annotated[Double, "Runtime seconds since it started"] = 0.0
     bytes: Annotated[ULongLong, "Bytes written to the file (whole records: what a reader gets)"] = 0
     messages: Annotated[ULongLong, "Messages recorded (audio: two per chunk)"] = 0
@@ -43,7 +43,7 @@ class RecorderStatus:
     unavailable: Annotated[ULongLong, "Reads that found a port's data withdrawn by its component, over every "
                                       "port"] = 0
     ports: Annotated[list[PortCounts], "What was recorded of each port"] = dataclasses.field(default_factory=list)
-    ended: Annotated[String, "How the last recording ended (stopped, duration, or the error)"] = ""
+    ended: Annotated[String, "How the last recording ended (stopped, duration, session ended, or the error)"] = ""
 
 
 class PATH_REFUSED(GenomException):
@@ -78,5 +78,21 @@ class WRITE_FAILED(GenomException):
 
     path: String
     what: String
+    bytes: ULongLong
+    seconds: Double
+
+
+class OVER_BUDGET(GenomException):
+    """A budget of the host refused the recording, or ended it: the file keeps what was written before, readable.
+
+    At Start: more recordings at once than ``--max-recordings``, a ``duration`` longer than
+    ``--max-recording-seconds``, a record directory that holds ``--max-record-dir-bytes``.  While
+    recording: the file reached ``--max-recording-bytes``, the directory ``--max-record-dir-bytes``,
+    or a recording until Stop ``--max-recording-seconds``.
+    """
+
+    path: String
+    what: String
+    flag: String
     bytes: ULongLong
     seconds: Double

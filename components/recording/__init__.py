@@ -5,8 +5,9 @@ The ``recorder`` component, the ``replay`` component, captures that replay a rec
 
 * **Message types** in ROS 2's own encoding (:class:`MessageType`: the ``.msg`` definition, CDR in
   and out), the standard ones and our ``aiogenomix_msgs/msg/AudioFrames``.
-* **The file** (:class:`McapFile`), written chunk by chunk so that a full disk leaves a readable
-  recording, by a thread of its own (:class:`RecordingWriter`) fed through a bounded queue.
+* **The file** (:class:`McapFile`), written chunk by chunk so that a full disk or a spent budget
+  (:class:`RecordQuotas`) leaves a readable recording, by a thread of its own (:class:`RecordingWriter`)
+  fed through a bounded queue.
 * **What port data says** (its capture time, the head in radians, odometry in the robot's frame,
   audio chunks), read once for the recording and the live view alike.
 * **Port recorders** (:class:`AudioRecorder`, :class:`ImageRecorder`, :class:`JsonRecorder`) and
@@ -22,13 +23,15 @@ from ._conversions import (
 )
 from ._errors import NotARecording, PathRefused, RecordingError
 from ._export import AUDIO_COLUMNS, HEAD_COLUMNS, ExportedFile, export_recording
-from ._mcap_file import DEFAULT_CHUNK_SIZE, McapFile, WriteFailed
+from ._mcap_file import DEFAULT_CHUNK_SIZE, ByteQuota, McapFile, QuotaReached, WriteFailed
 from ._messages import (
     AUDIO_DATA_STAMPED, AUDIO_FRAMES, AUDIO_INFO, HEADER, IMAGE, JOINT_STATE, LASER_SCAN, ODOMETRY, POSE_STAMPED,
 )
-from ._paths import SUFFIX, create_recording, open_recording, replay_roots
+from ._paths import SUFFIX, NewRecording, create_recording, open_recording, replay_roots
 from ._ports import AudioRecorder, ImageRecorder, JsonRecorder, PortRecorder, RecordedPort
 from ._reader import AudioChunk, PortMessage, RecordingReader, SessionEventRecord
+from ._quota import FileQuota, RecordQuotas, directory_bytes
+from ._recover import Recovered
 from ._recording import EVENTS_TYPE, EventRecorder, Recording, RecordingCounts
 from ._writer import DEFAULT_QUEUE_BYTES, RecordingWriter
 
@@ -41,10 +44,13 @@ __all__ = [
     "frames_per_chunk",
     # The file and its writer
     "McapFile", "RecordingWriter", "WriteFailed", "DEFAULT_CHUNK_SIZE", "DEFAULT_QUEUE_BYTES",
+    # What the files may take (the host's budgets of bytes)
+    "RecordQuotas", "FileQuota", "ByteQuota", "QuotaReached", "directory_bytes",
     # Paths
-    "create_recording", "open_recording", "replay_roots", "SUFFIX",
+    "create_recording", "NewRecording", "open_recording", "replay_roots", "SUFFIX",
     # Reading and exporting
-    "RecordingReader", "AudioChunk", "PortMessage", "SessionEventRecord", "export_recording", "ExportedFile",
+    "RecordingReader", "Recovered", "AudioChunk", "PortMessage", "SessionEventRecord", "export_recording",
+    "ExportedFile",
     "AUDIO_COLUMNS", "HEAD_COLUMNS",
     # Message types
     "MessageType", "Field", "CdrError", "HEADER", "AUDIO_DATA_STAMPED", "AUDIO_FRAMES", "AUDIO_INFO", "JOINT_STATE",

@@ -10,17 +10,26 @@ For each recorded audio port ``instance/port``:
   end (``kemar``'s ``currentState``), else NaN.
 
 For each recorded head state (``::kemar::state``): ``instance_port.csv``, :data:`HEAD_COLUMNS`.
-Blocking: run it off the event loop.
+
+Each file is made new in the output directory, by name, never through a symbolic link: a link
+planted there (to ``/tmp/victim``, or to a file of another user's) is refused, or with
+``overwrite`` replaced by the file itself, never written through.  The files are as private as
+the recording they come from (its permission bits, within the umask).  Blocking: run it off the
+event loop.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import dataclasses
+import io
 import math
 import os
-from collections.abc import Sequence
+import stat
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
+from typing import BinaryIO, TextIO
 
 import numpy as np
 import soundfile
@@ -60,43 +69,115 @@ def _name(port: str) -> str:
     return port.replace("/", "_")
 
 
-def _create(path: Path, overwrite: bool) -> Path:
-    if path.exists() and not overwrite:
-        raise RecordingError(f"{path} exists already: remove it or export with overwrite")
-    return path
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
+_CLOEXEC = getattr(os, "O_CLOEXEC", 0)
+
+
+class _Output:
+    """The directory an export writes into, open once: each file is made new in it, never through a link.
+
+    Args:
+        directory: Where (made if missing; a link the user named as the directory is theirs to follow).
+        overwrite: Replace a file of the same name (a link of that name is removed, never followed).
+        mode: The new files' permissions (within the umask).
+    """
+
+    def __init__(self, directory: Path, overwrite: bool, mode: int) -> None:
+        directory.mkdir(parents=True, exist_ok=True)
+        self.directory, self.overwrite, self.mode = directory, overwrite, mode
+        self._fd = os.open(directory, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0) | _CLOEXEC)
+
+    def close(self) -> None:
+        os.close(self._fd)
+
+    def __enter__(self) -> _Output:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def create(self, name: str) -> tuple[Path, BinaryIO]:
+        """The new file *name*, open for reading and writing, and its path.
+
+        Raises:
+            RecordingError: when something is there already (a file without *overwrite*, a link, a
+                directory), or the file cannot be made.
+        """
+        path = self.directory / name
+        if self.overwrite:
+            self._remove(name, path)
+        flags = os.O_RDWR | os.O_CREAT | os.O_EXCL | _NOFOLLOW | _CLOEXEC
+        try:
+            fd = os.open(name, flags, self.mode, dir_fd=self._fd)
+        except FileExistsError:
+            raise self._taken(name, path) from None
+        except OSError as exc:
+            raise RecordingError(f"cannot create {path}: {exc.strerror or exc}") from exc
+        return path, os.fdopen(fd, "w+b")
+
+    def _remove(self, name: str, path: Path) -> None:
+        """Remove what *overwrite* replaces: a file, or a link itself (never what it points to)."""
+        try:
+            if stat.S_ISDIR(os.stat(name, dir_fd=self._fd, follow_symlinks=False).st_mode):
+                raise RecordingError(f"{path} is a directory: an export replaces only files")
+            os.unlink(name, dir_fd=self._fd)
+        except FileNotFoundError:
+            pass
+        except OSError as exc:
+            raise RecordingError(f"cannot replace {path}: {exc.strerror or exc}") from exc
+
+    def _taken(self, name: str, path: Path) -> RecordingError:
+        with contextlib.suppress(OSError):
+            if stat.S_ISLNK(os.stat(name, dir_fd=self._fd, follow_symlinks=False).st_mode):
+                return RecordingError(f"{path} is a symbolic link: an export never writes through a link (remove "
+                                      f"it, or export with overwrite to replace the link by the file)")
+        return RecordingError(f"{path} exists already: remove it or export with overwrite")
+
+    @contextlib.contextmanager
+    def text(self, name: str) -> Iterator[tuple[Path, TextIO]]:
+        """The new text file *name* (for the csv module), and its path."""
+        path, raw = self.create(name)
+        with io.TextIOWrapper(raw, encoding="utf-8", newline="") as table:
+            yield path, table
 
 
 def export_recording(recording: str | os.PathLike[str], directory: str | os.PathLike[str], *,
-                     overwrite: bool = False) -> list[ExportedFile]:
+                     overwrite: bool = False, notice: Callable[[str], None] | None = None) -> list[ExportedFile]:
     """Write the WAV and CSV files of a recording into *directory* (made if missing); return what was written.
+
+    A recording its recorder did not end (killed, crashed) is exported up to its last complete
+    chunk; *notice*, when given, is told so in a sentence first.
 
     Raises:
         NotARecording: when the file is not a recording, or holds neither audio nor a head state.
-        RecordingError: when an output file exists already (and *overwrite* is false).
+        RecordingError: when an output file exists already (and *overwrite* is false), or a link or a
+            directory has its name.
     """
-    out = Path(directory)
-    out.mkdir(parents=True, exist_ok=True)
     written: list[ExportedFile] = []
     with open(recording, "rb") as stream, RecordingReader(stream, os.fspath(recording)) as reader:
-        heads = [p for p in reader.ports() if reader.port_type(p).get("name") == HEAD_STATE]
-        head_times, head_positions = _head_states(reader, heads, out, overwrite, written)
-        audio = reader.audio_ports()
-        if not audio and not heads:
-            raise NotARecording(f"{recording} holds no audio and no head state to export")
-        for port in audio:
-            written += _export_audio(reader, port, out, overwrite, head_times, head_positions)
+        if reader.unfinished is not None and notice is not None:
+            notice(reader.unfinished.said)
+        # As private as the recording: one its owner alone reads makes files its owner alone reads.
+        mode = os.fstat(stream.fileno()).st_mode & 0o666
+        with _Output(Path(directory), overwrite, mode) as out:
+            heads = [p for p in reader.ports() if reader.port_type(p).get("name") == HEAD_STATE]
+            head_times, head_positions = _head_states(reader, heads, out, written)
+            audio = reader.audio_ports()
+            if not audio and not heads:
+                raise NotARecording(f"{recording} holds no audio and no head state to export")
+            for port in audio:
+                written += _export_audio(reader, port, out, head_times, head_positions)
     return written
 
 
-def _head_states(reader: RecordingReader, heads: Sequence[str], out: Path, overwrite: bool,
+def _head_states(reader: RecordingReader, heads: Sequence[str], out: _Output,
                  written: list[ExportedFile]) -> tuple[np.ndarray, np.ndarray]:
     """Write each head state's CSV; return the capture times and azimuths of the first, for the audio's rows."""
     times: list[float] = []
     positions: list[float] = []
     for index, port in enumerate(heads):
-        path = _create(out / f"{_name(port)}.csv", overwrite)
         rows = 0
-        with open(path, "w", newline="") as table:
+        with out.text(f"{_name(port)}.csv") as (path, table):
             writer = csv.writer(table)
             writer.writerow(HEAD_COLUMNS)
             for message in reader.publications([port]):
@@ -117,7 +198,7 @@ def _text(value: float) -> str:
     return "NaN" if math.isnan(value) else repr(value)
 
 
-def _export_audio(reader: RecordingReader, port: str, out: Path, overwrite: bool, head_times: np.ndarray,
+def _export_audio(reader: RecordingReader, port: str, out: _Output, head_times: np.ndarray,
                   head_positions: np.ndarray) -> list[ExportedFile]:
     chunks = reader.audio(port)
     first = next(chunks, None)
@@ -125,13 +206,12 @@ def _export_audio(reader: RecordingReader, port: str, out: Path, overwrite: bool
         return []
     rate = first.sample_rate
     estimate = reader.message_count(f"/{port}") * len(first.frames) * 8
-    wav_path = _create(out / f"{_name(port)}.wav", overwrite)
-    csv_path = _create(out / f"{_name(port)}.csv", overwrite)
     frames = 0
     rows = 0
-    with soundfile.SoundFile(wav_path, "w", samplerate=rate, channels=2, subtype="PCM_32",
-                             format="RF64" if estimate > _WAV_LIMIT else "WAV") as wav, \
-            open(csv_path, "w", newline="") as table:
+    wav_path, wav_file = out.create(f"{_name(port)}.wav")
+    with wav_file, soundfile.SoundFile(wav_file, "w", samplerate=rate, channels=2, subtype="PCM_32",
+                                       format="RF64" if estimate > _WAV_LIMIT else "WAV") as wav, \
+            out.text(f"{_name(port)}.csv") as (csv_path, table):
         writer = csv.writer(table)
         writer.writerow(AUDIO_COLUMNS)
         chunk: AudioChunk | None = first

@@ -6,7 +6,10 @@ named (``--record-dir DIR``; none by default).  The file is reached from that di
 one component at a time, each opened relative to the one before and never through a
 symbolic link (``O_NOFOLLOW``), and a new recording is created only if nothing is there
 yet (``O_EXCL``): swapping a directory for a link while the file is opened cannot lead
-outside, and no existing file is ever overwritten.  Blocking: call these off the event loop.
+outside, and no existing file is ever overwritten.  A recording holds microphones and cameras:
+it is created readable by its owner only (``0600``) unless the operator chose another mode
+(``--record-mode``).  A path holding a character no client's name may hold (a control character,
+a line separator, a bidirectional control) is refused.  Blocking: call these off the event loop.
 """
 
 from __future__ import annotations
@@ -15,12 +18,14 @@ import contextlib
 import errno
 import os
 import stat
-from collections.abc import Iterator, Sequence
-from typing import BinaryIO
+from collections.abc import Callable, Iterator, Sequence
+from typing import BinaryIO, NamedTuple
 
+from ..core import forbidden_in_name
 from ._errors import PathRefused, RecordingError
+from ._quota import FileQuota, RecordQuotas
 
-__all__ = ["create_recording", "open_recording", "replay_roots", "SUFFIX"]
+__all__ = ["create_recording", "open_recording", "replay_roots", "NewRecording", "SUFFIX"]
 
 #: The suffix every recording has.
 SUFFIX = ".mcap"
@@ -70,15 +75,34 @@ def replay_roots(record_dirs: Sequence[str] | None, audio_files: Sequence[str] |
     return (*record_dirs, *audio_files)
 
 
-def _refuse_control_characters(path: str) -> None:
-    """Refuse a path with a control character (a NUL would end it early for the system: never a file's name).
+def _refuse_forbidden_characters(path: str) -> None:
+    """Refuse a path with a character no client's name may hold (a NUL would even end it early for the system).
 
     Raises:
         PathRefused: naming the character.
     """
-    bad = next((c for c in path if ord(c) < 32 or ord(c) == 127), None)
-    if bad is not None:
-        raise PathRefused(f"{path!r} holds a control character ({bad!r}): a recording's path has none")
+    forbidden = forbidden_in_name(path)
+    if forbidden is not None:
+        raise PathRefused(f"{ascii(path)} holds {forbidden}: a recording's path has no control character, line "
+                          "separator or bidirectional control")
+
+
+class NewRecording(NamedTuple):
+    """A recording file just created (by :func:`create_recording`).
+
+    Attributes:
+        stream: The file, open for writing, unbuffered.
+        path: Its full path on this host (for the host's own log; a client is told :attr:`name`).
+        root: The allowed directory it was created in (None: a host that allows any path).
+        name: The file as a client knows it: its path within :attr:`root` (``session/take1.mcap``).
+        quota: What it may take (None: whatever the disk takes).
+    """
+
+    stream: BinaryIO
+    path: str
+    root: str | None
+    name: str
+    quota: FileQuota | None = None
 
 
 def _refusal(path: str, roots: Sequence[str] | None) -> PathRefused:
@@ -88,39 +112,63 @@ def _refusal(path: str, roots: Sequence[str] | None) -> PathRefused:
     return PathRefused(f"{path!r} is not in a directory this host allows for recordings (--record-dir)")
 
 
-def create_recording(path: str, roots: Sequence[str] | None) -> tuple[BinaryIO, str]:
-    """Create the recording file *path* (unbuffered, for writing) in one of *roots*; return it and its full path.
+def create_recording(path: str, roots: Sequence[str] | None, mode: int = 0o600, *,
+                     quotas: RecordQuotas | None = None, least: int = 0) -> NewRecording:
+    """Create the recording file *path* (unbuffered, for writing) in one of *roots*.
 
     Args:
         path: The path a client gave: relative (to the allowed directory) or absolute; it must end in ``.mcap``.
         roots: The directories the operator allowed; None: anywhere (a host built in code).
+        mode: Its permissions, whatever the process's umask (``0600``: its owner's only); read and write
+            bits only (the others are dropped; ``HostSettings`` refuses them in an operator's ``--record-mode``).
+        quotas: The host's quotas of bytes: the file's quota is opened before the file is made.
+        least: The bytes the quota must have room for (refused before the file is made).
 
     Raises:
         PathRefused: when recordings are disabled, the path leads outside every allowed directory,
-            through a symbolic link, or holds a control character.
+            through a symbolic link, or holds a control character, line separator or bidirectional control.
         RecordingError: when the file exists already, a directory on its way is missing, or it cannot be created.
+        OverBudget: when *quotas* have no room for *least* bytes (no file is made).
     """
-    _refuse_control_characters(path)
+    _refuse_forbidden_characters(path)
+    mode &= 0o666
     if not path.endswith(SUFFIX) or os.path.basename(path) == SUFFIX:
         raise RecordingError(f"a recording's name ends in {SUFFIX}: {path!r} does not")
+    base: str | None = None
+    components: list[str] = []
     if roots is None:
-        return _create(lambda flags: os.open(path, flags, 0o644), path), os.path.abspath(path)
-    places = list(_parts(path, roots))
-    if not places:
-        raise _refusal(path, roots)
-    base, components = places[0]
+        name, full = os.path.normpath(path), os.path.abspath(path)
+    else:
+        places = list(_parts(path, roots))
+        if not places:
+            raise _refusal(path, roots)
+        base, components = places[0]
+        name, full = "/".join(components), os.path.join(base, *components)
+    quota = quotas.open(base, name, least) if quotas is not None else None
     try:
-        with _directory(base, components) as parent:
-            stream = _create(lambda flags: os.open(components[-1], flags | _NOFOLLOW, 0o644, dir_fd=parent), path)
-    except OSError as exc:
-        raise _why(exc, path, "create") from exc
-    return stream, os.path.join(base, *components)
+        if base is None:
+            stream = _create(lambda flags: os.open(path, flags, mode), path)
+        else:
+            with _directory(base, components) as parent:
+                stream = _create(lambda flags: os.open(components[-1], flags | _NOFOLLOW, mode, dir_fd=parent),
+                                 path)
+    except BaseException as exc:
+        if quota is not None:
+            quota.close(0)
+        if isinstance(exc, OSError):
+            raise _why(exc, path, "create") from exc
+        raise
+    # The mode asked for, not what the umask left of it (an operator's 640 under a umask of 077).  Where the
+    # file system refuses (no permissions on FAT), the file keeps what the umask left: never more than asked.
+    with contextlib.suppress(OSError):
+        os.fchmod(stream.fileno(), mode)
+    return NewRecording(stream, full, base, name, quota)
 
 
-def _create(opener: object, shown: str) -> BinaryIO:
+def _create(opener: Callable[[int], int], shown: str) -> BinaryIO:
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | _CLOEXEC
     try:
-        fd = opener(flags)  # type: ignore[operator]
+        fd = opener(flags)
     except OSError as exc:
         raise _why(exc, shown, "create") from exc
     return os.fdopen(fd, "wb", buffering=0)
@@ -146,10 +194,10 @@ def open_recording(path: str, roots: Sequence[str] | None) -> tuple[BinaryIO, st
     Raises:
         PathRefused: when reading recordings is disabled, or the path leads outside every allowed
             directory, through a symbolic link (never saying whether the path exists there), or holds a
-            control character.
+            control character, line separator or bidirectional control.
         RecordingError: when it is missing or not a regular file.
     """
-    _refuse_control_characters(path)
+    _refuse_forbidden_characters(path)
     if roots is None:
         places = [(os.path.dirname(os.path.abspath(path)), [os.path.basename(path)])]
     else:

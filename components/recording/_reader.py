@@ -2,13 +2,15 @@
 
 Used by the export (WAV and CSV), by captures that replay a recording (``mcap:PATH``) and by
 the ``replay`` component.  Messages come in the order they were received, one chunk of the
-file in memory at a time (the mcap reader decompresses whole chunks).  Blocking: run it off
-the event loop.
+file in memory at a time (the mcap reader decompresses whole chunks).  A recording its recorder
+did not end (killed, crashed, its machine down) is read up to its last complete chunk, and says
+so (:attr:`RecordingReader.unfinished`).  Blocking: run it off the event loop.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import struct
 from collections.abc import Iterator, Mapping
 from typing import Any, BinaryIO
 
@@ -24,6 +26,7 @@ from ._cdr import CdrError
 from ._errors import NotARecording
 from ._messages import AUDIO_DATA_STAMPED, AUDIO_FRAMES, IMAGE
 from ._ports import PORT_KEY, ROLE_KEY, TYPE_KEY
+from ._recover import Recovered, recover
 
 __all__ = ["RecordingReader", "AudioChunk", "PortMessage", "SessionEventRecord"]
 
@@ -93,29 +96,44 @@ def _stamp(header: Mapping[str, Any]) -> float:
 class RecordingReader:
     """An MCAP recording open for reading.
 
+    A recording whose recorder did not end it (no summary, a torn end) is read up to its last
+    complete chunk, as if it had been ended there (:attr:`unfinished` says what was read of it).
+
     Args:
         stream: The file, open for reading in binary (seekable).
         name: How to name it in messages.
 
     Raises:
-        NotARecording: when it is not an MCAP file.
+        NotARecording: when it is not an MCAP file, or an unfinished one with nothing to read (the
+            message says "unfinished" and that nothing can be saved).
     """
 
     def __init__(self, stream: BinaryIO, name: str = "the recording") -> None:
         self.name = name
         self._stream = stream
+        #: What was read of a recording its recorder did not end (None: it was ended).
+        self.unfinished: Recovered | None = None
         try:
             self._reader = make_reader(stream)
             summary = self._reader.get_summary()
-        except (McapError, ValueError, OSError, EOFError) as exc:
-            raise NotARecording(f"{name} is not an MCAP file this reader reads: {exc}") from exc
+        except OSError as exc:
+            raise NotARecording(f"{name} cannot be read: {exc.strerror or exc}") from exc
+        except (McapError, ValueError, EOFError, struct.error):
+            summary = None   # no footer where it should be: a recording cut short, or not one at all
         if summary is None:
-            raise NotARecording(f"{name} has no summary: it was not ended (a recording that stopped writing "
-                                "still has one)")
+            self.unfinished = recover(stream, name)
+            try:
+                self._reader = make_reader(self.unfinished.stream)
+                summary = self._reader.get_summary()
+            except (McapError, ValueError, EOFError, struct.error) as exc:
+                raise NotARecording(f"{name} is not an MCAP file this reader reads: {exc}") from exc
+            assert summary is not None  # the ending made in memory has one
         self.summary: Summary = summary
 
     def close(self) -> None:
         """Close the file."""
+        if self.unfinished is not None:
+            self.unfinished.stream.close()
         self._stream.close()
 
     def __enter__(self) -> RecordingReader:

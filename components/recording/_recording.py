@@ -15,7 +15,7 @@ from typing import Any, BinaryIO
 import orjson
 
 from ..core import json_schema
-from ._mcap_file import DEFAULT_CHUNK_SIZE
+from ._mcap_file import DEFAULT_CHUNK_SIZE, ByteQuota
 from ._ports import (
     ROLE_KEY, SCHEMA_KEY, AudioRecorder, ImageRecorder, JsonRecorder, PortRecorder, RecordedPort, recorder_for,
 )
@@ -99,9 +99,14 @@ class Recording:
 
     @classmethod
     def open(cls, stream: BinaryIO, path: str, description: Mapping[str, str], *,
-             chunk_size: int = DEFAULT_CHUNK_SIZE, queue_bytes: int = DEFAULT_QUEUE_BYTES) -> Recording:
-        """Start a recording into *stream* (a new file, unbuffered); call on the event loop."""
-        writer = RecordingWriter(stream, queue_bytes=queue_bytes, chunk_size=chunk_size, library="aiogenomix")
+             chunk_size: int = DEFAULT_CHUNK_SIZE, queue_bytes: int = DEFAULT_QUEUE_BYTES,
+             quota: ByteQuota | None = None) -> Recording:
+        """Start a recording into *stream* (a new file, unbuffered); call on the event loop.
+
+        *quota* bounds what the file may take (the host's budgets); None: whatever the disk takes.
+        """
+        writer = RecordingWriter(stream, queue_bytes=queue_bytes, chunk_size=chunk_size, library="aiogenomix",
+                                 quota=quota)
         return cls(writer, path, description)
 
     def log_time(self) -> int:

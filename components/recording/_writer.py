@@ -15,7 +15,7 @@ import dataclasses
 import threading
 from typing import BinaryIO
 
-from ._mcap_file import DEFAULT_CHUNK_SIZE, McapFile, WriteFailed
+from ._mcap_file import DEFAULT_CHUNK_SIZE, ByteQuota, McapFile, WriteFailed
 
 __all__ = ["RecordingWriter", "DEFAULT_QUEUE_BYTES"]
 
@@ -38,12 +38,14 @@ class RecordingWriter:
         queue_bytes: The most message bytes handed over and not yet written.
         chunk_size: Uncompressed bytes per MCAP chunk.
         library: Who writes the file (in its header).
+        quota: What the file may take (None: whatever the disk takes); its end is told to it.
     """
 
     def __init__(self, stream: BinaryIO, *, queue_bytes: int = DEFAULT_QUEUE_BYTES,
-                 chunk_size: int = DEFAULT_CHUNK_SIZE, library: str = "aiogenomix") -> None:
+                 chunk_size: int = DEFAULT_CHUNK_SIZE, library: str = "aiogenomix",
+                 quota: ByteQuota | None = None) -> None:
         self._loop = asyncio.get_running_loop()
-        self._stream, self._library, self._chunk_size = stream, library, chunk_size
+        self._stream, self._library, self._chunk_size, self._quota = stream, library, chunk_size, quota
         self._file: McapFile | None = None  # made by the thread: even the header is written there
         self._failure: OSError | None = None
         self._limit = queue_bytes
@@ -149,7 +151,8 @@ class RecordingWriter:
 
     def _run(self) -> None:
         try:
-            file = self._file = McapFile(self._stream, library=self._library, chunk_size=self._chunk_size)
+            file = self._file = McapFile(self._stream, library=self._library, chunk_size=self._chunk_size,
+                                         quota=self._quota)
         except OSError as exc:
             self._failure = exc
             self._stream.close()

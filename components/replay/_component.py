@@ -10,7 +10,7 @@ from typing import Annotated, Any
 
 from ..core import (
     Boolean, Component, ComponentHost, DescribedType, Double, GenomException, LoadError, Out, OutPort, OutPortRuntime,
-    String, ULongLong,
+    String, ThrottledLog, ULongLong,
     activity, function, idl_struct,
 )
 from ..recording import PortMessage, RecordingError, RecordingReader, open_recording, replay_roots
@@ -18,13 +18,15 @@ from ..recording import PortMessage, RecordingError, RecordingReader, open_recor
 __all__ = ["Replay", "ReplayStatus", "NOT_PLAYING"]
 
 log = logging.getLogger(__name__)
+#: A client may load an unfinished recording again and again: said a few times a minute.
+_throttled = ThrottledLog(log)
 
 
 @idl_struct("replay::status")
 class ReplayStatus:
     """The recording being replayed and where the replay is."""
 
-    file: Annotated[String, "The recording (full path on the replay's host)"] = ""
+    file: Annotated[String, "The recording, as it was named at load (-file)"] = ""
     ports: Annotated[list[String], "The replayed ports, as this component names them"] = \
         dataclasses.field(default_factory=list)
     playing: Annotated[Boolean, "Whether Play runs"] = False
@@ -64,7 +66,6 @@ class Replay(Component, name="replay", version="1.0"):
         if "-file" not in self.argv:
             raise LoadError("replay needs the recording to replay: load it with -file PATH")
         self.file = self.argv[self.argv.index("-file") + 1]
-        self._path = ""
         self._recorded: dict[str, OutPortRuntime[Any]] = {}
         self._described: list[dict[str, Any]] = []
         self._names: dict[str, str] = {}
@@ -73,7 +74,7 @@ class Replay(Component, name="replay", version="1.0"):
     async def on_start(self) -> None:
         await super().on_start()
         try:
-            self._path, ports, span = await asyncio.to_thread(self._read_summary)
+            ports, span = await asyncio.to_thread(self._read_summary)
         except RecordingError as exc:
             raise LoadError(f"replay cannot read {self.file!r}: {exc}") from exc
         self._span = span
@@ -102,10 +103,12 @@ class Replay(Component, name="replay", version="1.0"):
             stream.close()
             raise
 
-    def _read_summary(self) -> tuple[str, list[tuple[str, tuple[dict[str, Any], str]]], tuple[float, float]]:
-        """The recording's full path, its non-audio ports with their types and docs, and its time span."""
-        opened, path = self._reader()
+    def _read_summary(self) -> tuple[list[tuple[str, tuple[dict[str, Any], str]]], tuple[float, float]]:
+        """The recording's non-audio ports with their types and docs, and its time span."""
+        opened, _ = self._reader()
         with opened as reader:
+            if reader.unfinished is not None:
+                _throttled.warning("%s: %s", self.instance, reader.unfinished.said)
             ports = []
             for channel in reader.channels("port"):
                 recorded = channel.metadata["aiogenomix.port"]
@@ -113,7 +116,7 @@ class Replay(Component, name="replay", version="1.0"):
             statistics = reader.summary.statistics
             span = ((statistics.message_start_time * 1e-9, statistics.message_end_time * 1e-9)
                     if statistics is not None else (0.0, 0.0))
-        return path, ports, span
+        return ports, span
 
     # -- the replayed ports, beside the declared ones ------------------------------------------
 
@@ -129,12 +132,13 @@ class Replay(Component, name="replay", version="1.0"):
         return recorded if recorded is not None else super().port(name)
 
     def _status(self, published: int, position: float, *, playing: bool) -> ReplayStatus:
-        return ReplayStatus(file=self._path, ports=list(self._recorded), playing=playing, published=published,
+        # The name the client gave, never the file's path on this host.
+        return ReplayStatus(file=self.file, ports=list(self._recorded), playing=playing, published=published,
                             position=position, duration=max(0.0, self._span[1] - self._span[0]))
 
     # -- services ---------------------------------------------------------------------------
 
-    @activity(throws=(NOT_PLAYING,), interrupts=("Play",))
+    @activity(throws=(NOT_PLAYING,), interrupts=("Play",), progress="Status.position")
     async def Play(self, speed: Annotated[Double, "Replay this many times faster than recorded (1: as recorded)"]
                    = 1.0) -> Annotated[ULongLong, Out("published", "Publications replayed")]:
         """Publish the recorded ports again at their recorded timing, from the start to the end of the recording."""

@@ -8,12 +8,13 @@ ROS topics.
 from __future__ import annotations
 
 import dataclasses
+from typing import Annotated
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .. import core
-from ..core import Double, Float, String, ULong, idl_struct
+from ..core import Double, Float, String, ULong, Unit, idl_struct
 
 __all__ = [
     "Timestamp", "Header", "Image", "Odometry", "JointState", "LaserScan", "Point", "Quaternion", "Pose",
@@ -62,12 +63,12 @@ class Image:
 class Odometry:
     """The PR2 base in the room: position (m), heading ``w`` (rad, counter-clockwise from x) and speeds."""
 
-    x: Double = 0.0
-    y: Double = 0.0
-    w: Double = 0.0
-    vx: Double = 0.0
-    vy: Double = 0.0
-    vw: Double = 0.0
+    x: Annotated[Double, Unit("m")] = 0.0
+    y: Annotated[Double, Unit("m")] = 0.0
+    w: Annotated[Double, Unit("rad"), "Heading, counter-clockwise from x"] = 0.0
+    vx: Annotated[Double, Unit("m/s")] = 0.0
+    vy: Annotated[Double, Unit("m/s")] = 0.0
+    vw: Annotated[Double, Unit("rad/s")] = 0.0
     stamp: Timestamp = dataclasses.field(default_factory=Timestamp)
 
 
@@ -89,11 +90,11 @@ class LaserScan:
     """
 
     header: Header = dataclasses.field(default_factory=Header)
-    angle_min: Float = 0.0
-    angle_max: Float = 0.0
-    angle_increment: Float = 0.0
-    range_min: Float = 0.0
-    range_max: Float = 0.0
+    angle_min: Annotated[Float, Unit("rad")] = 0.0
+    angle_max: Annotated[Float, Unit("rad")] = 0.0
+    angle_increment: Annotated[Float, Unit("rad")] = 0.0
+    range_min: Annotated[Float, Unit("m")] = 0.0
+    range_max: Annotated[Float, Unit("m")] = 0.0
     ranges: NDArray[np.float32] = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
 
 
@@ -101,9 +102,9 @@ class LaserScan:
 class Point:
     """A position in metres."""
 
-    x: Double = 0.0
-    y: Double = 0.0
-    z: Double = 0.0
+    x: Annotated[Double, Unit("m")] = 0.0
+    y: Annotated[Double, Unit("m")] = 0.0
+    z: Annotated[Double, Unit("m")] = 0.0
 
 
 @idl_struct("subscriber::geometry_msgs__Quaternion")

@@ -25,10 +25,10 @@ def test_demo_session_script(tmp_path: pathlib.Path) -> None:
 def test_demo_notebook(tmp_path: pathlib.Path, monkeypatch: pytest.MonkeyPatch) -> None:
     nbformat = pytest.importorskip("nbformat")
     nbclient = pytest.importorskip("nbclient")
-    out = tmp_path / "positions.png"
+    out = tmp_path / "demo_positions.png"
     # The kernel inherits these: a fast in-process simulation, and the plot written under tmp_path.
     monkeypatch.setenv("AIOGENOMIX_TIME_SCALE", "20")
-    monkeypatch.setenv("AIOGENOMIX_PLOT", str(out))
+    monkeypatch.setenv("AIOGENOMIX_PLOT_DIR", str(tmp_path))
     monkeypatch.delenv("AIOGENOMIX_URL", raising=False)
     notebook = nbformat.read(EXAMPLES / "demo_notebook.ipynb", as_version=4)
     client = nbclient.NotebookClient(notebook, timeout=120, kernel_name="python3",

@@ -71,7 +71,7 @@ async def test_signature_help_and_dir(gateway_url: str) -> None:
         doc = inspect.getdoc(demo.GotoPosition)
         assert doc is not None
         assert "Move the robot to an absolute position on the track." in doc
-        assert "posRef (double): Goto position in m. Default: 0.0." in doc
+        assert "posRef (double, m): Goto position in m. Default: 0.0." in doc
         assert "TOO_FAR_AWAY" in doc and "overshoot" in doc
         assert "Interrupts:" in doc and "GotoPosition, MoveDistance" in doc
 

@@ -181,7 +181,8 @@ def test_complete_call_and_see_the_result(shell: Any) -> None:
     shell.send("(pos\t")                                # so does a keyword argument
     shell.expect(shown("posRef="))
     shell.send("0.5, ack=True)\r")                      # returns at once with the request...
-    shell.expect("<request demo::0 GotoPosition sent>")
+    # At once: its status is "sent", or "done" already when the machine is slow to print it.
+    shell.expect(r"<request demo::0 GotoPosition (sent|done)>")
     shell.expect(r"\[demo::0 GotoPosition done\]")      # ...whose end is printed when it comes
     shell.expect(PROMPT % 2)                            # and the prompt is drawn again below it
     shell.send('demo.SetSpeed(speedRef="F\t')          # enum values complete
@@ -234,3 +235,41 @@ def test_ctrl_c_in_a_blocking_function_lets_it_run_to_its_end(shell: Any, events
     shell.expect(PROMPT % 3)
     shell.send("requests()\r")                          # and listed with the ack=True requests
     shell.expect(r"slow::0\s+Settle\s+done")
+
+
+@pytest.mark.parametrize(("call", "line"), [
+    ('demo.GotoPosition(posRef="x")',
+     "TypeError: posRef: expected a number (double), got 'x' (GotoPosition: nothing was sent)"),
+    ("demo.GotoPosition(posRe=1)",
+     "TypeError: GotoPosition(posRef: float = 0.0): got an unexpected keyword argument 'posRe' "
+     "(GotoPosition: nothing was sent)"),
+    ("demo.GotoPosition(1, 2)",
+     "TypeError: GotoPosition(posRef: float = 0.0): too many positional arguments (GotoPosition: nothing was sent)"),
+    ('demo.Mobile(nme="x")', "TypeError: demo.Mobile() got an unexpected keyword argument 'nme'"),
+    ('load("nosuchthing")', None),
+])
+def test_a_mistake_the_client_refuses_is_one_line_and_sends_nothing(
+        shell: Any, events: SessionEvents, call: str, line: str | None) -> None:
+    shell.send(call + "\r")
+    printed = printed_until_prompt(shell, 2)
+    assert len(printed) == 1, printed
+    if line is not None:
+        assert printed == [line + "   (%tb shows the traceback)"]
+    else:                                               # the gateway's refusal, as before
+        assert printed[0].startswith("no_such_module: "), printed
+    # Nothing reached the robot: the next request of the session is the first one.
+    shell.send("demo.GotoPosition(0.1)\r")
+    assert events.next_request() == {"id": "demo::0", "status": "sent"}
+    shell.expect(PROMPT % 3)
+    shell.send("%tb\r")                                 # the whole traceback, on demand
+    shell.expect("Traceback")
+    shell.expect(PROMPT % 4)
+
+
+def test_an_error_of_the_users_own_code_keeps_ipythons_traceback(shell: Any) -> None:
+    shell.send("def half(x): return x / 0\r")
+    shell.expect(PROMPT % 2)
+    shell.send("half(demo.Mobile().position)\r")
+    printed = printed_until_prompt(shell, 3)
+    assert printed[-1] == "ZeroDivisionError: float division by zero"
+    assert any("return x / 0" in line for line in printed) and len(printed) > 1

@@ -22,7 +22,7 @@ def test_every_bound_has_a_default_a_flag_and_a_unit() -> None:
     flags = [Budgets.flag(name) for name in Budgets.names()]
     assert len(set(flags)) == len(flags) and all(flag.startswith("--max-") for flag in flags)
     assert all(getattr(budgets, name) >= 1 for name in Budgets.names())
-    assert {Budgets.unit(name) for name in Budgets.names()} == {"bytes", "frames", "clients"}
+    assert {Budgets.unit(name) for name in Budgets.names()} == {"bytes", "frames", "clients", "recordings", "seconds"}
     assert HostSettings().budgets == budgets
 
 

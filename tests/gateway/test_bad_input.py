@@ -21,6 +21,7 @@ GOTO = "/module/demo/send/GotoPosition"
 BAD_INPUT = [
     ("malformed JSON", GOTO, {"input": '{"posRef":'}, 400, "::genom::serialization"),
     ("unknown member", GOTO, {"input": '{"pos":1}'}, 400, "::genom::serialization"),
+    ("a member given twice", GOTO, {"input": '{"posRef":0.3,"posRef":0.6}'}, 400, "::genom::serialization"),
     ("string for a double", GOTO, {"input": '{"posRef":"x"}'}, 400, "::genom::serialization"),
     ("1.5 for a short", "/module/countserver/send/CountFrom", {"input": '{"initial_value":1.5}'}, 400,
      "::genom::serialization"),
@@ -122,6 +123,35 @@ async def test_validate_refusal_carries_the_detail(http: aiohttp.ClientSession) 
     assert reply.status == 200
     assert body["status"] == "error" and body["exception"]["ex"] == "::demo::TOO_FAR_AWAY"
     assert body["exception"]["detail"] == {"overshoot": pytest.approx(0.25)}
+
+
+@pytest.mark.parametrize("body", [
+    '{"posRef":0.3,"posRef":0.6}',                     # issue 29: it moved demo to 0.6
+    '{"posRef":0.3, "posRef" : NaN}',                  # genom3's lenient JSON too
+    '{"posRef":0.6,"note":"a: colon","posRef":0.3}',   # a colon in a string does not hide it
+])
+async def test_a_member_given_twice_is_refused_by_get_and_post_alike(http: aiohttp.ClientSession, body: str) -> None:
+    await http.get("/load/demo")
+    for reply_of in (lambda: http.get(GOTO, params={"input": body}),
+                     lambda: http.post(GOTO, data=body, headers={"Content-Type": "application/json"})):
+        async with reply_of() as reply:
+            assert reply.status == 400
+            error = await reply.json()
+        assert error["ex"] == "::genom::serialization" and "'posRef' twice" in error["message"], error
+    async with http.get("/module/demo/read/Mobile") as reply:
+        assert (await reply.json())["Mobile"]["position"] == 0.0  # demo never moved
+    async with http.get("/module/demo/status/demo::0") as reply:
+        assert reply.status == 404  # no request was made
+    async with http.get("/module/demo/send/GotoPosition", params={"input": '{"posRef":0.2}'}) as reply:
+        assert (await reply.json())["status"] in ("sent", "done")  # once, it is taken
+
+
+def test_colons_in_strings_and_lists_of_objects_are_no_member_given_twice() -> None:
+    from aiogenomix.gateway._input import parse_input
+
+    text = '{"path":"C:/data:1","items":[{"k":1},{"k":2}],"grid":[[{"k":3}]],"n":[1,2]}'
+    assert parse_input(text) == {"path": "C:/data:1", "items": [{"k": 1}, {"k": 2}], "grid": [[{"k": 3}]],
+                                 "n": [1, 2]}
 
 
 async def test_genom_leniency_on_input(http: aiohttp.ClientSession) -> None:

@@ -82,7 +82,7 @@ async def test_forms_events_plots_pictures_and_audio(page: Any, gateway_with_cam
     await page.locator("#events .event", has_text="GotoPosition done").wait_for(timeout=WAIT)
     await goto.locator("pre.result", has_text="done").wait_for(timeout=WAIT)
     await mobile.locator("pre.data", has_text="position: 0.5").wait_for(timeout=WAIT)
-    await counter_above(mobile.locator("canvas.series"), "points", 2)
+    await counter_above(mobile.locator(".series"), "points", 2)
     # An exception of the component reads as a sentence with its detail.
     await goto.locator('input[name="posRef"]').fill("3")
     await goto.get_by_role("button", name="send").click()
@@ -99,7 +99,7 @@ async def test_forms_events_plots_pictures_and_audio(page: Any, gateway_with_cam
     audio = port(page, "Port")
     await audio.locator("summary").click()
     await audio.get_by_role("button", name="watch").click()
-    await counter_above(audio.locator("canvas.waveform"), "chunks", 3)
+    await counter_above(audio.locator(".waveform"), "chunks", 3)
 
     # A picture port is drawn as a picture, and redrawn when it changes.
     await load(page, "camera")
@@ -108,8 +108,10 @@ async def test_forms_events_plots_pictures_and_audio(page: Any, gateway_with_cam
     await frame.get_by_role("button", name="watch").click()
     picture = frame.locator("canvas.picture")
     await counter_above(picture, "frames", 0)
-    assert await picture.evaluate("c => [c.width, c.height]") == [32, 32]
-    red = "c => c.getContext('2d').getImageData(4, 0, 1, 1).data[0]"
+    # Drawn 8 times larger (256 pixels) beside its pixel axes: image pixel (5, 1) is a dark square's.
+    assert await picture.evaluate("c => Number(c.dataset.scale)") == 8
+    red = ("c => c.getContext('2d').getImageData(Number(c.dataset.left) + 5.5 * 8, Number(c.dataset.top) + 1.5 * 8,"
+           " 1, 1).data[0]")
     assert await picture.evaluate(red) == 200
     shade = service(page, "Shade")
     await shade.locator("summary").click()
@@ -134,9 +136,11 @@ async def test_forms_events_plots_pictures_and_audio(page: Any, gateway_with_cam
     # Back to capture: its watch is still on, and says so.
     await page.locator("#loaded").get_by_role("button", name="capture").click()
     await port(page, "Port").get_by_role("button", name="stop watching").wait_for(timeout=WAIT)
-    await counter_above(port(page, "Port").locator("canvas.waveform"), "chunks", 6)
-    await port(page, "Port").locator("canvas.waveform").scroll_into_view_if_needed()
+    await counter_above(port(page, "Port").locator(".waveform"), "chunks", 6)
+    await port(page, "Port").locator(".waveform").scroll_into_view_if_needed()
     shot = await page.screenshot()
+    if os.environ.get("AIOGENOMIX_SHOTS"):
+        pathlib.Path(os.environ["AIOGENOMIX_SHOTS"], "capture.png").write_bytes(shot)
     if os.environ.get("AIOGENOMIX_SCREENSHOT") == "1" or not SCREENSHOT.exists():
         SCREENSHOT.parent.mkdir(exist_ok=True)
         SCREENSHOT.write_bytes(shot)
@@ -169,8 +173,8 @@ async def test_many_long_activities_leave_the_console_responsive(page: Any, gate
     await load(page, "kemar")
     head = port(page, "currentState")
     await head.get_by_role("button", name="stop watching").wait_for(timeout=WAIT)
-    assert await head.locator("canvas.series").count() == 2
-    await counter_above(head.locator("canvas.series").first, "points", 1)
+    assert await head.locator(".series").count() == 2
+    await counter_above(head.locator(".series").first, "points", 1)
     # Reloading the page keeps its session: no session is left behind per load.
     for _ in range(3):
         await page.reload()

@@ -56,7 +56,7 @@ async def test_programs_and_the_gateways_own_pages_are_served(demo: aiohttp.Clie
     async with demo.get("/console", headers={"Sec-Fetch-Site": "cross-site", "Sec-Fetch-Mode": "navigate"}) as page:
         assert page.status == 200                                               # a link to the console shows it
         policy = page.headers["Content-Security-Policy"]
-        assert "default-src 'none'" in policy and "script-src 'sha256-" in policy and "unsafe" not in policy
+        assert "default-src 'none'" in policy and "script-src 'self' 'sha256-" in policy and "unsafe" not in policy
         assert page.headers["X-Content-Type-Options"] == "nosniff"
     async with demo.get("/no/such/thing") as missing:
         assert missing.status == 404 and missing.headers["X-Content-Type-Options"] == "nosniff"

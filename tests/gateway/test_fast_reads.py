@@ -195,8 +195,9 @@ async def test_pipelined_requests_are_answered_in_order(
     first, info, last = [await connection.reply() for _ in range(3)]
     assert first[2] == last[2] == expected_binary(view)
     assert json.loads(info[2])["name"] == "windowed"
-    # The first read went at once; the rest waited for the info, behind it (routed: not even looked at).
-    assert fast_answers == [True]
+    # aiohttp hands the requests over one by one: the first read went at once, the info to the routes,
+    # and the last read was looked at only once the info was answered.
+    assert fast_answers[:2] == [True, False] and len(fast_answers) == 3
 
 
 async def test_a_reader_that_vanishes_mid_reply_leaves_the_gateway_serving(

@@ -21,6 +21,8 @@ from aiogenomix.components.core import Component, ComponentHost, Double, HostSet
 from aiogenomix.components.kemar import KemarState
 from aiogenomix.components.recording import head_state, planar_odometry
 from aiogenomix.components.world import Odometry
+from aiogenomix.gateway._access import AccessPolicy
+from aiogenomix.gateway._door import Door
 from aiogenomix.gateway._foxglove import FoxgloveView
 
 from .test_foxglove_view import advertised, decoder
@@ -42,8 +44,8 @@ async def view() -> AsyncIterator[tuple[FoxgloveView, Any, ManualClock]]:
     async with ComponentHost(clock=clock, settings=HostSettings(audio_socket_port=0),
                              factories={"robot": Robot}) as host:
         robot = await host.load("robot")
-        shown = FoxgloveView("127.0.0.1", 0, clock=host.clock)
-        shown.start(host.instances)
+        shown = FoxgloveView("127.0.0.1", 0, Door(AccessPolicy(), None), clock=host.clock)
+        await shown.start(host.instances)
         try:
             yield shown, robot, clock
         finally:

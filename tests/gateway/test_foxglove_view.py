@@ -1,10 +1,10 @@
 """Issue 26, acceptance 4: the live view in Foxglove (``--foxglove PORT``), read by a plain WebSocket client.
 
-The client speaks the Foxglove WebSocket protocol (``foxglove.websocket.v1``'s messages; the SDK's
-server names it ``foxglove.sdk.v1``): it gets ``serverInfo`` and the advertisements, subscribes to
-the head's state and a camera, and decodes them with the protobuf schemas the server advertises.
-Meanwhile a second viewer subscribes to everything and never reads: the gateway's own listen
-stream goes on undelayed.  The bind rules of decision 0032 are checked on the command line.
+The client speaks the Foxglove WebSocket protocol (``foxglove.websocket.v1``; the SDK names it
+``foxglove.sdk.v1``, and the view answers both): it gets ``serverInfo`` and the advertisements,
+subscribes to the head's state, a camera and the audio, and decodes them with the protobuf schemas
+the server advertises.  Meanwhile a second viewer subscribes to everything and never reads: the
+gateway's own listen stream goes on undelayed.
 """
 
 from __future__ import annotations
@@ -25,7 +25,6 @@ import pytest
 
 from aiogenomix.clients import aconnect
 from aiogenomix.gateway import GatewayConfig, serve
-from aiogenomix.gateway.__main__ import parse_args
 
 from ..conftest import RawEventStream
 
@@ -95,8 +94,8 @@ async def test_a_viewer_gets_the_head_and_a_camera_while_a_stalled_one_delays_no
     async with websockets.connect(address, subprotocols=["foxglove.websocket.v1", "foxglove.sdk.v1"],
                                   max_size=None, close_timeout=1) as viewer, \
             websockets.connect(address, subprotocols=["foxglove.sdk.v1"], max_queue=1, close_timeout=0.1) as stalled:
-        # The SDK answers under its name for the protocol; the messages are those of foxglove.websocket.v1.
-        assert viewer.subprotocol == "foxglove.sdk.v1"
+        # Both names of the protocol are served: the viewer's first choice is taken.
+        assert viewer.subprotocol == "foxglove.websocket.v1" and stalled.subprotocol == "foxglove.sdk.v1"
         info = json.loads(await asyncio.wait_for(viewer.recv(), 30))
         assert info["op"] == "serverInfo" and info["name"] == "aiogenomix"
         channels = await advertised(viewer, wanted)
@@ -136,13 +135,14 @@ async def test_a_viewer_gets_the_head_and_a_camera_while_a_stalled_one_delays_no
         sound = decoded[3]
         assert (sound.format, sound.sample_rate, sound.number_of_channels) == ("pcm-s16", 44100, 2)
         shown = np.frombuffer(sound.data, "<i2").reshape(-1, 2)
-        assert shown.shape == (2205, 2)
+        assert shown.shape[1] == 2 and shown.shape[0] and shown.shape[0] % 2205 == 0  # whole chunks (two if late)
         async with aconnect(url) as client:
             window = (await client.module("kemarcapture")).Port
             port = await window()
         captured = np.stack([np.asarray(port.left), np.asarray(port.right)], axis=1) >> 16
-        starts = [k for k in range(0, len(captured), 2205) if np.array_equal(captured[k:k + 2205], shown)]
-        assert len(starts) == 1  # that very chunk of the capture
+        starts = [k for k in range(0, len(captured) - len(shown) + 1, 2205)
+                  if np.array_equal(captured[k:k + len(shown)], shown)]
+        assert len(starts) == 1  # those very chunks of the capture
 
         # The gateway's clients meanwhile: the listen stream is as prompt as before, within 50 ms (the 90th
         # percentile, judged against the same measure without the stalled viewer: a machine whose cores are
@@ -181,24 +181,4 @@ async def listen_delays(url: str, count: int) -> list[float]:
         finally:
             stream.close()
     return delays
-
-
-@pytest.mark.parametrize(("argv", "refused"), [
-    (["--foxglove", "8765", "--foxglove-host", "0.0.0.0", "--token", "s3cret"], "--foxglove-without-token"),
-    (["--foxglove", "70000"], "0 to 65535"),
-])
-def test_a_view_beyond_this_machine_with_a_token_needs_an_explicit_flag(
-        argv: list[str], refused: str, capsys: pytest.CaptureFixture[str]) -> None:
-    with pytest.raises(SystemExit):
-        parse_args(argv)
-    assert refused in capsys.readouterr().err
-
-
-def test_the_view_binds_loopback_unless_asked() -> None:
-    assert parse_args(["--foxglove", "8765"]).foxglove_host == "127.0.0.1"
-    config = parse_args(["--foxglove", "8765", "--foxglove-host", "0.0.0.0", "--token", "s3cret",
-                         "--foxglove-without-token"])
-    assert config.foxglove_host == "0.0.0.0" and config.foxglove_without_token
-    assert parse_args(["--foxglove", "8765", "--foxglove-host", "0.0.0.0"]).foxglove_port == 8765  # no token
-
 

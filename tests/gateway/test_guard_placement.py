@@ -1,8 +1,9 @@
-"""The guard (access, token, errors as genomix JSON) holds however the application is served.
+"""The application ``create_app`` builds answers alike however it is served (decision 37).
 
-The gateway's own runner calls the guard in front of the routes; an application
-from ``create_app`` served by aiohttp's own runner keeps it as middleware.  Both
-answer alike (the rest of the suite runs the gateway's runner).
+``serve`` runs that application as it is, with the gateway's connections and the
+plain reads ahead of the routes; an embedder may serve it with aiohttp's own runner.
+The guard (access, token, errors as genomix JSON) is its middleware either way, and
+the limits are its handler's (the rest of the suite runs ``serve``).
 """
 
 from __future__ import annotations

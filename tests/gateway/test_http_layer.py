@@ -86,7 +86,13 @@ async def test_parser_refusals_are_documented_json_without_a_traceback(
     assert len(refusals) == 1 and refusals[0].levelno == logging.DEBUG and refusals[0].exc_info is None
 
 
-async def test_a_20_mb_input_gets_414_rather_than_a_reset(gateway: str) -> None:
+async def test_a_20_mb_input_gets_414_rather_than_a_reset(gateway_config: GatewayConfig) -> None:
+    gateway_config.header_timeout = 10  # the refusal, not the timeout, however long a busy machine takes
+    async with serve(gateway_config) as gateway:
+        await _send_20_mb(gateway)
+
+
+async def _send_20_mb(gateway: str) -> None:
     reader, writer = await _open(gateway)
     try:
         # Sent whole before reading, as most HTTP clients do: the gateway must let the client finish.
@@ -159,3 +165,25 @@ def test_the_limits_are_flags(capsys: pytest.CaptureFixture[str]) -> None:
         with pytest.raises(SystemExit):
             parse_args(bad)
     assert "--max-url-bytes" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("expect", [True, False], ids=["Expect: 100-continue", "no Expect"])
+async def test_a_body_announced_too_large_gets_413_at_once(gateway: str, expect: bool) -> None:
+    # 64 MiB announced, none of it sent: the client waits for an answer before sending (curl waits 1 s).
+    reader, writer = await _open(gateway)
+    try:
+        writer.write(_named(gateway, b"POST /module/demo/send/GotoPosition HTTP/1.1\r\nHost: x\r\n"
+                            b"Content-Type: application/json\r\nContent-Length: 67108864\r\n"
+                            + (b"Expect: 100-continue\r\n" if expect else b"") + b"\r\n"))
+        await writer.drain()
+        head = await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 5)
+        assert head.startswith(b"HTTP/1.1 413 ")  # at once, and no 100 Continue before it
+        assert b"\r\nConnection: close\r\n" in head
+        body = await reader.readexactly(int(head.split(b"Content-Length: ")[1].split(b"\r\n")[0]))
+        # A client may send its body all the same (RFC 9110, 10.1.1): it is dropped, and the connection ends.
+        writer.write(bytes(64 << 20))
+        assert await asyncio.wait_for(reader.read(), 10) == b""
+    finally:
+        writer.close()
+    error = json.loads(body)
+    assert error["ex"] == "::genomix::http" and "1048576 bytes" in error["message"]

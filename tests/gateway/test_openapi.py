@@ -38,7 +38,7 @@ async def test_the_document_is_valid_openapi_with_one_path_per_service(http: aio
     assert body == {"$ref": "#/components/schemas/demo_GotoPosition_Input"}
     model = schemas["demo_GotoPosition_Input"]
     assert model["properties"]["posRef"] == {"type": ["number", "null"], "description": "Goto position in m",
-                                             "default": 0.0}
+                                             "x-unit": "m", "default": 0.0}
     # genomix's form keeps input as JSON text of the same model.
     (input_param,) = [p for p in goto["get"]["parameters"] if p.get("name") == "input"]
     assert input_param["schema"]["type"] == "string"

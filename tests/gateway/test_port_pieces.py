@@ -197,8 +197,8 @@ async def test_pipelined_reads_of_a_slow_reader_come_back_whole_and_in_order(
         served: tuple[Windowed, str], monkeypatch: pytest.MonkeyPatch) -> None:
     # A reply that starts while the one before it is still queued in the transport goes
     # through aiohttp's writer, after it; the bytes must still be exact, in order.  (The first
-    # is answered by the connection's fast path; the next find it still queued.)
-    from aiogenomix.gateway import _connection, _pieces
+    # is answered ahead of the routes; the next find it still queued.)
+    from aiogenomix.gateway import _connection, _fast_reads, _pieces
 
     sockets: list[int | None] = []
 
@@ -208,6 +208,7 @@ async def test_pipelined_reads_of_a_slow_reader_come_back_whole_and_in_order(
 
     monkeypatch.setattr(_pieces, "direct_socket", seen)
     monkeypatch.setattr(_connection, "direct_socket", seen)
+    monkeypatch.setattr(_fast_reads, "direct_socket", seen)
     component, url = served
     view = PortView(window(32, 20_000, 40, seed=4), 44100, 0.0, KemarPortData)
     component.Port.publish(view)

@@ -66,8 +66,10 @@ async def test_bass_socket_2015_streams_without_loss() -> None:
         assert code == 0, err
         ended = r"read \d+ frames \(1\.\d+ s\), 0 lost; socket done, acquisition ended \(::genom::interrupted\)"
         assert re.search(ended, out), out
-        first = re.search(r"frames\s+(\d+)…", out)
-        assert first is not None and first.group(1) == "0"
+        # The first block is audio: it starts at frame 1, the first captured one, and is not silent.
+        first = re.search(r"frames\s+(\d+)…\s*(\d+)\s+lost\s+\d+\s+left\s+(\S+) dB", out)
+        assert first is not None and first.group(1) == "1", out
+        assert int(first.group(2)) >= 2205 and float(first.group(3)) > -60, out
     finally:
         gateway.terminate()
         await gateway.wait()

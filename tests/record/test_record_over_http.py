@@ -69,6 +69,7 @@ async def test_a_recording_over_http_has_every_frame_once_and_the_sessions_reque
         path, counts, ended = await recording
         port, lost = await capture.Port(since=0)
     assert ended == "stopped" and path == str(output) and counts.lost_frames == 0
+    assert output.stat().st_mode & 0o777 == 0o600   # microphones are their owner's (issue 29), whatever the umask
     with open(output, "rb") as stream, RecordingReader(stream) as reader:
         chunks = list(reader.audio("kemarcapture/Port"))
         told = list(reader.session_events("lab"))

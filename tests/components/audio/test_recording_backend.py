@@ -109,7 +109,7 @@ async def test_another_rate_and_a_file_outside_the_directories_are_refused(host:
 
 async def test_a_gap_in_the_recording_stays_a_gap(tmp_path: Path) -> None:
     """A recording that missed three chunks: the replay delivers nothing for them, then says so, on time."""
-    stream, path = create_recording(str(tmp_path / "gap.mcap"), None)
+    stream, path, *_ = create_recording(str(tmp_path / "gap.mcap"), None)
     recording = Recording.open(stream, path, {})
     audio = recording.add_port("bass/Audio", {"name": "Audio", "doc": "", "type": {
         "name": "::binaudio::portStruct", "kind": "struct", "members": []}})
@@ -145,7 +145,7 @@ async def test_a_gap_in_the_recording_stays_a_gap(tmp_path: Path) -> None:
 
 async def bass_recording(path: Path, captures: list[tuple[int, int, float]], seed: int = 4) -> list[np.ndarray]:
     """A recording of bass's port over captures ``(chunks, rate, rig time of the last read)``; their chunks."""
-    stream, real = create_recording(str(path), None)
+    stream, real, *_ = create_recording(str(path), None)
     recording = Recording.open(stream, real, {})
     audio = recording.add_port("bass/Audio", {"name": "Audio", "doc": "", "type": {
         "name": "::binaudio::portStruct", "kind": "struct", "members": []}})

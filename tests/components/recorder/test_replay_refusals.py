@@ -22,7 +22,7 @@ READING = {"name": "Reading", "doc": "A reading", "type": {"name": "double", "ki
 @pytest.fixture
 async def loaded(tmp_path: Path) -> AsyncIterator[tuple[ComponentHost, Path]]:
     """A replay loaded with a recording of three readings."""
-    stream, path = create_recording(str(tmp_path / "readings.mcap"), None)
+    stream, path, *_ = create_recording(str(tmp_path / "readings.mcap"), None)
     recording = Recording.open(stream, path, {})
     port = recording.add_port("probe/Reading", READING)
     for k in range(3):
@@ -36,7 +36,7 @@ async def loaded(tmp_path: Path) -> AsyncIterator[tuple[ComponentHost, Path]]:
 
 @pytest.mark.parametrize(("change", "why"), [
     ("remove", "there is no such recording"),
-    ("spoil", "is not an MCAP file this reader reads"),
+    ("spoil", "is not an MCAP file (it does not begin as one)"),
 ])
 async def test_a_recording_changed_since_the_load_ends_play_saying_why(
         loaded: tuple[ComponentHost, Path], change: str, why: str) -> None:

@@ -23,6 +23,7 @@ from aiogenomix.components.kemar import Kemar
 from aiogenomix.components.kemarcapture import KemarCapture
 from aiogenomix.components.recorder import Recorder
 from aiogenomix.components.recording import AUDIO_COLUMNS, RecordingError, export_recording
+from aiogenomix.record import main as record_main
 
 
 @pytest.fixture
@@ -112,3 +113,26 @@ async def test_an_export_never_overwrites_unless_asked(host: ComponentHost, tmp_
     with pytest.raises(RecordingError, match="exists already"):
         export_recording(tmp_path / "again.mcap", tmp_path / "out")
     assert len(export_recording(tmp_path / "again.mcap", tmp_path / "out", overwrite=True)) == 2
+
+
+async def test_an_export_never_writes_through_a_link_planted_in_its_directory(
+        host: ComponentHost, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue 29, item 5: ``ln -s /tmp/victim out/kemar_currentState.csv``, then ``export ... -o out``."""
+    await record(host, "kemar", "capture", ["capture/Port", "kemar/currentState"], "planted.mcap")
+    out, victim = tmp_path / "out", tmp_path / "victim"
+    out.mkdir()
+    (out / "kemar_currentState.csv").symlink_to(victim)
+    (out / "capture_Port.wav").symlink_to(tmp_path / "planted.mcap")   # an existing file of someone's
+    before = (tmp_path / "planted.mcap").read_bytes()
+    assert record_main(["export", str(tmp_path / "planted.mcap"), "-o", str(out)]) == 1
+    said = capsys.readouterr().err
+    assert said.startswith("aiogenomix-record: ") and "is a symbolic link: an export never writes through" in said
+    assert not victim.exists()
+    # Asked to overwrite, the links are replaced by the files themselves, never written through.
+    assert record_main(["export", str(tmp_path / "planted.mcap"), "-o", str(out), "--overwrite"]) == 0
+    assert not victim.exists() and (tmp_path / "planted.mcap").read_bytes() == before
+    for name in ("kemar_currentState.csv", "capture_Port.wav", "capture_Port.csv"):
+        assert (out / name).is_file() and not (out / name).is_symlink()
+    # As private as the recording they come from.
+    assert {(out / name).stat().st_mode & 0o777 for name in ("capture_Port.wav", "capture_Port.csv")} == {0o600}
+    assert soundfile.info(str(out / "capture_Port.wav")).frames > 0
