@@ -1,11 +1,13 @@
 """Finding components of other processes on Zenoh, following their hosts, and noticing when they go and return.
 
 A :class:`ZenohDirectory` is a host's :class:`~aiogenomix.components.core.runtime.RemoteFinder`: ``load``
-asks it first, and it decides where a name runs.  It follows every offer (liveliness tokens) and
-every host's heartbeat.  A token that disappears (the process died, or the network was cut longer
-than Zenoh's lease) makes the proxy of that instance end its requests and unload; when the same
-host offers the instance again, the gateway loads it again under the same name and tells every
-session (an ``offered`` event).
+asks it first, and it decides where a name runs.  A gateway's follows every offer (liveliness tokens)
+and every host's heartbeat; a component host's only the offers of the names it looks for and the
+heartbeats of the hosts it reads from, so that what a host hears does not grow with the number of
+hosts (decision 38).  A token that disappears (the process died, or the network was cut longer than
+Zenoh's lease) makes the proxy of that instance end its requests and unload; until the same host
+offers the instance again, its name is refused as gone (503), then the gateway loads it again under
+the same name and tells every session (an ``offered`` event).
 """
 
 from __future__ import annotations

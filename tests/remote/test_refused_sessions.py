@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import asyncio
 import pathlib
+import sys
 
 from aiogenomix.remote._links import why_unlinked
 
@@ -35,3 +37,15 @@ async def test_a_gateway_whose_password_the_robot_refuses_says_so_once(tmp_path:
 def test_an_endpoint_where_nothing_listens_is_told_from_a_refusal() -> None:
     assert why_unlinked(f"tcp/127.0.0.1:{free_port()}").startswith("nothing answers there (Connection refused)")
     assert why_unlinked("udp/127.0.0.1:7447") == "no link yet"
+
+
+async def test_a_zenoh_client_that_reaches_no_router_says_why_and_exits(tmp_path: pathlib.Path) -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    client = tmp_path / "client.json5"
+    client.write_text(f'{{mode: "client", connect: {{endpoints: ["{endpoint}"]}}}}')
+    gateway = await asyncio.create_subprocess_exec(
+        sys.executable, "-m", "aiogenomix.gateway", "--port", "0", "--zenoh-config", str(client),
+        stdin=asyncio.subprocess.DEVNULL, stdout=asyncio.subprocess.DEVNULL, stderr=asyncio.subprocess.PIPE)
+    _, err = await asyncio.wait_for(gateway.communicate(), 60)
+    assert gateway.returncode == 1
+    assert f"no link to {endpoint}: nothing answers there" in err.decode(), err.decode()
