@@ -17,6 +17,7 @@ from ._cues import band_ilds, gcc_phat_itd, third_octave_centres
 from ._errors import BinauralError, HrirError, HrirUnavailable, LocalisationError
 from ._filters import AzimuthFilters, DiffuseFilters, azimuth_filters, diffuse_filters
 from ._glimpses import GlimpseAnalyser, GlimpseParameters, Glimpses, erb_bands
+from ._head_movement import MA_TURN, TurnPlanner, ma_combine, ma_turn, posterior_sum
 from ._hrir_set import HrirSet, wrap_degrees
 from ._interpolation import HorizontalInterpolator
 from ._kemar import KEMAR_RATE, kemar_cache_path, load_kemar
@@ -41,6 +42,8 @@ __all__ = [
     # Several sources
     "SourceLocaliser", "SourcesEstimate", "SourceAzimuth", "RoomAzimuthFilter", "SourceCounting", "pick_sources",
     "mirror_image", "GlimpseAnalyser", "GlimpseParameters", "Glimpses", "erb_bands",
+    # Head movements
+    "TurnPlanner", "ma_turn", "ma_combine", "posterior_sum", "MA_TURN",
     # Active listening
     "TurnableHead", "FrontBackPolicy", "HeadTurnFailed",
     # Cues

@@ -25,7 +25,9 @@ direction explains it and how much it should count:
 4. **Weight** (how much the unit counts), the product of:
    - its level, compressed (power^0.3, as loudness grows), so that quiet units
      count less without loud ones taking all;
-   - its signal-to-noise ratio ρ/(1 + ρ), when the noise was learnt;
+   - its signal-to-noise ratio ρ/(1 + ρ), when the noise was learnt (and the
+     unit's evidence is shared in that proportion with the background: noise
+     alone looks like a source straight ahead or behind);
    - its interaural coherence (Faller & Merimaa, JASA 116(5), 2004), raised to
      a power: |⟨X_L X_R*⟩| / √(⟨|X_L|²⟩⟨|X_R|²⟩) averaged over a few frames
      (recursively, causal) and over the band. One plane wave gives 1;
@@ -101,11 +103,15 @@ class Glimpses:
         log_likelihood: ``(frames, bands, 360)`` head-frame log-likelihoods on the 1° grid (0 at each unit's best).
         weight: ``(frames, bands)`` how much each unit counts (0: not at all).
         power: ``(frames, bands)`` the units' power at the ears (for telling loud sources from quiet ones).
+        reliability: ``(frames, bands)`` the share of each unit that is not noise, ρ/(1 + ρ) for its
+            signal-to-noise ratio ρ (1 when no noise was learnt): the rest of its evidence is the
+            background's (a unit of diffuse noise alone looks like a source straight ahead or behind).
     """
 
     log_likelihood: npt.NDArray[np.float32]
     weight: npt.NDArray[np.float64]
     power: npt.NDArray[np.float64]
+    reliability: npt.NDArray[np.float64] | None = None
 
     @property
     def frames(self) -> int:
@@ -184,18 +190,21 @@ class GlimpseAnalyser:
         match = explained / np.maximum(band_power, 1e-300)[..., np.newaxis]
         log_likelihood = (self._scale[:, np.newaxis] * (match - match.max(axis=-1, keepdims=True))).astype(np.float32)
         on_grid = log_likelihood @ self._spline                                                   # (n, bands, 360)
-        weight = self._weights(left * np.conj(right), auto, power, band_power, noise)
-        return Glimpses(on_grid, weight, band_power)
-
-    def _weights(self, cross: npt.NDArray[np.complex128], auto: npt.NDArray[np.float64],
-                 power: npt.NDArray[np.float64], band_power: npt.NDArray[np.float64],
-                 noise: npt.NDArray[np.float64] | None) -> npt.NDArray[np.float64]:
-        parameters = self.parameters
-        weight = np.maximum(band_power, 1e-300) ** parameters.level_power
+        reliability = None
         if noise is not None:
             noise_band = np.maximum(noise @ self.membership, 1e-300)
             ratio = np.maximum(band_power - noise_band, 0.0) / noise_band
-            weight = weight * ratio / (1.0 + ratio)
+            reliability = ratio / (1.0 + ratio)
+        weight = self._weights(left * np.conj(right), auto, power, band_power, reliability)
+        return Glimpses(on_grid, weight, band_power, reliability)
+
+    def _weights(self, cross: npt.NDArray[np.complex128], auto: npt.NDArray[np.float64],
+                 power: npt.NDArray[np.float64], band_power: npt.NDArray[np.float64],
+                 reliability: npt.NDArray[np.float64] | None) -> npt.NDArray[np.float64]:
+        parameters = self.parameters
+        weight = np.maximum(band_power, 1e-300) ** parameters.level_power
+        if reliability is not None:
+            weight = weight * reliability
         if parameters.coherence_power:
             coherence = self._coherence(cross, auto)
             weight = weight * ((coherence * power) @ self.membership / np.maximum(band_power, 1e-300)) \

@@ -42,7 +42,7 @@ from ._glimpses import Glimpses
 from ._hrir_set import wrap_degrees
 from ._likelihood import GRID_DEGREES
 
-__all__ = ["SourceAzimuth", "RoomAzimuthFilter", "SourceCounting", "pick_sources", "mirror_image"]
+__all__ = ["SourceAzimuth", "RoomAzimuthFilter", "SourceCounting", "pick_sources", "mirror_image", "unit_posteriors"]
 
 _GRID = len(GRID_DEGREES)
 
@@ -54,7 +54,8 @@ class SourceAzimuth:
     Attributes:
         azimuth: Degrees in [-180, 180), in the frame named where it is given (room or head).
         confidence: The share of its region's probability that lies within ±10° of it: its region is
-            the azimuths nearer it than any other source found (about 0.5 for a front/back tie).
+            the azimuths nearer it than any other source found, and the background's share of them
+            (about 0.5 for a front/back tie; low when reverberation or noise explain most there).
         weight: Its share of the mixture (the units it explains), summed over ±10°: the sources'
             weights and the background's make 1.
         power: The share of the glimpses' power it explains (the loudest source has the most).
@@ -96,8 +97,8 @@ def _window_mass(values: npt.NDArray[np.float64], centre: float, width: float = 
 
 
 def pick_sources(weights: npt.NDArray[np.float64], count: int | None, counting: SourceCounting = SourceCounting(),
-                 still_head: float | None = None,
-                 power: npt.NDArray[np.float64] | None = None) -> list[SourceAzimuth]:
+                 still_head: float | None = None, power: npt.NDArray[np.float64] | None = None,
+                 background: float = 0.0) -> list[SourceAzimuth]:
     """The sources among the peaks of a distribution over the 1° grid, strongest first.
 
     Args:
@@ -108,6 +109,7 @@ def pick_sources(weights: npt.NDArray[np.float64], count: int | None, counting: 
         still_head: The azimuth of a head that did not turn (in the same frame), whose front/back
             mirror images are suspect; None when it turned.
         power: ``(360,)`` the glimpses' power each direction explains (for :attr:`SourceAzimuth.power`).
+        background: The background's weight (spread evenly round the circle, it lowers the confidences).
     """
     values = np.asarray(weights, dtype=np.float64)
     local = np.flatnonzero((values >= np.roll(values, 1)) & (values > np.roll(values, -1)))
@@ -136,11 +138,11 @@ def pick_sources(weights: npt.NDArray[np.float64], count: int | None, counting: 
                 break
             if all(abs(float(wrap_degrees(index - c))) >= counting.separation for c in chosen):
                 chosen.append(index)
-    return _described(values, chosen, power)
+    return _described(values, chosen, power, background)
 
 
-def _described(values: npt.NDArray[np.float64], chosen: list[int],
-               power: npt.NDArray[np.float64] | None) -> list[SourceAzimuth]:
+def _described(values: npt.NDArray[np.float64], chosen: list[int], power: npt.NDArray[np.float64] | None,
+               background: float) -> list[SourceAzimuth]:
     if not chosen:
         return []
     peaks = np.array([float(GRID_DEGREES[c]) for c in chosen])
@@ -148,7 +150,8 @@ def _described(values: npt.NDArray[np.float64], chosen: list[int],
     total_power = float(power.sum()) if power is not None else 0.0
     sources = []
     for k, index in enumerate(chosen):
-        region = float(values[nearest == k].sum())
+        inside = nearest == k
+        region = float(values[inside].sum()) + background * float(inside.sum()) / _GRID
         near = _window_mass(values, float(index))
         share = _window_mass(power, float(index)) / total_power if power is not None and total_power > 0 else 0.0
         sources.append(SourceAzimuth(_refined(values, index), near / region if region > 0 else 0.0, near, share))
@@ -201,9 +204,7 @@ class RoomAzimuthFilter:
         head = np.broadcast_to(np.asarray(heads, dtype=np.float64), (glimpses.frames,))
         if glimpses.frames == 0:
             return
-        log_likelihood = glimpses.log_likelihood
-        posterior = np.exp(log_likelihood - log_likelihood.max(axis=-1, keepdims=True))
-        posterior /= posterior.sum(axis=-1, keepdims=True)
+        posterior = unit_posteriors(glimpses)
         room = _to_room(posterior, head).reshape(-1, _GRID)
         weight = glimpses.weight.reshape(-1)
         keep = weight > 0
@@ -282,8 +283,19 @@ class RoomAzimuthFilter:
         """
         if self.frames == 0:
             return []
-        weights, _ = self.distribution()
-        return pick_sources(weights, count, self.counting, self.still_head, self.explained_power())
+        weights, background = self.distribution()
+        return pick_sources(weights, count, self.counting, self.still_head, self.explained_power(), background)
+
+
+def unit_posteriors(glimpses: Glimpses) -> npt.NDArray[np.float64]:
+    """``(frames, bands, 360)`` each unit's head-frame posterior, its unreliable share spread evenly."""
+    log_likelihood = glimpses.log_likelihood
+    posterior = np.exp(log_likelihood - log_likelihood.max(axis=-1, keepdims=True))
+    posterior /= posterior.sum(axis=-1, keepdims=True)
+    if glimpses.reliability is not None:
+        reliability = glimpses.reliability[..., np.newaxis]
+        posterior = reliability * posterior + (1.0 - reliability) / _GRID
+    return np.asarray(posterior)
 
 
 def _to_room(posterior: npt.NDArray[np.float64], heads: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:

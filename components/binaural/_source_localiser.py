@@ -126,8 +126,10 @@ class SourceLocaliser(FrameAnalysis):
                                         self._noise_power())
                   for start in range(0, count, self.batch) for take in [min(self.batch, count - start)]]
         self.analyser.reset()
+        reliable = [p.reliability for p in pieces if p.reliability is not None]
         glimpses = Glimpses(np.concatenate([p.log_likelihood for p in pieces]),
-                            np.concatenate([p.weight for p in pieces]), np.concatenate([p.power for p in pieces]))
+                            np.concatenate([p.weight for p in pieces]), np.concatenate([p.power for p in pieces]),
+                            np.concatenate(reliable) if len(reliable) == len(pieces) else None)
         return glimpses, np.arange(count) * hop + frame // 2
 
     def localise(self, audio: npt.ArrayLike, heads: npt.ArrayLike | None = None,
