@@ -12,7 +12,7 @@ COPY clients ./clients
 COPY components ./components
 COPY remote ./remote
 COPY record ./record
-RUN pip install --no-cache-dir ".[audio]"
+RUN pip install --no-cache-dir ".[audio,sofa]"
 
 # 8080: the genomix HTTP protocol; 8081: the dedicated audio socket.
 EXPOSE 8080 8081

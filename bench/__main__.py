@@ -17,8 +17,8 @@ import time
 from typing import Any
 
 from . import (
-    budgets, fanout, instructions, load, localisation, memory, port_read, profile, record, remote, service, sessions,
-    soak, sse_clients, world,
+    budgets, fanout, instructions, load, localisation, memory, port_read, profile, record, remote, rooms, service,
+    sessions, soak, sse_clients, world,
 )
 from ._common import ROOT
 from ._report import render
@@ -37,6 +37,7 @@ BENCHMARKS = {
     "sessions": (sessions.run, {"sessions": 15_000, "sample": 500}, {"sessions": 1_000, "sample": 100}),
     "budgets": (budgets.run, {}, {"clients": 8, "chunks": 40, "seconds": 2.0, "rounds": 1, "size": "256x256"}),
     "localisation": (localisation.run, {"seconds": 5.0, "rounds": 7}, {"seconds": 1.0, "rounds": 2}),
+    "rooms": (rooms.run, {"seconds": 4.0, "rounds": 5, "repeats": 9}, {"seconds": 1.0, "rounds": 1, "repeats": 3}),
     "record": (record.run, {"seconds": 600.0, "block": 20.0, "blocks": 6, "http_seconds": 120.0},
                {"seconds": 20.0, "block": 4.0, "blocks": 2, "http_seconds": 8.0}),
     # Not in a quick run: starting the gateway under valgrind alone takes half a minute.

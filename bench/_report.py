@@ -123,6 +123,7 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     from .localisation import render as localisation_section
     from .record import render as record_section
     from .remote import render as remote_section
+    from .rooms import render as rooms_section
     from .sessions import render as sessions_section
     from .sse_clients import render as sse_section
     from .world import render as world_section
@@ -133,7 +134,7 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
                 ("soak", _soak), ("memory", _memory), ("world", world_section), ("remote", remote_section),
                 ("sse_clients", sse_section), ("sessions", sessions_section), ("budgets", budgets_section),
                 ("record", record_section), ("instructions", instructions_section),
-                ("localisation", localisation_section)]
+                ("localisation", localisation_section), ("rooms", rooms_section)]
     for name, section in sections:
         if name in results:
             out.append(_dated(section(results[name]), results[name].get("measured")))

@@ -7,7 +7,9 @@
   python-can keeps its interfaces: a capture loads the sound library it uses, no other.
 * **Simulated scenes**: sources rendered at a head that turns with the :class:`HeadAzimuth` some
   component provides: through the measured KEMAR HRIRs by default (:class:`KemarSceneRenderer`, on
-  :mod:`aiogenomix.components.binaural`), or a spherical head by name (:class:`SphericalHeadRenderer`).
+  :mod:`aiogenomix.components.binaural`), another head's (``snowman``, a SOFA file), or a spherical
+  head by name (:class:`SphericalHeadRenderer`); in metres, in a shoebox room, with WAV talkers
+  (:class:`RoomSceneRenderer`).
 * **The chunk window** of the newest chunks (:class:`ChunkWindow`), read whole or incrementally.
 * **The dedicated sockets**: a line server (:class:`LineServer`, :class:`LastReply`) and the
   2014 protocol (``Read Port - Index <k>``, :class:`DedicatedSocketServer`).
@@ -15,8 +17,8 @@
 """
 
 from ._backend import (
-    BACKENDS, Azimuth, CaptureBackend, Chunk, PacedBackend, SourceAzimuths, SourceOptions, backend_class,
-    open_backend, split_device,
+    BACKENDS, Azimuth, CaptureBackend, Chunk, ListenerPosition, PacedBackend, SourceAzimuths, SourceOptions,
+    backend_class, open_backend, split_device,
 )
 from ._capabilities import HeadAzimuth, SoundScene, open_for_host, prepare_for_host
 from ._devices import list_capture_devices
@@ -27,6 +29,7 @@ from ._head_model import SphericalHeadRenderer, woodworth_itd
 from ._limits import MAX_FRAMES_PER_CHUNK, RATE_RANGE
 from ._renderers import KemarSceneRenderer, SceneRenderer, prepare_kemar, scene_renderer
 from ._line_server import CLOSE, TOKEN_PREFIX, Conversation, LastReply, LineServer, split_lines
+from ._room_scene import MeasuredSceneRenderer, RoomSceneRenderer, listener_of, shoebox_of
 from ._scene import DEFAULT_SCENE, Scene, Source, load_scene
 from ._socket_ports import SocketPorts
 from ._socket_server import DEFAULT_PORT, DedicatedSocketServer
@@ -35,7 +38,8 @@ from ._window import ChunkWindow, WindowRead, WindowState
 
 __all__ = [
     # Backends
-    "CaptureBackend", "PacedBackend", "Chunk", "SourceOptions", "Azimuth", "SourceAzimuths", "BACKENDS",
+    "CaptureBackend", "PacedBackend", "Chunk", "SourceOptions", "Azimuth", "SourceAzimuths", "ListenerPosition",
+    "BACKENDS",
     "backend_class",
     "open_backend", "open_for_host", "prepare_for_host", "split_device", "list_capture_devices",
     # What a simulated scene takes from the components around it, by type
@@ -44,7 +48,8 @@ __all__ = [
     "RATE_RANGE", "MAX_FRAMES_PER_CHUNK",
     # Simulated scenes
     "Scene", "Source", "DEFAULT_SCENE", "load_scene", "SceneRenderer", "scene_renderer", "KemarSceneRenderer",
-    "prepare_kemar", "SphericalHeadRenderer", "woodworth_itd",
+    "prepare_kemar", "SphericalHeadRenderer", "woodworth_itd", "RoomSceneRenderer", "MeasuredSceneRenderer",
+    "shoebox_of", "listener_of",
     # The chunk window
     "ChunkWindow", "WindowRead", "WindowState",
     # The dedicated sockets

@@ -32,13 +32,15 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Chunk", "CaptureBackend", "PacedBackend", "SourceOptions", "BACKENDS", "backend_class", "open_backend",
-    "split_device", "Azimuth", "SourceAzimuths",
+    "split_device", "Azimuth", "SourceAzimuths", "ListenerPosition",
 ]
 
 #: A callable giving the current head azimuth in degrees (positive to the left).
 Azimuth = Callable[[], float]
 #: A callable giving the sources' room azimuths now, in degrees (a listener that moves through a room).
 SourceAzimuths = Callable[[], Sequence[float]]
+#: A callable giving where the listening head's centre is now: (x, y, z) in the room frame, metres.
+ListenerPosition = Callable[[], Sequence[float]]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -51,12 +53,14 @@ class SourceOptions:
             ``--audio-files``); None allows any path (a host built in code).
         scene: The scene of plain ``sim`` (None: :data:`DEFAULT_SCENE`).
         source_azimuths: The room azimuths of *scene*'s sources now (None: the scene's, fixed).
+        listener: Where the head of *scene* is now, metres (None: the scene's listener).
     """
 
     azimuth: Azimuth | None = None
     roots: Sequence[str] | None = None
     scene: Scene | None = None
     source_azimuths: SourceAzimuths | None = None
+    listener: ListenerPosition | None = None
 
 
 @dataclasses.dataclass(frozen=True)

@@ -14,7 +14,9 @@ from collections.abc import Callable
 
 from ..core import Clock, ComponentHost
 from ..recording import replay_roots
-from ._backend import Azimuth, CaptureBackend, SourceAzimuths, SourceOptions, backend_class, split_device
+from ._backend import (
+    Azimuth, CaptureBackend, ListenerPosition, SourceAzimuths, SourceOptions, backend_class, split_device,
+)
 from ._errors import DeviceError
 from ._scene import Scene
 
@@ -42,11 +44,14 @@ class SoundScene:
         scene: The scene (a scene file, ``sim:PATH``, still wins).
         azimuths: For a listener that moves through the room (a robot's base), the sources' room
             azimuths now, in degrees, one per source of *scene*; read at every chunk, from any
-            thread.  None: the scene's azimuths, fixed.
+            thread.  None: the scene's azimuths, fixed.  A scene in metres ignores them.
+        listener: For a scene in metres, where the robot's head is now: (x, y, z) in the room
+            frame, metres; read at every chunk, from any thread.  None: the scene's listener.
     """
 
     scene: Scene
     azimuths: SourceAzimuths | None = None
+    listener: ListenerPosition | None = None
 
 
 def open_for_host(host: ComponentHost, device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
@@ -69,16 +74,17 @@ def open_for_host(host: ComponentHost, device: str, rate: int, frames_per_chunk:
     kind, argument = split_device(device)
     scene = None
     source_azimuths = None
+    listener = None
     if kind == "sim":
         if azimuth is None:
             azimuth = _follow(host)
         provided = host.find(SoundScene)
         if provided is not None:
-            scene, source_azimuths = provided.scene, provided.azimuths
+            scene, source_azimuths, listener = provided.scene, provided.azimuths, provided.listener
     else:
         azimuth = None  # real microphones hear the real room
     options = SourceOptions(azimuth=azimuth, roots=_file_roots(host, kind), scene=scene,
-                            source_azimuths=source_azimuths)
+                            source_azimuths=source_azimuths, listener=listener)
     return backend_class(kind).for_device(device, argument, rate, frames_per_chunk, clock, options)
 
 

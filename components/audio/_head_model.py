@@ -29,6 +29,7 @@ gives a smooth signal.  Two facts keep this vectorised:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -138,8 +139,8 @@ class SphericalHeadRenderer:
         """The head azimuth at the end of the last chunk (None before the first)."""
         return self._head
 
-    def render(self, count: int, head_azimuth: float,
-               source_azimuths: npt.ArrayLike | None = None) -> npt.NDArray[np.int32]:
+    def render(self, count: int, head_azimuth: float, source_azimuths: npt.ArrayLike | None = None,
+               listener: Sequence[float] | None = None) -> npt.NDArray[np.int32]:
         """Render the next *count* frames while the head moves to *head_azimuth*.
 
         Args:
@@ -149,14 +150,15 @@ class SphericalHeadRenderer:
                 short way round.
             source_azimuths: The sources' room azimuths at the end of these frames
                 (None: as before; at first, the scene's).
+            listener: Ignored: the sphere hears azimuths only.
 
         Returns:
             ``(count, 2)`` int32 frames, left then right.
         """
         return to_int32(self.render_float(count, head_azimuth, source_azimuths))
 
-    def render_float(self, count: int, head_azimuth: float,
-                     source_azimuths: npt.ArrayLike | None = None) -> npt.NDArray[np.float64]:
+    def render_float(self, count: int, head_azimuth: float, source_azimuths: npt.ArrayLike | None = None,
+                     listener: Sequence[float] | None = None) -> npt.NDArray[np.float64]:
         """Like :meth:`render`, as float frames in [-1, 1) full scale."""
         if source_azimuths is not None:
             # The delays and shadows move from their values at the previous block's end to these.

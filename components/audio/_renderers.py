@@ -11,6 +11,7 @@ gives no click.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Protocol
 
 import numpy as np
@@ -33,8 +34,8 @@ class SceneRenderer(Protocol):
     def frames_rendered(self) -> int:
         """Frames rendered so far."""
 
-    def render(self, count: int, head_azimuth: float,
-               source_azimuths: npt.ArrayLike | None = None) -> npt.NDArray[np.int32]:
+    def render(self, count: int, head_azimuth: float, source_azimuths: npt.ArrayLike | None = None,
+               listener: Sequence[float] | None = None) -> npt.NDArray[np.int32]:
         """The next *count* frames as S32 samples ``(count, 2)``, left then right.
 
         Args:
@@ -42,11 +43,13 @@ class SceneRenderer(Protocol):
             head_azimuth: Head azimuth in the room at the end of these frames (degrees,
                 positive to the left).
             source_azimuths: The sources' room azimuths at the end of these frames
-                (None: as before; at first, the scene's).
+                (None: as before; at first, the scene's). Scenes in metres ignore them.
+            listener: The head's centre at the end of these frames, room frame, metres (None:
+                the scene's listener). Only scenes in metres use it.
         """
 
-    def render_float(self, count: int, head_azimuth: float,
-                     source_azimuths: npt.ArrayLike | None = None) -> npt.NDArray[np.float64]:
+    def render_float(self, count: int, head_azimuth: float, source_azimuths: npt.ArrayLike | None = None,
+                     listener: Sequence[float] | None = None) -> npt.NDArray[np.float64]:
         """Like :meth:`render`, as float frames with full scale 1."""
 
 
@@ -92,13 +95,13 @@ class KemarSceneRenderer:
         """The head azimuth at the end of the last block (None before the first)."""
         return self.renderer.head_azimuth
 
-    def render(self, count: int, head_azimuth: float,
-               source_azimuths: npt.ArrayLike | None = None) -> npt.NDArray[np.int32]:
+    def render(self, count: int, head_azimuth: float, source_azimuths: npt.ArrayLike | None = None,
+               listener: Sequence[float] | None = None) -> npt.NDArray[np.int32]:
         """The next *count* frames as S32 samples (see :meth:`SceneRenderer.render`)."""
         return to_int32(self.render_float(count, head_azimuth, source_azimuths))
 
-    def render_float(self, count: int, head_azimuth: float,
-                     source_azimuths: npt.ArrayLike | None = None) -> npt.NDArray[np.float64]:
+    def render_float(self, count: int, head_azimuth: float, source_azimuths: npt.ArrayLike | None = None,
+                     listener: Sequence[float] | None = None) -> npt.NDArray[np.float64]:
         """The next *count* frames with full scale 1 (see :meth:`SceneRenderer.render`)."""
         if source_azimuths is not None:
             self._azimuths = np.asarray(source_azimuths, dtype=np.float64).reshape(len(self._signals))
@@ -106,16 +109,34 @@ class KemarSceneRenderer:
         return self.renderer.render(dry, head_azimuth, self._azimuths)
 
 
-def scene_renderer(scene: Scene, rate: int, *, hrirs: HrirSet | None = None) -> SceneRenderer:
-    """The renderer the scene names: ``kemar`` (measured HRIRs) or ``spherical`` (a rigid sphere).
+def scene_renderer(scene: Scene, rate: int, *, hrirs: HrirSet | None = None,
+                   roots: Sequence[str] | None = None) -> SceneRenderer:
+    """The renderer of a scene: in metres (:class:`RoomSceneRenderer`), else through HRIRs, else the sphere.
+
+    Blocks on the disk (a scene's WAV and SOFA files) and tabulates filters: call it off the event loop.
 
     Args:
         scene: The scene.
         rate: Sample rate in Hz.
-        hrirs: For ``kemar``, another measured set than the MIT KEMAR one.
+        hrirs: For a scene of azimuths, another set than the scene's head's (a test's).
+        roots: The directories a scene's WAV and SOFA files may come from (None: anywhere).
+
+    Raises:
+        SceneError: for a scene file's WAV or SOFA file that cannot be used.
+        BinauralError: when the KEMAR's HRIRs are unavailable.
     """
     if scene.head == "spherical":
         return SphericalHeadRenderer(scene, rate)
+    if scene.placed:
+        from ._room_scene import MeasuredSceneRenderer, RoomSceneRenderer, measured
+
+        if measured(scene):
+            return MeasuredSceneRenderer(scene, rate, roots=roots)
+        return RoomSceneRenderer(scene, rate, roots=roots)
+    if hrirs is None and (scene.hrtf is not None or scene.head != "kemar"):
+        from ._room_scene import scene_hrirs
+
+        hrirs = scene_hrirs(scene, roots)
     return KemarSceneRenderer(scene, rate, hrirs=hrirs)
 
 

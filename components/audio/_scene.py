@@ -4,16 +4,21 @@ A scene file is JSON (every key optional)::
 
     {
       "seed": 7,                       # base seed; source i defaults to seed + i
-      "head": "kemar",                 # "kemar" (measured HRIRs, the default) or "spherical"
+      "head": "kemar",                 # "kemar" (measured HRIRs, the default), "snowman" or "spherical"
+      "hrtf": "subject.sofa",          # a SOFA file (SimpleFreeFieldHRIR) to hear through instead of "head"
       "diffuse_level": -20,            # dB of a diffuse noise field re the sources' total dry power, or null
       "noise_floor": -80,              # dBFS of uncorrelated noise per ear, or null
       "head_radius": 0.0875,           # metres (the spherical head only)
-      "speed_of_sound": 343.0,         # metres per second (the spherical head only)
+      "speed_of_sound": 343.0,         # metres per second
+      "room": {"dimensions": [6, 4, 3], "rt60": 0.5},       # or "absorption": see _room_scene
+      "listener": {"x": 3, "y": 2, "z": 1.5, "facing": 0},  # where the head is, when no robot says
       "sources": [
         {"type": "noise",  "azimuth": 30,  "level": -26},
         {"type": "tone",   "azimuth": -60, "level": -30, "frequency": 500},
         {"type": "clicks", "azimuth": 120, "level": -12, "rate": 2},
-        {"type": "speech", "azimuth": 150, "level": -26, "onset": 2}
+        {"type": "speech", "azimuth": 150, "distance": 2, "level": -26, "onset": 2, "voice": "female"},
+        {"type": "file",   "file": "talker.wav", "position": [1, 1, 1.6], "loop": false},
+        {"type": "speech", "path": {"waypoints": [[1, 1, 1.6], [5, 1, 1.6]], "speed": 0.5}}
       ]
     }
 
@@ -53,11 +58,11 @@ from ._errors import SceneError
 
 __all__ = ["Scene", "Source", "SourceKind", "HeadModel", "load_scene", "DEFAULT_SCENE", "SourceSignal"]
 
-SourceKind = Literal["noise", "tone", "clicks", "speech"]
-_KINDS = ("noise", "tone", "clicks", "speech")
-#: The renderers of a scene, by name.
-HeadModel = Literal["kemar", "spherical"]
-_HEADS = ("kemar", "spherical")
+SourceKind = Literal["noise", "tone", "clicks", "speech", "file"]
+_KINDS = ("noise", "tone", "clicks", "speech", "file")
+#: The heads of a scene, by name: two sets of HRIRs and the rigid sphere renderer.
+HeadModel = Literal["kemar", "snowman", "spherical"]
+_HEADS = ("kemar", "snowman", "spherical")
 #: Seconds of speech-like signal generated once per source and played in a loop.
 _SPEECH_LOOP = 8.0
 
@@ -67,14 +72,24 @@ class Source:
     """One fixed virtual source.
 
     Attributes:
-        type: ``noise`` (white, Gaussian), ``tone`` (a sine), ``clicks`` (one-sample impulses) or
-            ``speech`` (a speech-like signal: voiced syllables with formants, pauses and fricatives).
+        type: ``noise`` (white, Gaussian), ``tone`` (a sine), ``clicks`` (one-sample impulses),
+            ``speech`` (a speech-like signal: voiced syllables with formants, pauses and fricatives) or
+            ``file`` (a WAV file's samples, its channels mixed, resampled to the capture's rate).
         azimuth: Direction in the room, degrees, positive to the left of 0°.
-        level: dB re full scale (RMS for noise, tones and speech; peak for clicks).
+        level: dB re full scale (RMS for noise, tones, speech and files; peak for clicks); 1 m away
+            when the scene is in metres.
         frequency: Tone frequency in Hz.
         rate: Clicks per second.
         seed: Noise or speech seed (None: the scene seed plus the source's position in the list).
         onset: Seconds of silence before the source starts.
+        elevation: Degrees above the listener's ears (with *azimuth* and *distance*).
+        distance: Metres from the listener (with *azimuth* and *elevation*).
+        position: (x, y, z) in the room frame, metres (instead of azimuth, elevation and distance).
+        path: Waypoints walked at a speed: ``{"waypoints": [[x, y, z], ...], "speed": m/s, "loop": false}``.
+        file: The WAV file of a ``file`` source.
+        loop: Play a file (or the speech) again and again; false plays it once.
+        voice: The speech's voice: ``male``, ``female`` or ``child``.
+        emitter: In a measured room (``"room": {"sofa": FILE}``), the loudspeaker the source plays from.
     """
 
     type: SourceKind = "noise"
@@ -84,6 +99,20 @@ class Source:
     rate: float = 2.0
     seed: int | None = None
     onset: float = 0.0
+    elevation: float = 0.0
+    distance: float | None = None
+    position: tuple[float, float, float] | None = None
+    path: Mapping[str, Any] | None = None
+    file: str | None = None
+    loop: bool = True
+    voice: str = "male"
+    emitter: int | None = None
+
+    @property
+    def placed(self) -> bool:
+        """Whether the source is placed in a room: a position, a distance, an elevation, a path or an emitter."""
+        return (self.position is not None or self.distance is not None or self.path is not None
+                or self.elevation != 0 or self.emitter is not None)
 
     def power(self, rate: float) -> float:
         """The source's mean power once it has started (full scale 1), at *rate* Hz."""
@@ -100,12 +129,19 @@ class Scene:
     Attributes:
         sources: The virtual sources.
         seed: Base seed of the noise sources, the diffuse field and the sensor noise.
-        head: The renderer: ``kemar`` (measured HRIRs) or ``spherical`` (a rigid sphere).
+        head: The head: ``kemar`` (measured HRIRs), ``snowman`` (a sphere on a torso, computed: a head the
+            localiser's templates do not come from) or ``spherical`` (the rigid sphere renderer).
         diffuse_level: Power of a diffuse noise field at the ears in dB relative to the sources'
             total dry power (their power at the ears straight ahead), or None for none (``kemar`` only).
         noise_floor: dBFS RMS of independent noise added at each ear, or None.
         head_radius: Sphere radius in metres (``spherical`` only).
-        speed_of_sound: In metres per second (``spherical`` only).
+        speed_of_sound: In metres per second.
+        hrtf: A SOFA file to hear through (instead of *head*'s HRIRs), relative to the scene file.
+        room: The shoebox: ``dimensions``, ``absorption`` or ``rt60``, ``origin``, ``max_order``,
+            ``mixing_time`` (:func:`~._room_scene.shoebox_of`); or a measured room, ``{"sofa": FILE}``
+            (binaural room impulse responses with head orientations), each source at a loudspeaker (``emitter``).
+        listener: Where the head is when no robot says: ``x``, ``y``, ``z`` (m) and ``facing`` (°).
+        base: The directory of the scene file (relative files are found there); not a JSON key.
     """
 
     sources: tuple[Source, ...] = ()
@@ -115,6 +151,15 @@ class Scene:
     noise_floor: float | None = None
     head_radius: float = 0.0875
     speed_of_sound: float = 343.0
+    hrtf: str | None = None
+    room: Mapping[str, Any] | None = None
+    listener: Mapping[str, float] | None = None
+    base: str | None = None
+
+    @property
+    def placed(self) -> bool:
+        """Whether the scene is in metres (a room, a listener, or a placed source): see :mod:`._room_scene`."""
+        return self.room is not None or self.listener is not None or any(s.placed for s in self.sources)
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Scene:
@@ -125,7 +170,7 @@ class Scene:
         """
         if not isinstance(data, Mapping):
             raise SceneError("a scene is a JSON object")
-        known = {f.name for f in dataclasses.fields(cls)}
+        known = {f.name for f in dataclasses.fields(cls)} - {"base"}
         unknown = set(data) - known
         if unknown:
             raise SceneError(f"unknown scene key {sorted(unknown)[0]!r} (keys: {', '.join(sorted(known))})")
@@ -139,7 +184,10 @@ class Scene:
             if raw.get("type", "noise") not in _KINDS:
                 raise SceneError(f"sources[{i}].type must be one of {', '.join(_KINDS)}, not {raw['type']!r}")
             try:
-                sources.append(Source(**raw))
+                fields_ = dict(raw)
+                if isinstance(fields_.get("position"), list):
+                    fields_["position"] = tuple(fields_["position"])
+                sources.append(Source(**fields_))
             except TypeError as exc:
                 raise SceneError(f"sources[{i}]: {exc}") from None
         scene = cls(sources=tuple(sources), **{k: v for k, v in data.items() if k != "sources"})
@@ -166,8 +214,18 @@ class Scene:
                 raise SceneError("the diffuse field is rendered through the measured HRIRs: use head \"kemar\"")
             if not self.sources:
                 raise SceneError("diffuse_level is relative to the sources' power: the scene has no source")
+        if self.hrtf is not None and (not isinstance(self.hrtf, str) or self.head == "spherical"):
+            raise SceneError("hrtf names a SOFA file (a string), heard instead of a head's HRIRs (not the sphere's)")
+        if self.placed:
+            from ._room_scene import check_placed
+
+            check_placed(self)
         for i, source in enumerate(self.sources):
-            values = (source.azimuth, source.level, source.frequency, source.rate, source.onset)
+            if source.type == "file" and not isinstance(source.file, str):
+                raise SceneError(f"sources[{i}] is a file source: give its WAV file as \"file\"")
+            if not isinstance(source.loop, bool) or source.voice not in ("male", "female", "child"):
+                raise SceneError(f"sources[{i}]: loop is true or false, voice male, female or child")
+            values = (source.azimuth, source.level, source.frequency, source.rate, source.onset, source.elevation)
             if not all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in values):
                 raise SceneError(f"sources[{i}] has a value that is not a finite number")
             if source.onset < 0:
@@ -210,7 +268,7 @@ def load_scene(path: str | os.PathLike[str], *, shown: str | None = None) -> Sce
         description = json.loads(data)
     except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
         raise SceneError(f"scene file {name!r} is not JSON: {exc}") from exc
-    return Scene.from_dict(description)
+    return dataclasses.replace(Scene.from_dict(description), base=os.path.dirname(os.path.abspath(path)))
 
 
 class SourceSignal:
@@ -223,9 +281,11 @@ class SourceSignal:
         source: What to generate.
         rate: Sample rate in Hz.
         seed: Seed of a noise source.
+        samples: The samples of a ``file`` source at *rate* (read by :func:`~._room_scene.read_wav`).
     """
 
-    def __init__(self, source: Source, rate: int, seed: int) -> None:
+    def __init__(self, source: Source, rate: int, seed: int,
+                 samples: npt.NDArray[np.float64] | None = None) -> None:
         self.source = source
         self.rate = rate
         self.amplitude = 10.0 ** (source.level / 20.0)
@@ -238,7 +298,12 @@ class SourceSignal:
         if source.type == "speech":
             from ..binaural import speech_like
 
-            self._speech = self.amplitude * speech_like(_SPEECH_LOOP, rate, self._rng)
+            self._speech = self.amplitude * speech_like(_SPEECH_LOOP, rate, self._rng, voice=source.voice)
+        elif source.type == "file":
+            if samples is None:
+                raise SceneError(f"the file source {source.file!r} was not read")
+            rms = float(np.sqrt(np.mean(samples**2))) if len(samples) else 0.0
+            self._speech = self.amplitude * samples / rms if rms > 0 else np.zeros(max(1, len(samples)))
 
     def next(self, count: int) -> npt.NDArray[np.float64]:
         """The next *count* samples (zeros before the onset)."""
@@ -255,7 +320,12 @@ class SourceSignal:
         if kind == "noise":
             return self.amplitude * self._rng.standard_normal(count)
         if self._speech is not None:
-            return np.take(self._speech, np.arange(start, start + count), mode="wrap")
+            if self.source.loop:
+                return np.take(self._speech, np.arange(start, start + count), mode="wrap")
+            played = np.zeros(count)
+            inside = self._speech[start:start + count]
+            played[:len(inside)] = inside
+            return played
         n = np.arange(start, start + count, dtype=np.int64)
         if kind == "tone":
             # Reduce the phase modulo one period in exact integer arithmetic first,

@@ -11,7 +11,7 @@ import numpy.typing as npt
 
 from ..binaural import BinauralError
 from ..core import Clock
-from ._backend import Azimuth, PacedBackend, SourceAzimuths, SourceOptions
+from ._backend import Azimuth, ListenerPosition, PacedBackend, SourceAzimuths, SourceOptions
 from ._errors import BackendUnavailable
 from ._paths import confined_path
 from ._renderers import SceneRenderer, scene_renderer
@@ -41,6 +41,7 @@ class SimulatedSceneBackend(PacedBackend):
         azimuth: The head azimuth in degrees (default: always 0°).
         roots: The directories a scene file may come from (None: anywhere).
         source_azimuths: The sources' room azimuths now, degrees (None: the scene's, fixed).
+        listener: Where the head's centre is now, metres (None: the scene's listener); scenes in metres.
 
     The scene file is read and the renderer built (its filters tabulated) by :meth:`open`,
     off the event loop and with simulated time held still; the capture's clock starts before.
@@ -55,13 +56,15 @@ class SimulatedSceneBackend(PacedBackend):
         provided = None if argument else options.scene
         return cls(device, rate, frames_per_chunk, clock, scene_file=argument or None, scene=provided,
                    azimuth=options.azimuth, roots=options.roots,
-                   source_azimuths=options.source_azimuths if provided is not None else None)
+                   source_azimuths=options.source_azimuths if provided is not None else None,
+                   listener=options.listener if provided is not None else None)
 
     def __init__(self, device: str, rate: int, frames_per_chunk: int, clock: Clock, *,
                  scene_file: str | None = None, scene: Scene | None = None,
                  azimuth: Azimuth | None = None, roots: Sequence[str] | None = None,
-                 source_azimuths: SourceAzimuths | None = None) -> None:
+                 source_azimuths: SourceAzimuths | None = None, listener: ListenerPosition | None = None) -> None:
         super().__init__(device, rate, frames_per_chunk, clock)
+        self.listener = listener
         self.scene_file = scene_file
         self.scene = scene if scene is not None else (None if scene_file else DEFAULT_SCENE)
         self.azimuth = azimuth or _facing_front
@@ -89,11 +92,12 @@ class SimulatedSceneBackend(PacedBackend):
             assert self.scene_file is not None
             self.scene = load_scene(confined_path(self.scene_file, self._roots), shown=self.scene_file)
         try:
-            return scene_renderer(self.scene, self.rate)
+            return scene_renderer(self.scene, self.rate, roots=self._roots)
         except BinauralError as exc:
             raise BackendUnavailable(f"the simulated KEMAR cannot hear: {exc}") from exc
 
     def _produce(self, count: int) -> npt.NDArray[np.int32]:
         assert self.renderer is not None, "read before open"
         sources = self.source_azimuths() if self.source_azimuths is not None else None
-        return self.renderer.render(count, float(self.azimuth()), sources)
+        listener = self.listener() if self.listener is not None else None
+        return self.renderer.render(count, float(self.azimuth()), sources, listener)

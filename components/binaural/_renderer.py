@@ -24,6 +24,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
+from ._directions import DirectionFilters, direction_filters
 from ._errors import HrirError
 from ._filters import azimuth_filters, diffuse_filters
 from ._hrir_set import HrirSet, wrap_degrees
@@ -62,13 +63,16 @@ class BinauralRenderer:
         hrirs = hrirs if hrirs is not None else load_kemar()
         self.rate = float(rate)
         self.sources = sources
+        self.hrirs = hrirs
         self.filters = azimuth_filters(hrirs, self.rate, resolution)
+        self._directions: DirectionFilters | None = None
         self.n_fft = self.filters.n_fft
         self._keep = self.filters.taps - 1                       # input history overlap-save needs
         self.block = self.n_fft - self._keep                     # frames per sub-block
         self._history = np.zeros((sources, self._keep))
         self._head: float | None = None
         self._azimuths: npt.NDArray[np.float64] | None = None
+        self._elevations = np.zeros(sources)
         self._rng = np.random.default_rng(seed)
         self._diffuse = None
         self._diffuse_history = np.zeros((0, self._keep))
@@ -84,8 +88,8 @@ class BinauralRenderer:
         """The head azimuth at the end of the last block (degrees; None before the first)."""
         return self._head
 
-    def render(self, dry: npt.ArrayLike, head_azimuth: float,
-               source_azimuths: npt.ArrayLike | None = None) -> npt.NDArray[np.float64]:
+    def render(self, dry: npt.ArrayLike, head_azimuth: float, source_azimuths: npt.ArrayLike | None = None,
+               source_elevations: npt.ArrayLike | None = None) -> npt.NDArray[np.float64]:
         """Render the next block.
 
         Args:
@@ -95,6 +99,10 @@ class BinauralRenderer:
             source_azimuths: ``(sources,)`` room azimuths at the end of the block
                 (degrees, positive to the left); None keeps the previous ones (required
                 on the first call when there are sources).
+            source_elevations: ``(sources,)`` elevations at the end of the block relative to the ears'
+                horizontal plane, degrees, positive up (moving linearly from the previous block's);
+                None keeps the previous ones (at first, 0°). Elevations other than 0° are heard
+                through :class:`~._directions.DirectionFilters`.
 
         Returns:
             ``(frames, 2)`` float samples, left then right.
@@ -112,6 +120,12 @@ class BinauralRenderer:
             azimuth_end = self._azimuths if self._azimuths is not None else np.zeros(0)
         else:
             raise HrirError("the first block needs the sources' azimuths")
+        elevation_start = self._elevations
+        if source_elevations is not None:
+            self._elevations = np.asarray(source_elevations, dtype=np.float64).reshape(self.sources)
+            if self._head is None:
+                elevation_start = self._elevations
+        elevation_end = self._elevations
         head_start = self._head if self._head is not None else head_end
         azimuth_start = self._azimuths if self._azimuths is not None else azimuth_end
         head_step = float(_short_way(np.asarray(head_start), np.asarray(head_end)))
@@ -127,16 +141,20 @@ class BinauralRenderer:
         fraction = np.concatenate([[0.0], ends / frames])
         relative = (azimuth_start[:, np.newaxis] + azimuth_step[:, np.newaxis] * fraction
                     - (head_start + head_step * fraction))                                   # (sources, count + 1)
-        moving = head_step != 0.0 or bool(np.any(azimuth_step != 0.0))
+        moving = (head_step != 0.0 or bool(np.any(azimuth_step != 0.0))
+                  or bool(np.any(elevation_end != elevation_start)))
+        elevated = bool(np.any(elevation_start != 0.0) or np.any(elevation_end != 0.0))
+        elevation = (elevation_start[:, np.newaxis] + (elevation_end - elevation_start)[:, np.newaxis] * fraction
+                     if elevated else None)
 
         spectra = self._segments(signals, count, self._history)                              # (src, count, bins)
         self._history = self._advance(self._history, signals)
         if moving:
-            filters = self.filters.at(relative)                                              # (src, count+1, 2, bins)
+            filters = self._filters_at(relative, elevation)                                  # (src, count+1, 2, bins)
             start = np.einsum("skf,skef->kef", spectra, filters[:, :-1])
             end = np.einsum("skf,skef->kef", spectra, filters[:, 1:])
         else:
-            filters = self.filters.at(relative[:, 0])                                        # (src, 2, bins)
+            filters = self._filters_at(relative[:, 0], None if elevation is None else elevation[:, 0])  # (src, 2, bins)
             start = np.einsum("skf,sef->kef", spectra, filters)
             end = start
         if self._diffuse is not None:
@@ -154,6 +172,15 @@ class BinauralRenderer:
             out += self._sensor * self._rng.standard_normal((frames, 2))
         self.frames_rendered += frames
         return out
+
+    def _filters_at(self, azimuths: npt.NDArray[np.float64],
+                    elevations: npt.NDArray[np.float64] | None) -> npt.NDArray[np.complex128]:
+        """The filters at head azimuths (and elevations, if any is not 0°) of one shape."""
+        if elevations is None:
+            return self.filters.at(azimuths)
+        if self._directions is None:
+            self._directions = direction_filters(self.hrirs, self.rate)
+        return self._directions.at(azimuths, elevations)
 
     def _segments(self, signals: npt.NDArray[np.float64], count: int,
                   history: npt.NDArray[np.float64]) -> npt.NDArray[np.complex128]:

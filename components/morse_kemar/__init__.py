@@ -2,9 +2,10 @@
 
 As in the seed, it writes speed commands on ``RobotMotion`` (a Twist, angular.z in rad/s) and reads the
 head's pose on ``RobotPose``; its services take degrees and deg/s, positive to the left, like ``kemar``.
-While it is loaded, a capture of the simulated scene hears the world's sound-source markers, from where
-its KEMAR stands, turning with its head (it provides the host's ``HeadAzimuth`` and ``SoundScene``), and
-active listening may turn its head (it provides a ``TurnableHead``).
+While it is loaded, a capture of the simulated scene hears the world's sound-source markers in the world's
+room (its walls' reflections and reverberation), from where its KEMAR stands, turning with its head (it
+provides the host's ``HeadAzimuth`` and ``SoundScene``), and active listening may turn its head (it
+provides a ``TurnableHead``).
 """
 
 from __future__ import annotations
@@ -15,7 +16,9 @@ from typing import Annotated
 from ..audio import HeadAzimuth, SoundScene
 from ..binaural import TurnableHead
 from ..core import Component, Double, GenomException, InPort, OutPort, String, Task, activity
-from ..world import KEMAR_LIMIT, KEMAR_ORIGIN, Image, PoseStamped, Twist, Vector3, attach, marker_scene
+from ..world import (
+    KEMAR_EAR_HEIGHT, KEMAR_LIMIT, KEMAR_ORIGIN, Image, PoseStamped, Twist, Vector3, attach, marker_scene,
+)
 
 __all__ = ["MorseKemar", "INVALID_VALUE", "WIRING", "yaw_of"]
 
@@ -91,8 +94,8 @@ class MorseKemar(Component, name="morse_kemar", version="1.0"):
         self.frames = 0
         await attach(self, WIRING)
         self._read_position()
-        # The simulated sound scene hears the world's markers and turns with this head.
-        self.provide(SoundScene, SoundScene(marker_scene(*KEMAR_ORIGIN)))
+        # The simulated sound scene hears the world's markers in the world's room and turns with this head.
+        self.provide(SoundScene, SoundScene(marker_scene((*KEMAR_ORIGIN, KEMAR_EAR_HEIGHT))))
         self.provide(HeadAzimuth, HeadAzimuth(self._pose_azimuth))
         # Active listening (binauloc's FaceSource) turns this head through MoveAbsolutePosition.
         limit = math.degrees(KEMAR_LIMIT) - LIMIT_MARGIN

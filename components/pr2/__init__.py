@@ -5,8 +5,8 @@ that turned them into ROS action goals, and ends when the robot, seen on the wor
 and odometry, is there (within a tolerance) — not when the goal was sent.
 
 The Two!Ears project mounted the KEMAR's binaural head on top of the PR2's head (seed section 8.1.4):
-while ``pr2`` is loaded, a capture of the simulated scene hears the world's sound-source markers from
-that head, wherever the base drives, turning with the base's heading and the head's pan.
+while ``pr2`` is loaded, a capture of the simulated scene hears the world's sound-source markers in the
+world's room from that head, wherever the base drives, turning with the base's heading and the head's pan.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from ..core import (
 )
 from ..world import (
     ARM_JOINTS, HEAD_LIMITS, ROOM, TORSO_RANGE, HeadCommand, Image, JointState, LeftArmCommand,
-    Odometry, PositionCommand, RightArmCommand, TorsoCommand, arm_limits, attach, marker_azimuths, marker_scene,
+    Odometry, PositionCommand, RightArmCommand, TorsoCommand, arm_limits, attach, marker_scene,
 )
 
 __all__ = ["Pr2", "INVALID_TORSO", "INVALID_VALUE", "WIRING"]
@@ -47,6 +47,9 @@ BASE_STILL = 0.02
 #: Where the head pans, behind the base's centre in its frame (m): the torso lift link at -0.05 m
 #: and the head pan link 0.017 m behind it, as in the world's model.
 HEAD_PAN_X = -0.067
+#: Height of the KEMAR head's ears on the PR2's head, the torso down (m): the head cameras' height
+#: plus the binaural head mounted above them (seed 8.1.4).
+KEMAR_HEAD_HEIGHT = 1.35
 
 
 class INVALID_TORSO(GenomException):
@@ -103,8 +106,8 @@ class Pr2(Component, name="pr2", version="1.0"):
         """Load the world if needed, wire the ports, and let the simulated scene hear from the head."""
         self.frames = 0
         await attach(self, WIRING)
-        # The sources move relative to a head carried by the base: their azimuths are read at every chunk.
-        heard = SoundScene(marker_scene(*self.head_position()), azimuths=lambda: marker_azimuths(*self.head_position()))
+        # The head is carried through the room by the base: where it is is read at every chunk.
+        heard = SoundScene(marker_scene(self.ears()), listener=self.ears)
         self.provide(SoundScene, heard)
         self.provide(HeadAzimuth, HeadAzimuth(self.head_azimuth))
 
@@ -120,6 +123,15 @@ class Pr2(Component, name="pr2", version="1.0"):
         """The head's azimuth in the room: the base's heading plus the head's pan (degrees, positive = left)."""
         odom = self.Odom.read()
         return math.degrees((odom.w if odom is not None else 0.0) + self._pan())
+
+    def ears(self) -> tuple[float, float, float]:
+        """Where the KEMAR head on the PR2's head is in the room: (x, y, z) in metres, the torso lift included."""
+        x, y = self.head_position()
+        state = self.JointStates.read()
+        lift = 0.0
+        if state is not None and "torso_lift_joint" in state.name:
+            lift = float(state.position[list(state.name).index("torso_lift_joint")])
+        return (x, y, KEMAR_HEAD_HEIGHT + lift)
 
     def head_position(self) -> tuple[float, float]:
         """Where the head pans in the room, (x, y) in metres, from the base's odometry."""

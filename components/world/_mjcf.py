@@ -13,7 +13,8 @@ import math
 from ._types import ARM_JOINTS
 
 __all__ = ["scene_xml", "arm_limits", "ARM_LIMITS", "HEAD_LIMITS", "TORSO_RANGE", "KEMAR_LIMIT", "PR2_CAMERAS",
-           "KEMAR_CAMERAS", "KEMAR_ORIGIN", "SOUND_SOURCES", "ROOM", "OBJECTS", "PR2_GEOM_GROUP", "CAMERA_HEIGHT"]
+           "KEMAR_CAMERAS", "KEMAR_ORIGIN", "SOUND_SOURCES", "ROOM", "OBJECTS", "PR2_GEOM_GROUP", "CAMERA_HEIGHT",
+           "WALL_HEIGHT", "KEMAR_EAR_HEIGHT"]
 
 #: Torso lift range (m).
 TORSO_RANGE = (0.0, 0.31)
@@ -72,6 +73,10 @@ OBJECTS = {
 
 #: The floor inside the walls: x min, x max, y min, y max (m).
 ROOM = (-4.0, 6.0, -4.0, 4.0)
+#: How high the walls are (m): the room is the box of ROOM's floor up to here.
+WALL_HEIGHT = 3.0
+#: Height of the centre of the KEMAR's head above the floor (m), between its ears.
+KEMAR_EAR_HEIGHT = 1.47
 
 
 def _vec(values: tuple[float, ...]) -> str:
@@ -80,7 +85,7 @@ def _vec(values: tuple[float, ...]) -> str:
 
 def _room() -> str:
     x0, x1, y0, y1 = ROOM
-    cx, cy, hx, hy, height = (x0 + x1) / 2, (y0 + y1) / 2, (x1 - x0) / 2, (y1 - y0) / 2, 1.5
+    cx, cy, hx, hy, height = (x0 + x1) / 2, (y0 + y1) / 2, (x1 - x0) / 2, (y1 - y0) / 2, WALL_HEIGHT / 2
     walls = [
         ("wall_north", (cx, y1 + 0.05, height), (hx, 0.05, height)),
         ("wall_south", (cx, y0 - 0.05, height), (hx, 0.05, height)),
@@ -169,7 +174,7 @@ def _kemar() -> str:
       <geom type="cylinder" pos="0 0 0.5" size="0.03 0.5" rgba="0.3 0.3 0.3 1"/>
       <geom type="box" pos="0 0 1.15" size="0.12 0.2 0.17" material="kemar_skin"/>
       <geom type="cylinder" pos="0 0 1.34" size="0.045 0.04" material="kemar_skin"/>
-      <body name="kemar_head" pos="0 0 1.47">
+      <body name="kemar_head" pos="0 0 {KEMAR_EAR_HEIGHT}">
         <joint name="kemar_head_yaw" type="hinge" axis="0 0 1" range="{-limit} {limit}" limited="true"/>
         <geom type="ellipsoid" size="0.095 0.08 0.115" material="kemar_skin"/>
         <geom type="ellipsoid" pos="0 0.085 0" size="0.02 0.012 0.03" material="kemar_skin"/>
