@@ -246,8 +246,9 @@ class RoomAzimuthFilter:
         if pi.sum() <= 0:
             pi = np.full(_GRID, 0.8 / _GRID)
         for _ in range(self.iterations):
-            mixture = posterior @ pi.astype(np.float32) + background / _GRID
-            share = weight / np.maximum(mixture, 1e-300)
+            # float32 products (the posteriors are kept so): half the memory traffic of float64.
+            mixture = posterior @ pi.astype(np.float32) + np.float32(background / _GRID)
+            share = (weight / np.maximum(mixture, 1e-30)).astype(np.float32)
             pi = (self._folded + pi * (share @ posterior)) / total
             background = (self._folded_background + background / _GRID * float(share.sum())) / total
         self._pi, self._background = pi, background
