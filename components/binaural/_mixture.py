@@ -152,7 +152,8 @@ def _described(values: npt.NDArray[np.float64], chosen: list[int], power: npt.ND
     for k, index in enumerate(chosen):
         inside = nearest == k
         region = float(values[inside].sum()) + background * float(inside.sum()) / _GRID
-        near = _window_mass(values, float(index))
+        # Its ±10° that are its own (another source may be nearer than 20°).
+        near = float(values[inside & (np.abs(wrap_degrees(GRID_DEGREES - index)) <= 10.0)].sum())
         share = _window_mass(power, float(index)) / total_power if power is not None and total_power > 0 else 0.0
         sources.append(SourceAzimuth(_refined(values, index), near / region if region > 0 else 0.0, near, share))
     return sources
