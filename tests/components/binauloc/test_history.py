@@ -3,10 +3,16 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
-from aiogenomix.components.binauloc import MAX_SOURCES, EstimateHistory, SourceAzimuthData
+from aiogenomix.components.binauloc import (
+    MAX_SOURCES, EstimateHistory, EstimatesData, EstimateWindow, SourceAzimuthData,
+)
+from aiogenomix.components.core import Component, ComponentHost, HostSettings, OutPort, VirtualClock
+from aiogenomix.components.recorder import Recorder
+from aiogenomix.components.recording import RecordingReader
 
 
 def sources(count: int, first: float = 0.1) -> tuple[SourceAzimuthData, ...]:
@@ -40,3 +46,35 @@ def test_a_reader_slower_than_the_window_is_told_what_it_lost() -> None:
     # A published window never changes: a reader holding it reads its estimates however many follow.
     history.append(11, 10, None, sources(1))
     assert window.since(0)[0].estimate.tolist() == [7, 8, 9, 10]
+
+
+class Localiser(Component, name="localiser"):
+    """Publishes estimates into a history by hand, as binauloc does."""
+
+    Estimates: OutPort[EstimateWindow] = OutPort(EstimatesData, doc="The estimate history")
+
+
+async def test_a_recording_holds_every_estimate_once(tmp_path: Path) -> None:
+    settings = HostSettings(audio_socket_port=0, record_dirs=(str(tmp_path),))
+    async with ComponentHost(clock=VirtualClock(), settings=settings,
+                             factories={"localiser": Localiser, "recorder": Recorder}) as host:
+        localiser = await host.load("localiser")
+        history = EstimateHistory()
+        localiser.Estimates.publish(history.append(100, 10, None, sources(1)))   # before the recording
+        recorder = await host.load("recorder")
+        recording = await recorder.send("Start", {"path": "estimates.mcap", "ports": ["localiser/Estimates"]})
+        while not recorder.status().recording:
+            await recorder.Status.wait_published()
+        for number in range(2, 12):
+            # Bursts of three publications between two reads of the recorder.
+            localiser.Estimates.publish(history.append(100 * number, 10, None, sources(2)))
+            if number % 3 == 0:
+                await host.clock.sleep(0.1)
+        await host.clock.sleep(0.1)
+        await (await recorder.send("Stop")).ended.wait()
+        await recording.ended.wait()
+        assert recording.status == "done", recording.exception
+    with open(tmp_path / "estimates.mcap", "rb") as stream, RecordingReader(stream) as reader:
+        numbers = [n for message in reader.publications() for n in message.data["estimate"]]
+    # The newest when it started, then each once.
+    assert numbers == list(range(1, 12))
