@@ -174,13 +174,16 @@ class RoomAzimuthFilter:
         capacity: Frames whose units are kept and iterated over; older ones are folded into fixed sums.
         iterations: EM iterations per :meth:`fit`.
         counting: How sources are counted and told apart (:meth:`sources`).
+        sparsity: Weight each degree loses to the background at each iteration (a sparse prior, MAP-EM):
+            the scattered units of reverberation go to the background instead of making peaks of their own.
     """
 
     def __init__(self, capacity: int = 256, iterations: int = 40,
-                 counting: SourceCounting = SourceCounting()) -> None:
-        if capacity < 1 or iterations < 1:
-            raise LocalisationError("a filter keeps at least one frame and iterates at least once")
-        self.capacity, self.iterations, self.counting = capacity, iterations, counting
+                 counting: SourceCounting = SourceCounting(), sparsity: float = 0.0) -> None:
+        if capacity < 1 or iterations < 1 or not 0.0 <= sparsity < 1.0 / _GRID:
+            raise LocalisationError("a filter keeps at least one frame, iterates at least once, and its sparsity "
+                                    f"is in [0, 1/{_GRID})")
+        self.capacity, self.iterations, self.counting, self.sparsity = capacity, iterations, counting, sparsity
         self.clear()
 
     def clear(self) -> None:
@@ -252,6 +255,12 @@ class RoomAzimuthFilter:
             share = (weight / np.maximum(mixture, 1e-30)).astype(np.float32)
             pi = (self._folded + pi * (share @ posterior)) / total
             background = (self._folded_background + background / _GRID * float(share.sum())) / total
+            if self.sparsity:
+                # A sparse prior on the directions (MAP-EM): what each degree holds below the sparsity goes to
+                # the background, which then takes the scattered units of reverberation.
+                kept = np.maximum(pi - self.sparsity, 0.0)
+                background += float(pi.sum() - kept.sum())
+                pi = kept
         self._pi, self._background = pi, background
 
     def distribution(self) -> tuple[npt.NDArray[np.float64], float]:

@@ -2,11 +2,12 @@
 
 Each **case** draws, from its own seed:
 
-* a room (anechoic, or a shoebox of RT60 0.3, 0.6 or 0.9 s: :data:`TEST_ROOMS`) and a listener
-  near its middle, the head facing +x (room azimuth 0°);
+* a room (anechoic, or a hall of RT60 0.3, 0.6 or 0.9 s whose direct-to-reverberant ratio at 1.5 m
+  is 5.5, 4.6 and 3.9 dB: :data:`TEST_ROOMS`) and a listener near its middle, the head facing +x
+  (room azimuth 0°);
 * one, two or three talkers at room azimuths on the 5° grid round the full circle, at least
-  15° apart, 1.2 to 2 m away at the ears' height, each a speech-like voice (male, female or
-  child) of its own rhythm, equally loud 1 m away;
+  15° apart, 1.3 to 1.7 m away at the ears' height (Ma et al.'s were 1.5 m away), each a
+  speech-like voice (male, female or child) of its own rhythm, equally loud 1 m away;
 * a diffuse noise field about 25 dB below the talkers and sensor noise at −70 dB re full scale;
   the localisers learn the noise from half a second of it alone.
 
@@ -97,12 +98,13 @@ class RoomCondition:
         return Shoebox.with_rt60(self.dimensions, self.rt60)
 
 
-#: The rooms of the experiment (test scenes only).
-TEST_ROOMS = (RoomCondition("anechoic"), RoomCondition("A (0.3 s)", (6.0, 4.5, 3.0), 0.3),
-              RoomCondition("B (0.6 s)", (8.0, 6.0, 3.2), 0.6), RoomCondition("C (0.9 s)", (11.0, 8.0, 3.5), 0.9))
+#: The rooms of the experiment (test scenes only): halls whose direct-to-reverberant ratio 1.5 m from a talker,
+#: 5.5, 4.6 and 3.9 dB, is near Ma, May & Brown's rooms' (5.3-8.8 dB).
+TEST_ROOMS = (RoomCondition("anechoic"), RoomCondition("A (0.3 s)", (14.0, 11.0, 5.0), 0.3),
+              RoomCondition("B (0.6 s)", (18.0, 13.0, 7.0), 0.6), RoomCondition("C (0.9 s)", (21.0, 15.0, 8.0), 0.9))
 #: The rooms the localiser's parameters were set in (never in the experiment).
-TRAINING_ROOMS = (RoomCondition("T1 (0.45 s)", (7.0, 5.0, 2.8), 0.45),
-                  RoomCondition("T2 (0.75 s)", (9.5, 7.0, 3.3), 0.75))
+TRAINING_ROOMS = (RoomCondition("T1 (0.45 s)", (16.0, 12.0, 6.0), 0.45),
+                  RoomCondition("T2 (0.75 s)", (20.0, 14.0, 7.5), 0.75))
 
 
 def head_set(name: str) -> HrirSet:
@@ -197,7 +199,7 @@ class _Case:
             self.listener = Pose(length / 2 + rng.uniform(-0.4, 0.4), width / 2 + rng.uniform(-0.4, 0.4), 1.5)
         rate = config.rate
         self.talkers = [Talker(speech_like(3.0, rate, np.random.default_rng([*seed, k]), _VOICES[k % 3]),
-                               self.listener.at(float(a), distance=float(rng.uniform(1.2, 2.0))),
+                               self.listener.at(float(a), distance=float(rng.uniform(1.3, 1.7))),
                                level=_TALKER_LEVEL, onset=_ONSET)
                         for k, a in enumerate(self.azimuths)]
         self.seed = int(rng.integers(1 << 30))
