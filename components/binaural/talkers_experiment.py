@@ -64,7 +64,7 @@ from ._snowman import snowman_hrirs
 from ._source_localiser import SourceLocaliser
 
 __all__ = ["RoomCondition", "TEST_ROOMS", "TRAINING_ROOMS", "TalkersConfig", "CaseResult", "Summary",
-           "STRATEGIES", "run_talkers", "summarise_talkers", "head_set"]
+           "STRATEGIES", "run_talkers", "summarise_talkers", "head_set", "TalkerCase", "match_talkers", "turning_head"]
 
 #: The strategies, in the order of the tables.
 STRATEGIES = ("today", "still", "Ma et al.", "filter", "still, 2 s", "filter, 2 s")
@@ -184,8 +184,16 @@ class Timing:
     render: float = 0.0
 
 
-class _Case:
-    """One drawn scene, rendered on demand for a head path."""
+class TalkerCase:
+    """One drawn scene, rendered on demand for a head path.
+
+    Args:
+        config: The experiment's settings (the rate).
+        room: The room.
+        hrirs: The head that hears.
+        count: Talkers.
+        seed: The case's seed (a sequence of integers).
+    """
 
     def __init__(self, config: TalkersConfig, room: RoomCondition, hrirs: HrirSet, count: int,
                  seed: Sequence[int]) -> None:
@@ -231,7 +239,7 @@ def _draw_azimuths(rng: np.random.Generator, count: int) -> npt.NDArray[np.float
             return np.sort(chosen)
 
 
-def _turning(start: float, target: float, at: float, speed: float) -> Callable[[float], float]:
+def turning_head(start: float, target: float, at: float, speed: float) -> Callable[[float], float]:
     """The head's azimuth over time: still at *start* until *at* seconds, then turning to *target* at *speed*."""
     step = float(wrap_degrees(target - start))
 
@@ -247,7 +255,7 @@ def _path(turns: Sequence[tuple[float, float]], start: float, speed: float) -> C
     pieces = []
     head = start
     for at, target in turns:
-        pieces.append((at, _turning(head, target, at, speed)))
+        pieces.append((at, turning_head(head, target, at, speed)))
         head = target
 
     def azimuth(seconds: float) -> float:
@@ -282,7 +290,7 @@ class _Strategies:
         heads = np.array([path(offset + c / self.config.rate) for c in centres])
         return glimpses, heads
 
-    def run(self, case: _Case, count: int) -> tuple[dict[str, tuple[float, ...]], dict[str, int],
+    def run(self, case: TalkerCase, count: int) -> tuple[dict[str, tuple[float, ...]], dict[str, int],
                                                      dict[str, tuple[float, ...]]]:
         config, rate = self.config, self.config.rate
         half, second = round(0.5 * rate), round(rate)
@@ -311,7 +319,7 @@ class _Strategies:
             look = RoomAzimuthFilter(capacity=1000, counting=config.counting)
             look.add(first, first_heads)
             target = ma_turn(look.sources(1), 0.0)
-            moving = _turning(0.0, target, 0.5, config.turn_speed)
+            moving = turning_head(0.0, target, 0.5, config.turn_speed)
             arrived = 0.5 + abs(target) / config.turn_speed
             ears = self._render(case, arrived + 0.5, moving)
             after, after_heads = self.glimpses(ears[round(arrived * rate):round(arrived * rate) + half], moving,
@@ -327,13 +335,13 @@ class _Strategies:
                     counted[name] = len(room.sources())
         return estimates, counted, turns
 
-    def _render(self, case: _Case, seconds: float, path: Callable[[float], float]) -> npt.NDArray[np.float64]:
+    def _render(self, case: TalkerCase, seconds: float, path: Callable[[float], float]) -> npt.NDArray[np.float64]:
         started = time.process_time()
         ears = case.render(seconds, path)
         self.timing.render += time.process_time() - started
         return ears
 
-    def _filter(self, case: _Case, first: Glimpses, first_heads: npt.NDArray[np.float64],
+    def _filter(self, case: TalkerCase, first: Glimpses, first_heads: npt.NDArray[np.float64],
                 seconds: float) -> tuple[tuple[float, ...], RoomAzimuthFilter]:
         """Layers (B) + (C): a look, a planned turn, and so on every 0.5 s until *seconds* of audio in all."""
         config, rate = self.config, self.config.rate
@@ -366,7 +374,7 @@ def run_talkers(config: TalkersConfig = TalkersConfig(), *,
         for r_index, room in enumerate(config.rooms):
             for count in config.talkers:
                 for index in range(config.cases):
-                    case = _Case(config, room, hrirs, count, (config.seed, h_index, r_index, count, index))
+                    case = TalkerCase(config, room, hrirs, count, (config.seed, h_index, r_index, count, index))
                     estimates, counted, turns = strategies.run(case, count)
                     results.append(CaseResult(room.name, head, tuple(float(a) for a in case.azimuths), estimates,
                                               counted, turns))
@@ -375,7 +383,7 @@ def run_talkers(config: TalkersConfig = TalkersConfig(), *,
     return results, strategies.timing
 
 
-def _matched(truth: Sequence[float], found: Sequence[float]) -> tuple[npt.NDArray[np.float64], list[int | None]]:
+def match_talkers(truth: Sequence[float], found: Sequence[float]) -> tuple[npt.NDArray[np.float64], list[int | None]]:
     """Each talker's error to the estimate matched to it one to one (the nearest first), and which estimate."""
     if not found:
         return np.full(len(truth), 180.0), [None] * len(truth)
@@ -399,7 +407,7 @@ def summarise_talkers(results: Sequence[CaseResult]) -> list[Summary]:
             confused = counted_fb = 0
             for result in chosen:
                 found = result.estimates[strategy]
-                errors, which = _matched(result.azimuths, found)
+                errors, which = match_talkers(result.azimuths, found)
                 within.extend(bool(e) for e in errors <= 5.0)
                 for talker, error, column in zip(result.azimuths, errors, which, strict=True):
                     mirror = float(wrap_degrees(180.0 - talker))
