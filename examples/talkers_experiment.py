@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import os
 import pathlib
 import platform
@@ -44,7 +45,7 @@ def tables(summaries: list[Summary]) -> str:
     strategies = [s for s in STRATEGIES if any(x.strategy == s for x in summaries)]
     for head in dict.fromkeys(s.head for s in summaries):
         out.append(f"**{head}** ({'the templates’ head' if head == 'kemar' else 'a head the templates never saw'}):"
-                   " within 5° / front-back confusions; counted right\n")
+                   " talkers within 5° (within 10°) / front-back confusions, %; cases counted right, %\n")
         out.append("| room | talkers | cases | " + " | ".join(strategies) + " | counted: still | counted: filter |")
         out.append("|---|---:|---:|" + "---:|" * (len(strategies) + 2))
         rows = dict.fromkeys((s.room, s.talkers) for s in summaries if s.head == head)
@@ -52,9 +53,9 @@ def tables(summaries: list[Summary]) -> str:
             cells = {s.strategy: s for s in summaries if (s.head, s.room, s.talkers) == (head, room, talkers)}
             first = next(iter(cells.values()))
             line = [room, str(talkers), str(first.cases)]
-            line += [f"{100 * cells[s].within_5:.0f} / {100 * cells[s].front_back:.0f} %" if s in cells else ""
-                     for s in strategies]
-            line += [f"{100 * cells[s].count_right:.0f} %" if s in cells and np.isfinite(cells[s].count_right)
+            line += [f"{100 * cells[s].within_5:.0f} ({100 * cells[s].within_10:.0f}) / "
+                     f"{100 * cells[s].front_back:.0f}" if s in cells else "" for s in strategies]
+            line += [f"{100 * cells[s].count_right:.0f}" if s in cells and np.isfinite(cells[s].count_right)
                      else "" for s in ("still", "filter")]
             out.append("| " + " | ".join(line) + " |")
         out.append("")
@@ -99,6 +100,7 @@ def main() -> None:
     parser.add_argument("--heads", nargs="*", default=list(TalkersConfig().heads), help="kemar, snowman")
     parser.add_argument("--talkers", type=int, nargs="*", default=list(TalkersConfig().talkers))
     parser.add_argument("--write", action="store_true", help="update docs/localisation.md and the plot")
+    parser.add_argument("--save", type=pathlib.Path, help="also keep every case's results in this JSON file")
     args = parser.parse_args()
     rooms = TEST_ROOMS if not args.rooms else tuple(TEST_ROOMS[i] for i in args.rooms)
     config = dataclasses.replace(TalkersConfig(), cases=args.cases, rooms=rooms, heads=tuple(args.heads),
@@ -107,6 +109,8 @@ def main() -> None:
     results, timing = run_talkers(config, progress=lambda line: print(line, file=sys.stderr, flush=True))
     summaries = summarise_talkers(results)
     took = time.monotonic() - started
+    if args.save is not None:
+        args.save.write_text(json.dumps([dataclasses.asdict(r) for r in results]))
     header = (f"Measured {time.strftime('%Y-%m-%d')} on {platform.machine()}, Python {platform.python_version()}, "
               f"one core; {config.cases} cases per room, head and number of talkers, seed {config.seed}, "
               f"{config.rate:g} Hz, head turning at {config.turn_speed:g}°/s; the run took {took / 60:.0f} min "

@@ -32,7 +32,7 @@ which the templates never saw. Then the **strategies**, each with the same amoun
 The head turns at :attr:`TalkersConfig.turn_speed`. The number of talkers is given to each
 strategy; ``still`` and ``filter`` also count them (``counted``). Measures, per room, head,
 number of talkers and strategy: the share of talkers found within 5° (estimates matched to
-talkers one to one, the nearest first), the front/back confusion rate (talkers matched to an
+talkers one to one, the nearest first) and within 10°, the front/back confusion rate (talkers matched to an
 estimate nearer their mirror image across the starting head's interaural axis than to
 themselves, among talkers more than 5° from that axis), and the share of cases counted right.
 
@@ -173,6 +173,7 @@ class Summary:
     within_5: float
     front_back: float
     count_right: float = float("nan")
+    within_10: float = float("nan")
 
 
 @dataclasses.dataclass
@@ -404,11 +405,13 @@ def summarise_talkers(results: Sequence[CaseResult]) -> list[Summary]:
         chosen = [r for r in results if (r.room, r.head, len(r.azimuths)) == (room, head, count)]
         for strategy in [s for s in STRATEGIES if s in chosen[0].estimates]:
             within: list[bool] = []
+            within_10: list[bool] = []
             confused = counted_fb = 0
             for result in chosen:
                 found = result.estimates[strategy]
                 errors, which = match_talkers(result.azimuths, found)
                 within.extend(bool(e) for e in errors <= 5.0)
+                within_10.extend(bool(e) for e in errors <= 10.0)
                 for talker, error, column in zip(result.azimuths, errors, which, strict=True):
                     mirror = float(wrap_degrees(180.0 - talker))
                     if abs(float(wrap_degrees(mirror - talker))) <= 10.0 or column is None:
@@ -418,5 +421,5 @@ def summarise_talkers(results: Sequence[CaseResult]) -> list[Summary]:
             right = [r.counted[strategy] == len(r.azimuths) for r in chosen if strategy in r.counted]
             summaries.append(Summary(room, head, count, strategy, len(chosen), float(np.mean(within)),
                                      confused / counted_fb if counted_fb else 0.0,
-                                     float(np.mean(right)) if right else float("nan")))
+                                     float(np.mean(right)) if right else float("nan"), float(np.mean(within_10))))
     return summaries
