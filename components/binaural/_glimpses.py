@@ -67,9 +67,6 @@ class GlimpseParameters:
         coherence_memory: Weight of the past in the recursive average of the cross-spectra (0: none).
         onset_gain: Weight of the rise of a band's power since the previous frame (natural log of the ratio).
         bands_per_erb: Bands per ERB (1: bands one ERB wide).
-        mismatch_frequency: Hz; the sharpness of a band centred at f is divided by 1 + f / this (0: not):
-            heads differ more at high frequencies (pinnae, the level differences), so a head other than
-            the templates' is trusted less there.
     """
 
     sharpness: float = 8.0
@@ -78,7 +75,6 @@ class GlimpseParameters:
     coherence_memory: float = 0.5
     onset_gain: float = 1.0
     bands_per_erb: float = 1.0
-    mismatch_frequency: float = 0.0
 
 
 def _erb_number(frequency: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
@@ -153,9 +149,6 @@ class GlimpseAnalyser:
             self.membership[members, index] = 1.0
         counts = self.membership.sum(axis=0)
         self._scale = parameters.sharpness * np.sqrt(counts)
-        if parameters.mismatch_frequency > 0:
-            centres = (frequencies @ self.membership) / counts
-            self._scale = self._scale / (1.0 + centres / parameters.mismatch_frequency)
         steering = np.fft.rfft(interpolator.at(self.template_azimuths), frame, axis=1)[:, bins]   # (T, bins, 2)
         steering /= np.maximum(np.linalg.norm(steering, axis=-1, keepdims=True), 1e-300)
         # (bins, 2, templates): one product per bin gives every template's projection of a frame.
