@@ -131,7 +131,8 @@ class SourceData:
     turns: Annotated[ULong, "Head azimuths looked from besides the first"] = 0
     estimates: Annotated[ULong, "Estimates combined"] = 0
     logLikelihood: Annotated[LogLikelihood, Grid(0, 1, "deg"),
-                             "Log of the sources' distribution over room azimuths 0, 1, ..., 359 degrees"] = dataclasses.field(default_factory=_no_likelihood)
+                             "Log of the sources' distribution over room azimuths 0, 1, ..., 359 degrees"] = \
+        dataclasses.field(default_factory=_no_likelihood)
     sources: Annotated[list[SourceAzimuthData], "Every source found, strongest first"] = \
         dataclasses.field(default_factory=list)
 

@@ -329,7 +329,8 @@ class Recorder(Component, name="recorder", version="1.0"):
         if isinstance(recorder, AudioRecorder):
             await self._follow_audio(port, recorder, recording)
             return
-        if isinstance(recorder, JsonRecorder) and isinstance(self._current(port, recorder), Incremental):
+        # (A look, not a read: a withdrawn port is counted unavailable by the loop that reads it.)
+        if isinstance(recorder, JsonRecorder) and port.withdrawn is None and isinstance(port.read(), Incremental):
             await self._follow_numbered(port, recorder, recording)
             return
         delivered = 0
