@@ -24,10 +24,10 @@ import zenoh
 
 from ..components.core import ComponentHost, LoadError
 from ..components.core.runtime import LoadedInstance, NoSuchModule, RemoteHostGone, RemoteUnreachable, names_hint
-from ._links import report_unlinked
+from ._links import LINK_GRACE, report_unlinked, unlinked
 from ._offers import OfferBook, OfferedBefore, split_name
 from ._proxy import RemoteInstance, RemoteLink, RemoteTimeouts, describe_remote, heard_text, utc_text
-from ._session import Unanswered, ZenohSettings, alive, ask, on_zenoh_thread, open_session
+from ._session import Unanswered, ZenohSettings, alive, ask, connect_endpoints, on_zenoh_thread, open_session
 from ._wire import (
     BEATS, LEGACY_OFFERS, OFFERS, OfferKey, beat_key, facts_key, gateway_token, legacy_offer, offers_of, parse_offer,
 )
@@ -67,6 +67,7 @@ class ZenohDirectory:
         self._local = frozenset(local)
         self._gateway = gateway
         self._loop = asyncio.get_running_loop()
+        self._opened = self._loop.time()
         self._book = OfferBook()
         self._change: asyncio.Future[None] = self._loop.create_future()
         #: When each host run (by session id) was last heard from; set on Zenoh's thread.
@@ -203,9 +204,25 @@ class ZenohDirectory:
             # Not heard of yet: ask the network now (a gateway that has just started, a host that has just
             # come), then decide with what it says.
             asked = True
+            await self._first_links(deadline)
             pattern = f"aiogenomix/offer/*/{host_id or '*'}/*/{instance}"
             for key in await alive(self.session, pattern, timeout=min(2.0, self.timeouts.control)):
                 self._take_offer(key, present=True)
+
+    async def _first_links(self, deadline: float) -> None:
+        """In a session's first seconds, wait for its links to the endpoints it connects to (up to *deadline*).
+
+        A name asked of a network not reached yet is not a name nobody offers: a load sent as soon as
+        the gateway listens would otherwise be refused while Zenoh is still linking (seconds on a busy
+        machine).  Later, an endpoint with no link is down or refuses us, and ``report_unlinked`` says so.
+        """
+        endpoints = connect_endpoints(self.config)
+        until = min(deadline, self._opened + LINK_GRACE)
+        # Zenoh raises no event when a link comes up: looked at every 50 ms, only in these first seconds.
+        while self._loop.time() < until:
+            if not await asyncio.to_thread(unlinked, self.session, endpoints):
+                return
+            await asyncio.sleep(0.05)
 
     async def _withdrawn(self, offer: OfferKey, deadline: float, unanswered: Unanswered) -> None:
         """Wait until *offer*, whose host no longer answers for it, is heard withdrawn (or until *deadline*).
