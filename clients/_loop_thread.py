@@ -12,6 +12,7 @@ import threading
 from collections.abc import Callable, Coroutine
 from typing import Any, TypeVar
 
+from ._ctrl_c import result_of
 from ._errors import ClientClosed
 
 __all__ = ["LoopThread"]
@@ -69,7 +70,7 @@ class LoopThread:
             raise ClientClosed("the client was closed")
         future = asyncio.run_coroutine_threadsafe(coro, self.loop)
         try:
-            return future.result()
+            return result_of(future)
         except BaseException:
             future.cancel()
             raise

@@ -8,6 +8,7 @@ from collections.abc import Callable
 from typing import Any, Self
 
 from ._async_client import AsyncClient, AsyncModule
+from ._ctrl_c import wait_until
 from ._errors import RequestTimeout
 from ._loop_thread import LoopThread
 from ._module import ModuleProxy, build_members, dress
@@ -60,7 +61,7 @@ class Request:
 
     def wait(self, timeout: float | None = None) -> bool:
         """Block until the request ends or *timeout* seconds pass; return whether it ended."""
-        return self._handle.ended_event.wait(timeout)
+        return wait_until(self._handle.ended_event.wait, timeout)
 
     def result(self, timeout: Any = USE_CLIENT_DEFAULT) -> Any:
         """Block until the end; return the outputs as the blocking call does.

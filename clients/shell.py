@@ -33,6 +33,7 @@ import traceback
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from ._ctrl_c import result_of
 from ._errors import GenomixError, Interrupted, RemoteError, short_name
 from ._service import USE_CLIENT_DEFAULT
 from ._sync_client import Client, Module, Request, connect
@@ -198,7 +199,7 @@ class ShellNamespace:
             # would leave a request running that nobody knows.
             sending = self._sender.submit(service, *args, **kwargs)
             try:
-                request = sending.result()
+                request = result_of(sending)
             except KeyboardInterrupt:
                 request = self._reply_after_ctrl_c(sending, service.__name__)
                 if not blocking:
@@ -224,7 +225,7 @@ class ShellNamespace:
     def _reply_after_ctrl_c(sending: concurrent.futures.Future[Request], service: str) -> Request:
         """The request whose send a Ctrl-C came during: the gateway's reply names it, and comes soon."""
         try:
-            return sending.result()
+            return result_of(sending)
         except KeyboardInterrupt:
             raise CallInterrupted(f"Ctrl-C again: stopped waiting for the gateway's reply to {service}; "
                                   "it may run (g.pending() does not know it)") from None
