@@ -17,10 +17,10 @@ from ..binaural import (
 from ..binaural import Window as WindowName
 from ..capture import PortData
 from ..core import (
-    Component, Double, InPortRuntime, InPort, Out, OutPort, Task, ULong, activity, function, redeclare, Unit,
+    AudioStream, Component, Double, InPortRuntime, InPort, Out, OutPort, Task, ULong, activity, function, redeclare,
+    Unit,
 )
 from ..kemarcapture import KemarPortData
-from ..recording import AUDIO_TYPES
 from ._feed import AudioBlock, NotStreaming, PortFeed
 from ._types import AzimuthsData, SourceData, Window, e_head, e_noData, e_noHead, e_rate, e_setup
 
@@ -92,9 +92,12 @@ class Binauloc(Component, name="binauloc", version="1.0"):
                                 "capture/Port or KemarPort to kemarcapture/Port")
         port = self.port(name)
         assert isinstance(port, InPortRuntime)
-        # kemarcapture carries the head's azimuth with each chunk; otherwise it is read as the audio arrives.
-        position = None if name == "KemarPort" or head is None else head.position
-        return PortFeed(port, AUDIO_TYPES[port.type.name], position)
+        # A port that carries the head's azimuth with each chunk (kemarcapture) needs no other head:
+        # for the others, it is read as the audio arrives.
+        kind = port.remote.type.carries if port.remote is not None else None
+        carried = isinstance(kind, AudioStream) and kind.head_azimuth is not None
+        position = None if carried or head is None else head.position
+        return PortFeed(port, position, self.clock.wall)
 
     async def _localiser_for(self, rate: int) -> BinauralLocaliser:
         """The localiser of the current setup at the port's *rate* (built on first use, off the event loop)."""
