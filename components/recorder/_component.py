@@ -9,7 +9,7 @@ from typing import Annotated, Any
 
 from ..audio import AudioReader
 from ..core import (
-    Boolean, Component, ComponentHost, Double, Out, OutPort, OutPortRuntime, OverBudget, String, Task,
+    Boolean, Component, ComponentHost, Double, Incremental, Out, OutPort, OutPortRuntime, OverBudget, String, Task,
     activity, function,
 )
 from ..recording import (
