@@ -366,13 +366,17 @@ class InPortRuntime(_PortRuntime, Generic[T]):
     def read(self) -> T | None:
         """The latest data of the connected out port (None while unconnected).
 
+        A port that reads a kind (``carrying=``) and is connected to another type reads that type's
+        data (JSON-ready for a port of another process): read it by its kind.
+
         Raises:
             PortUnavailable: when the out port's component withdrew its data (a service reading
                 it ends with the component's reason).
         """
         if self.remote is None:
             return None
-        value: T = self.remote.read_as(self.type, self.element)
+        as_type = self.type if self.remote.type.name == self.type.name else self.remote.type
+        value: T = self.remote.read_as(as_type, self.element)
         return value
 
     def encoded(self, name: str | None = None) -> Any:
