@@ -1,9 +1,10 @@
-"""Issue 33: an outside component's own audio port is recorded, exported, shown live and localised, by its kind alone.
+"""Issue 33: an outside component's own audio port is recorded, exported, replayed, shown live and localised.
 
 ``Ears`` stands for a component of another package: its port type is its own (``ears::block``:
 16-bit samples, interleaved, numbered by chunk), no table of ours names it, and its declaration
 says what it carries (``AudioStream``).  The recorder records it as audio with its frame indexes,
-``aiogenomix-record export`` writes it as a WAV (the same samples), the live view shows it as
+``aiogenomix-record export`` writes it as a WAV (the same samples), a capture plays it again
+(``mcap:PATH``), the live view shows it as
 ``foxglove.RawAudio``, and ``binauloc``'s one audio in port reads it and finds the source.  The rig
 runs on a VirtualClock: the scene, the chunks and the estimates meet where the test says.
 """
@@ -24,10 +25,11 @@ import pytest
 import soundfile
 from numpy.typing import NDArray
 
-from aiogenomix.components.audio import open_for_host
+from aiogenomix.components.audio import open_backend, open_for_host
 from aiogenomix.components.binauloc import Binauloc
 from aiogenomix.components.core import (
-    AudioStream, Component, ComponentHost, Double, HostSettings, OutPort, ULong, VirtualClock, activity, idl_struct,
+    AudioStream, Component, ComponentHost, Double, HostSettings, ManualClock, OutPort, ULong, VirtualClock, activity,
+    idl_struct,
 )
 from aiogenomix.components.recorder import Recorder
 from aiogenomix.record import main as record_main
@@ -129,7 +131,8 @@ async def done(component: Component, service: str, inputs: dict[str, Any] | None
     return dict(request.output or {})
 
 
-async def test_an_outside_audio_port_is_recorded_exported_and_localised(rig: ComponentHost, tmp_path: Path) -> None:
+async def test_an_outside_audio_port_is_recorded_exported_replayed_and_localised(rig: ComponentHost,
+                                                                                 tmp_path: Path) -> None:
     ears, binauloc, recorder = await rig.load("ears"), await rig.load("binauloc"), await rig.load("recorder")
     assert isinstance(ears, Ears)
     described = next(p for p in ears.description()["ports"] if p["name"] == "Ears")
@@ -157,6 +160,13 @@ async def test_an_outside_audio_port_is_recorded_exported_and_localised(rig: Com
     wav, rate = soundfile.read(tmp_path / "out" / "ears_Ears.wav", dtype="int32")
     assert rate == RATE and len(heard) == 60 * FRAMES
     np.testing.assert_array_equal(wav, heard)
+    # Played again as a capture device (mcap:PATH): the same frames.
+    clock = ManualClock()
+    delivered = []
+    async with open_backend("mcap:ears.mcap", RATE, FRAMES, clock, roots=(str(tmp_path),)) as backend:
+        while (chunk := await clock.run_until(backend.read())) is not None:
+            delivered.append(chunk.frames)
+    np.testing.assert_array_equal(np.concatenate(delivered), heard)
 
 
 @pytest.mark.skipif(importlib.util.find_spec("foxglove") is None, reason="needs the Foxglove SDK")
