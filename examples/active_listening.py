@@ -134,7 +134,7 @@ def run(client: Any, device: str, start: float = 0.0) -> tuple[Loop, dict[str, A
     binauloc = client.load("binauloc")
     head.Homing()
     head.MoveAbsolutePosition(start, 200.0)
-    binauloc.connect_port("KemarPort", "kemarcapture/Port")
+    binauloc.connect_port("Audio", "kemarcapture/Port")
     binauloc.Setup(RATE, 5000, 1024, 512, "HANNING", 10)
     capturing = head.StartCapture(device, RATE, CHUNK_MS, 400, ack=True)   # 20 s on the port
     binauloc.LearnNoise(1.0)                       # the talker starts after it

@@ -5,14 +5,17 @@ WebSocket protocol, under both of its names, ``foxglove.websocket.v1`` and ``fox
 beside the gateway, admitting viewers as the gateway admits requests: its Host and Origin rules
 and its token (decision 0036).  Every out port of every loaded instance is a channel, added
 when the instance loads and withdrawn when it unloads, in the type Foxglove's panels show,
-encoded by the Foxglove SDK's message types:
+encoded by the Foxglove SDK's message types.  What a port is, its type says (its port kind, the
+``carries`` of ``/info``), for any component's port, another package's too:
 
-* the head's state (``::kemar::state``): ``foxglove.JointStates``, joint ``head_yaw`` in radians;
-* camera pictures: ``foxglove.RawImage``; laser scans: ``foxglove.LaserScan``; odometry:
-  ``foxglove.Odometry``; stamped poses: ``foxglove.PoseInFrame``;
-* audio (``capture``, ``kemarcapture``, ``bass``): ``foxglove.RawAudio``, whose only format is
-  ``pcm-s16``: each int32 sample is shown by its upper 16 bits (exactly what a 16-bit sound card
-  captured: our captures left-justify samples into 32 bits), every chunk once;
+* a head's state (:class:`~aiogenomix.components.core.HeadState`, ``kemar``'s ``currentState``):
+  ``foxglove.JointStates``, joint ``head_yaw`` in radians;
+* pictures: ``foxglove.RawImage``; laser scans: ``foxglove.LaserScan``; odometry:
+  ``foxglove.Odometry``; poses: ``foxglove.PoseInFrame``; joint states: ``foxglove.JointStates``;
+* audio (:class:`~aiogenomix.components.core.AudioStream`: ``capture``, ``kemarcapture``, ``bass``,
+  any component's audio): ``foxglove.RawAudio``, whose only format is ``pcm-s16``: each sample is
+  shown by its upper 16 bits (exactly what a 16-bit sound card captured: our captures left-justify
+  samples into 32 bits), every chunk once, read by the audio library's reader;
 * any other port: its JSON with its JSON Schema, as ``/read`` gives it.
 
 A port is read and encoded only while a viewer subscribes to its channel, once for all of them.
@@ -23,7 +26,6 @@ never waits for a viewer, and the gateway's own clients never wait for the view.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 import math
 import time
@@ -33,12 +35,13 @@ from typing import Any
 import numpy as np
 import orjson
 
-from ..components.core import Clock, Incremental, OutPortRuntime, OverBudget, json_schema
-from ..components.core.runtime import MIB, LoadedInstance, PortUnavailable, RemoteUnreachable
-
-from ..components.recording import (
-    AUDIO_TYPES, frames_per_chunk, head_state, number, planar_odometry, seconds_of, stamp_of,
+from ..components.audio import AudioReader
+from ..components.core import (
+    AudioStream, Clock, HeadState, Image, JointStates, LaserScan, Odometry, OutPortRuntime, OverBudget, PortKind, Pose,
+    json_schema,
 )
+from ..components.core.runtime import MIB, LoadedInstance, PortUnavailable, RemoteUnreachable
+from ..components.recording import stamp_of
 from ._door import Door
 from ._foxglove_server import LiveChannel, LiveViewServer, protobuf_schema
 
@@ -60,10 +63,10 @@ def _stamp(data: Json, fallback: float) -> float:
 
 
 class _Shown:
-    """One port shown in the view: its channel, and how its data becomes a message's bytes."""
+    """One port shown in the view: its channel, and how its data becomes a message's bytes (audio: its reader)."""
 
     def __init__(self, channel: LiveChannel, encode: Callable[[Json, float], bytes] | None,
-                 audio: bool = False) -> None:
+                 audio: AudioReader | None = None) -> None:
         self.channel = channel
         self.encode = encode
         self.audio = audio
@@ -150,7 +153,7 @@ class FoxgloveView:
             if not isinstance(port, OutPortRuntime):
                 continue
             topic = f"/{component.instance}/{described['name']}"
-            shown = self._channel_for(topic, described)
+            shown = self._channel_for(topic, port, described)
             channels.append(shown.channel)
             tasks.append(asyncio.create_task(self._follow(port, shown), name=f"foxglove {topic}"))
         self._followers[component.instance] = tasks
@@ -167,72 +170,33 @@ class FoxgloveView:
     # -- how each kind of port is shown -------------------------------------------------------
 
     def _typed(self, topic: str, message: Any, make: Callable[[Json, float], Any] | None,
-               audio: bool = False) -> _Shown:
+               audio: AudioReader | None = None) -> _Shown:
         """A port shown as one of Foxglove's message types (protobuf, with the SDK's schema)."""
         schema = message.get_schema()
         channel = self._server.add_channel(topic, "protobuf", schema.name, schema.encoding,
-                                           protobuf_schema(schema.data), latest_only=not audio)
+                                           protobuf_schema(schema.data), latest_only=audio is None)
         encode = None if make is None else (lambda data, stamp: make(data, stamp).encode())
         return _Shown(channel, encode, audio)
 
-    def _channel_for(self, topic: str, described: Json) -> _Shown:
-        fox: Any = self._fox
-        messages = fox.messages
-        kind = str(described["type"].get("name", ""))
-        if kind in AUDIO_TYPES:
-            return self._typed(topic, messages.RawAudio, None, audio=True)
-        if kind == "::kemar::state":
-            def head(data: Json, stamp: float) -> Any:
-                state = head_state(data)  # radians, as the recording's JointState
-                return messages.JointStates(timestamp=_time(fox, stamp), joints=[messages.JointState(
-                    name="head_yaw", position=state.position, velocity=state.velocity)])
-            return self._typed(topic, messages.JointStates, head)
-        if kind == "::subscriber::sensor_msgs__Image":
-            frame = described["name"]
+    def _channel_for(self, topic: str, port: OutPortRuntime[Any], described: Json) -> _Shown:
+        kind = port.type.carries
+        if isinstance(kind, AudioStream):
+            return self._typed(topic, self._fox.messages.RawAudio, None, audio=AudioReader(port))
+        shown = None if kind is None else _FOXGLOVE.get(type(kind))
+        if kind is not None and shown is not None:
+            message, convert = shown
+            fox = self._fox
 
-            def image(data: Json, stamp: float) -> Any:
-                pixels = data.get("data", b"")
-                raw = pixels.tobytes() if isinstance(pixels, np.ndarray) else bytes(np.asarray(pixels, np.uint8))
-                return messages.RawImage(timestamp=_time(fox, stamp), frame_id=frame, width=int(data["width"]),
-                                         height=int(data["height"]), encoding=str(data["encoding"]),
-                                         step=int(data["step"]), data=raw)
-            return self._typed(topic, messages.RawImage, image)
-        if kind == "::subscriber::sensor_msgs__LaserScan":
-            def scan(data: Json, stamp: float) -> Any:
-                header = data.get("header") or {}
-                return messages.LaserScan(
-                    timestamp=_time(fox, stamp), frame_id=str(header.get("frame_id", "")),
-                    start_angle=number(data.get("angle_min")), end_angle=number(data.get("angle_max")),
-                    ranges=[number(r) for r in data.get("ranges", [])])
-            return self._typed(topic, messages.LaserScan, scan)
-        if kind == "::world::odometry":
-            def odometry(data: Json, stamp: float) -> Any:
-                # foxglove.Odometry's velocities are in body_frame_id, as the recording's nav_msgs/Odometry.
-                moved = planar_odometry(data)
-                pose = messages.Pose(position=messages.Vector3(x=moved.x, y=moved.y, z=0),
-                                     orientation=messages.Quaternion(**dict(zip("xyzw", moved.orientation,
-                                                                                strict=True))))
-                return messages.Odometry(
-                    timestamp=_time(fox, stamp), frame_id="map", body_frame_id="base_footprint", pose=pose,
-                    linear_velocity=messages.Vector3(x=moved.forward, y=moved.leftward, z=0),
-                    angular_velocity=messages.Vector3(x=0, y=0, z=moved.turn))
-            return self._typed(topic, messages.Odometry, odometry)
-        if kind == "::subscriber::geometry_msgs__PoseStamped":
-            def posed(data: Json, stamp: float) -> Any:
-                pose = data.get("pose") or {}
-                at, turn = pose.get("position") or {}, pose.get("orientation") or {}
-                return messages.PoseInFrame(
-                    timestamp=_time(fox, stamp), frame_id=str((data.get("header") or {}).get("frame_id", "")),
-                    pose=messages.Pose(position=messages.Vector3(**{k: number(at.get(k)) for k in "xyz"}),
-                                       orientation=messages.Quaternion(**{k: number(turn.get(k)) for k in "xyzw"})))
-            return self._typed(topic, messages.PoseInFrame, posed)
+            def make(data: Json, stamp: float) -> Any:
+                return convert(fox, kind, data, stamp, described)
+            return self._typed(topic, getattr(fox.messages, message), make)
         schema = json_schema(described["type"], title=topic, doc=str(described.get("doc") or ""))
-        channel = self._server.add_channel(topic, "json", kind or topic, "jsonschema", orjson.dumps(schema).decode())
+        name = str(described["type"].get("name", "")) or topic
+        channel = self._server.add_channel(topic, "json", name, "jsonschema", orjson.dumps(schema).decode())
         return _Shown(channel, None)
 
     async def _follow(self, port: OutPortRuntime[Any], shown: _Shown) -> None:
         delivered = port.version
-        since: int | None = None
         channel = shown.channel
         subscribed: asyncio.Future[Any] | None = None
         try:
@@ -245,17 +209,18 @@ class FoxgloveView:
                     continue
                 channel.subscribed.clear()
                 delivered = port.version
-                if not channel.watched or (port.version == 0 and not shown.audio):
-                    since = None  # nobody watches: nothing read, nothing encoded
+                if not channel.watched or (port.version == 0 and shown.audio is None):
+                    if shown.audio is not None:
+                        shown.audio.since = None  # nobody watches: nothing read, nothing encoded
                     continue
+                now = self._wall()
                 try:
+                    if shown.audio is not None:
+                        self._send_audio(channel, shown.audio, now)
+                        continue
                     value = port.read()
                 except (PortUnavailable, RemoteUnreachable, OverBudget):
                     continue  # not current (a sensor down, a silent host): shown again at the next publication
-                now = self._wall()
-                if shown.audio:
-                    since = self._send_audio(channel, port, value, since, now)
-                    continue
                 data = port.type.encode(value)
                 stamp = _stamp(data, now) if isinstance(data, Mapping) else now
                 payload = shown.encode(data, stamp) if shown.encode is not None else orjson.dumps(data, option=_NUMPY)
@@ -268,39 +233,85 @@ class FoxgloveView:
             if subscribed is not None:
                 subscribed.cancel()
 
-    def _send_audio(self, channel: LiveChannel, port: OutPortRuntime[Any], value: Any, since: int | None,
-                    now: float) -> int | None:
-        """Send the audio published since *since* (the newest chunk when None); return the new index."""
-        if not isinstance(value, Incremental):
-            return None
-        newest = value.index
-        per_publication = int(getattr(value, "items_per_publication", 1))
-        start = max(0, newest - per_publication) if since is None or since > newest else since
-        if newest <= start:
-            return newest
-        data, lost = value.since(start)
-        encoded = port.type.encode(data)
-        left = np.asarray(encoded.get("left", ()), dtype=np.int32)
-        right = np.asarray(encoded.get("right", ()), dtype=np.int32)
-        rate = int(encoded.get("transfer_rate", encoded.get("sampleRate", 0)))
-        if not left.size or not rate:
-            return newest
-        stereo = np.empty((left.size, 2), dtype="<i2")
+    def _send_audio(self, channel: LiveChannel, reader: AudioReader, now: float) -> None:
+        """Send the audio published since the last send (a new viewer: from the newest publication's)."""
+        if reader.since is None:
+            reader.start_with_last_publication()
+        try:
+            read = reader.read(now)
+        except ValueError:
+            log.debug("the Foxglove view skips a read of %s that is not whole chunks", channel.topic)
+            return
+        if read is None or not read.pieces or not read.rate:
+            return
         # pcm-s16 is what RawAudio carries: the upper 16 bits of each left-justified int32 sample.
-        stereo[:, 0], stereo[:, 1] = left >> 16, right >> 16
-        stamp = now - left.size / rate  # bass: its port carries no time
-        start_of_capture = seconds_of(encoded.get("ts"))
-        if start_of_capture is not None:
-            # capture: chunk k starts at ts + (k - 1) * frames per chunk / rate (a read not of whole chunks: now)
-            with contextlib.suppress(ValueError):
-                stamp = start_of_capture + (start + lost) * frames_per_chunk(left.size, newest - start - lost) / rate
+        samples = (read.frames >> 16).astype("<i2")
         fox = self._fox
-        message = fox.messages.RawAudio(timestamp=_time(fox, stamp), data=stereo.tobytes(), format="pcm-s16",
-                                        sample_rate=rate, number_of_channels=2)
+        message = fox.messages.RawAudio(timestamp=_time(fox, read.pieces[0].stamp), data=samples.tobytes(),
+                                        format="pcm-s16", sample_rate=read.rate, number_of_channels=read.channels)
         self._server.publish(channel, int(now * 1e9), message.encode())
-        return newest
 
 
 def _time(fox: Any, seconds: float) -> Any:
     whole = math.floor(seconds)
     return fox.messages.Timestamp(sec=int(whole), nsec=min(999_999_999, int(round((seconds - whole) * 1e9))))
+
+
+def _head(fox: Any, kind: HeadState, data: Json, stamp: float, described: Json) -> Any:
+    state = kind.read(data)  # radians, as the recording's JointState
+    messages = fox.messages
+    return messages.JointStates(timestamp=_time(fox, stamp), joints=[messages.JointState(
+        name="head_yaw", position=state.position, velocity=state.velocity)])
+
+
+def _joints(fox: Any, kind: JointStates, data: Json, stamp: float, described: Json) -> Any:
+    joints = kind.read(data)
+    messages = fox.messages
+    velocities = joints.velocities if len(joints.velocities) == len(joints.names) else [math.nan] * len(joints.names)
+    return messages.JointStates(timestamp=_time(fox, stamp), joints=[
+        messages.JointState(name=name, position=float(p), velocity=float(v))
+        for name, p, v in zip(joints.names, joints.positions, velocities, strict=False)])
+
+
+def _image(fox: Any, kind: Image, data: Json, stamp: float, described: Json) -> Any:
+    picture = kind.read(data)
+    raw = picture.data.tobytes() if isinstance(picture.data, np.ndarray) else bytes(picture.data)
+    return fox.messages.RawImage(timestamp=_time(fox, stamp), frame_id=str(described["name"]), width=picture.width,
+                                 height=picture.height, encoding=picture.encoding, step=picture.step, data=raw)
+
+
+def _scan(fox: Any, kind: LaserScan, data: Json, stamp: float, described: Json) -> Any:
+    scan = kind.read(data)
+    return fox.messages.LaserScan(timestamp=_time(fox, stamp), frame_id=scan.frame, start_angle=scan.angle_min,
+                                  end_angle=scan.angle_max, ranges=[float(r) for r in scan.ranges])
+
+
+def _odometry(fox: Any, kind: Odometry, data: Json, stamp: float, described: Json) -> Any:
+    # foxglove.Odometry's velocities are in body_frame_id, as the recording's nav_msgs/Odometry.
+    moved = kind.read(data)
+    messages = fox.messages
+    pose = messages.Pose(position=messages.Vector3(x=moved.x, y=moved.y, z=0),
+                         orientation=messages.Quaternion(**dict(zip("xyzw", moved.orientation, strict=True))))
+    return messages.Odometry(timestamp=_time(fox, stamp), frame_id="map", body_frame_id="base_footprint", pose=pose,
+                             linear_velocity=messages.Vector3(x=moved.forward, y=moved.leftward, z=0),
+                             angular_velocity=messages.Vector3(x=0, y=0, z=moved.turn))
+
+
+def _pose(fox: Any, kind: Pose, data: Json, stamp: float, described: Json) -> Any:
+    pose = kind.read(data)
+    messages = fox.messages
+    return messages.PoseInFrame(
+        timestamp=_time(fox, stamp), frame_id=pose.frame,
+        pose=messages.Pose(position=messages.Vector3(**dict(zip("xyz", pose.position, strict=True))),
+                           orientation=messages.Quaternion(**dict(zip("xyzw", pose.orientation, strict=True)))))
+
+
+#: How each kind is shown: the Foxglove message type, and the conversion of the port's data into it.
+_FOXGLOVE: dict[type[PortKind], tuple[str, Callable[[Any, Any, Json, float, Json], Any]]] = {
+    HeadState: ("JointStates", _head),
+    JointStates: ("JointStates", _joints),
+    Image: ("RawImage", _image),
+    LaserScan: ("LaserScan", _scan),
+    Odometry: ("Odometry", _odometry),
+    Pose: ("PoseInFrame", _pose),
+}

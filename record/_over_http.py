@@ -56,26 +56,24 @@ async def _describe(client: AsyncClient, name: str) -> tuple[str, str, dict[str,
     return instance, port, dict(described)
 
 
-async def _newest_index(client: AsyncClient, instance: str, port: str) -> int:
-    """The newest item of a numbered port now (its chunk or frame index), read without moving any data."""
+async def _newest_index(client: AsyncClient, instance: str, port: str, recorder: AudioRecorder) -> int:
+    """The newest item of an audio port now (its chunk or frame index), read without moving any data."""
     module = await client.module(instance)
     wrapped = await getattr(module, port)(since=_BEYOND, raw=True)
-    data = wrapped[port]
-    return int(data.get("index", data.get("lastFrameIndex", 0)))
+    return recorder.index_of(wrapped[port])
 
 
 async def _follow_audio(client: AsyncClient, instance: str, port: str, recorder: AudioRecorder,
                         recording: Recording, rig: RigClock) -> None:
     """Every frame once: a watch of the items after the newest one when the recording started."""
-    recorder.start_at(await _newest_index(client, instance, port))
+    recorder.start_at(await _newest_index(client, instance, port, recorder))
     while True:
         async for event in client.watch(instance, port, since=recorder.since):
             rig_time = await rig.now()  # as received: the rig's time of the read (bass's audio carries none)
             newest = recorder.index_of(event.data)
             if recorder.restarted(newest):
                 break  # a new capture: watched again from its first chunk
-            since = recorder.since
-            recorder.write(event.data, since=since, lost=event.lost, rig_time=rig_time)
+            recorder.write(event.data, lost=event.lost, rig_time=rig_time)
             # A full queue leaves the watch unread: the gateway counts what its window loses meanwhile.
             await recording.writer.wait_room()
         else:

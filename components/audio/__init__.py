@@ -10,7 +10,8 @@
   :mod:`aiogenomix.components.binaural`), another head's (``snowman``, a SOFA file), or a spherical
   head by name (:class:`SphericalHeadRenderer`); in metres, in a shoebox room, with WAV talkers
   (:class:`RoomSceneRenderer`).
-* **The chunk window** of the newest chunks (:class:`ChunkWindow`), read whole or incrementally.
+* **The chunk window** of the newest chunks (:class:`ChunkWindow`), read whole or incrementally, and
+  **the reader of any audio port** (:class:`AudioReader`): every frame once, read by index.
 * **The dedicated sockets**: a line server (:class:`LineServer`, :class:`LastReply`) and the
   2014 protocol (``Read Port - Index <k>``, :class:`DedicatedSocketServer`).
 * **One exception tree** (:class:`AudioError`), which the components turn into their genom3 exceptions.
@@ -27,6 +28,7 @@ from ._errors import (
 )
 from ._head_model import SphericalHeadRenderer, woodworth_itd
 from ._limits import MAX_FRAMES_PER_CHUNK, RATE_RANGE
+from ._port_reader import AudioReader, NotAudio
 from ._renderers import KemarSceneRenderer, SceneRenderer, prepare_kemar, scene_renderer
 from ._line_server import CLOSE, TOKEN_PREFIX, Conversation, LastReply, LineServer, split_lines
 from ._room_scene import MeasuredSceneRenderer, RoomSceneRenderer, listener_of, shoebox_of
@@ -50,8 +52,8 @@ __all__ = [
     "Scene", "Source", "DEFAULT_SCENE", "load_scene", "SceneRenderer", "scene_renderer", "KemarSceneRenderer",
     "prepare_kemar", "SphericalHeadRenderer", "woodworth_itd", "RoomSceneRenderer", "MeasuredSceneRenderer",
     "shoebox_of", "listener_of",
-    # The chunk window
-    "ChunkWindow", "WindowRead", "WindowState",
+    # The chunk window, and the reader of any audio port
+    "ChunkWindow", "WindowRead", "WindowState", "AudioReader", "NotAudio",
     # The dedicated sockets
     "LineServer", "LastReply", "Conversation", "split_lines", "CLOSE", "TOKEN_PREFIX", "DedicatedSocketServer",
     "SocketPorts",

@@ -73,12 +73,16 @@ class Chunk:
         overrun: Whether the device or the hand-over lost data just before this chunk.
         lost_frames: How many frames were lost just before this chunk (an
             estimate after a device overrun; exact when the hand-over dropped chunks).
+        head_azimuth: The head's azimuth at the chunk's end (degrees, positive to the left) when the
+            source knows it: a recording played again gives the recorded one. None: the source does not
+            know it (a component that publishes azimuths reads its head).
     """
 
     frames: npt.NDArray[np.int32]
     time: float
     overrun: bool = False
     lost_frames: int = 0
+    head_azimuth: float | None = None
 
     @property
     def left(self) -> npt.NDArray[np.int32]:

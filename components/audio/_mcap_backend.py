@@ -13,6 +13,10 @@ capture plays after the one before, the pause between them kept as a gap (from t
 times, as recorded on the rig's clock).  Each capture's rate is checked: one of another rate
 ends the replay there, saying so.
 
+Each chunk carries the head's azimuth at its end as the recording has it (a port whose kind carries
+the head's azimuth with each chunk, ``kemarcapture``'s), linear between the recorded chunks' ends, so
+that a capture that publishes azimuths publishes the recorded ones, not its live head's.
+
 ``mcap:PATH`` plays the recording's only audio port; ``mcap:PATH#instance/port`` names one.
 Files come from the directories the operator allowed for audio files (``--audio-files``) and for
 recordings (``--record-dir``), reached without following links.
@@ -21,7 +25,9 @@ recordings (``--record-dir``), reached without following links.
 from __future__ import annotations
 
 import asyncio
+import bisect
 import logging
+import math
 from collections.abc import Iterator, Sequence
 from typing import Self
 
@@ -82,6 +88,9 @@ class RecordingBackend(CaptureBackend):
         self._start_wall = 0.0
         self._next = 0  # the replay chunk to deliver next (its frames start at _next * frames_per_chunk)
         self._ended = False
+        #: Where the recorded chunks read so far end (replay positions) and the head's azimuth there.
+        self._head_ends: list[int] = []
+        self._heads: list[float] = []
 
     async def open(self) -> None:
         """Open the recording off the event loop, check its rate, start the clock.
@@ -142,7 +151,31 @@ class RecordingBackend(CaptureBackend):
         position = self._capture_start + chunk.first_frame - self._capture_first
         self._end, self._end_time = position + len(chunk.frames), chunk.capture_time + len(chunk.frames) / self.rate
         self._last_first = chunk.first_frame
+        if self._head_ends and self._end <= self._head_ends[-1]:
+            self._head_ends, self._heads = [], []  # frames played again: the head's path starts anew
+        self._head_ends.append(self._end)
+        self._heads.append(chunk.head_azimuth)
         return position, chunk
+
+    def _head_at(self, position: int) -> float | None:
+        """The recorded head's azimuth at the replay *position* (a chunk's end), degrees; None when not recorded.
+
+        Linear between the ends of the recorded chunks around it, as the head moved between them; the
+        chunks read so far reach past it (a delivered chunk is complete, or the recording has ended).
+        """
+        at = bisect.bisect_left(self._head_ends, position)
+        if at == len(self._heads):
+            at -= 1  # past the last recorded end (the recording ended): the last azimuth
+        if at < 0:
+            return None
+        after = self._heads[at]
+        if at == 0 or self._head_ends[at] == position:
+            azimuth = after
+        else:
+            start, end, before = self._head_ends[at - 1], self._head_ends[at], self._heads[at - 1]
+            azimuth = before + (after - before) * (position - start) / (end - start)
+        del self._head_ends[:max(0, at - 1)], self._heads[:max(0, at - 1)]  # what later chunks need is kept
+        return azimuth if math.isfinite(azimuth) else None
 
     def _more(self) -> AudioChunk | None:
         """The next recorded chunk (blocking: read off the event loop)."""
@@ -167,7 +200,8 @@ class RecordingBackend(CaptureBackend):
         # Released when the clock reaches its end, as a sound card delivers it.
         await self.clock.sleep_until(self._origin + (self._next * fpc) / self.rate)
         lost += fpc - covered
-        return Chunk(frames, self._start_wall + start / self.rate, overrun=lost > 0, lost_frames=lost)
+        return Chunk(frames, self._start_wall + start / self.rate, overrun=lost > 0, lost_frames=lost,
+                     head_azimuth=self._head_at(start + fpc))
 
     async def _frames(self, start: int, count: int) -> tuple[npt.NDArray[np.int32] | None, int]:
         """The frames of replay positions ``start … start + count`` (zeros where the recording has none).

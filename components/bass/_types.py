@@ -8,7 +8,7 @@ from typing import Annotated, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import GenomException, String, ULong, ULongLong, Unit, idl_struct
+from ..core import AudioStream, GenomException, String, ULong, ULongLong, Unit, idl_struct
 
 __all__ = ["AudioPortData", "Samples", "DeviceList", "e_nomem", "e_nodevice", "e_device", "e_hwparams",
            "e_swparams", "e_socket"]
@@ -22,7 +22,8 @@ def _no_samples() -> np.ndarray:
     return np.zeros(0, dtype=np.int32)
 
 
-@idl_struct("binaudio::portStruct")
+@idl_struct("binaudio::portStruct", carries=AudioStream(numbering="frames", index="lastFrameIndex", rate="sampleRate",
+                                                      channels=("left", "right"), chunk_frames="nFramesPerChunk"))
 class AudioPortData:
     """The newest frames of the capture, oldest first, indexed by frame.
 

@@ -1,12 +1,12 @@
 """The ``binauloc`` component: binaural localisation on the measured KEMAR, after the Two!Ears ``binauloc``.
 
-Reads ``bass/Audio`` by frame index (or a capture's chunks), publishes an estimate of the sources'
-directions every few frames on ``Azimuths`` and in the numbered history ``Estimates``, and turns
-whichever head a component provides to tell sources from their mirror images and face one
-(``FaceSource``). The science is :mod:`aiogenomix.components.binaural`'s.
+Reads an audio port by index (``bass/Audio``'s frames, a capture's chunks, any component's
+audio), publishes an estimate of the sources' directions every few frames on ``Azimuths`` and in
+the numbered history ``Estimates``, and turns whichever head a component provides to tell sources
+from their mirror images and face one (``FaceSource``). The science is :mod:`aiogenomix.components.binaural`'s.
 """
 
-from ._component import ANALYSES, AUDIO_PORTS, Binauloc
+from ._component import ANALYSES, Binauloc
 from ._feed import AudioBlock, PortFeed
 from ._history import CAPACITY, EstimateHistory, EstimateWindow
 from ._types import (
@@ -15,7 +15,7 @@ from ._types import (
 )
 
 __all__ = [
-    "Binauloc", "AUDIO_PORTS", "ANALYSES", "AzimuthsData", "SourceData", "Window", "PortFeed", "AudioBlock",
+    "Binauloc", "ANALYSES", "AzimuthsData", "SourceData", "Window", "PortFeed", "AudioBlock",
     "SourceAzimuthData", "EstimatesData", "Target", "MAX_SOURCES", "EstimateHistory", "EstimateWindow", "CAPACITY",
     "e_setup", "e_noData", "e_rate", "e_noHead", "e_head",
 ]

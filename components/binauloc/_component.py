@@ -17,12 +17,10 @@ from ..binaural import (
     SourcesEstimate, TurnableHead, TurnPlanner, radians, wrap_degrees,
 )
 from ..binaural import Window as WindowName
-from ..capture import PortData
 from ..core import (
-    Component, Double, InPortRuntime, InPort, Out, OutPort, Task, ULong, activity, function, redeclare, Unit,
+    AudioStream, Component, Double, InPort, Out, OutPort, Task, ULong, activity, function, redeclare,
+    Unit,
 )
-from ..kemarcapture import KemarPortData
-from ..recording import AUDIO_TYPES
 from ._feed import AudioBlock, NotStreaming, PortFeed
 from ._history import EstimateHistory, EstimateWindow
 from ._types import (
@@ -30,12 +28,10 @@ from ._types import (
     e_noHead, e_rate, e_setup,
 )
 
-__all__ = ["Binauloc", "AUDIO_PORTS"]
+__all__ = ["Binauloc"]
 
 log = logging.getLogger(__name__)
 
-#: The audio in ports, each reading one kind of port (what its port numbers, frames or chunks, its type says).
-AUDIO_PORTS = ("Audio", "CapturePort", "KemarPort")
 #: The services that analyse the audio; each interrupts the others (one localiser, one stream).
 ANALYSES = ("LearnNoise", "LocalizeSources", "FaceSource")
 #: Bounds of Setup: an analysis a client may ask for holds at most this much memory and time per estimate.
@@ -61,10 +57,11 @@ def _source_data(source: SourceAzimuth, head: float | None) -> SourceAzimuthData
 class Binauloc(Component, name="binauloc", version="1.0"):
     """Binaural sound localisation on the measured KEMAR HRTFs, after the Two!Ears ``binauloc``.
 
-    Connect ``Audio`` to ``bass/Audio`` (or ``CapturePort`` to ``capture/Port``, ``KemarPort`` to
-    ``kemarcapture/Port``) with connect_port, then ``Setup``, ``LearnNoise`` while the sources are
-    silent, and ``LocalizeSources``: each estimate of the dominant source's direction is published
-    on ``Azimuths`` (radians in the head frame, with its confidence, the frame it refers to and,
+    Connect ``Audio`` to an audio port with connect_port (``bass/Audio``, ``capture/Port``,
+    ``kemarcapture/Port``, or any component's whose type carries audio), then ``Setup``,
+    ``LearnNoise`` while the sources are silent, and ``LocalizeSources``: each estimate of the
+    dominant source's direction is published on ``Azimuths`` (radians in the head frame, with its
+    confidence, the frame it refers to and,
     when the audio carries the head's azimuth, the room azimuth). ``FaceSource`` turns the head
     (kemar, kemarcapture or morse_kemar, whichever provides it) to tell front from back, then
     faces the source. Method: the ears' spatial covariance, less the noise's, matched against
@@ -73,9 +70,9 @@ class Binauloc(Component, name="binauloc", version="1.0"):
 
     localize = Task(doc="Reads the connected audio port and localises, as the audio arrives")
 
-    Audio = InPort(AudioPortData, doc="Connect to bass/Audio: frames, read by frame index without loss")
-    CapturePort = InPort(PortData, doc="Connect to capture/Port: chunks, read by chunk index")
-    KemarPort = InPort(KemarPortData, doc="Connect to kemarcapture/Port: chunks and the head azimuth of each")
+    Audio = InPort(AudioPortData, carrying=AudioStream, doc=(
+        "Connect to an audio port (bass/Audio, capture/Port, kemarcapture/Port, any component's): read by index "
+        "without loss, with the head azimuths it carries"))
     Azimuths = OutPort(AzimuthsData, doc="The newest estimate: its sources, the strongest first")
     Estimates: OutPort[EstimateWindow] = OutPort(
         EstimatesData, doc="The last 1024 estimates, numbered: read with since=K for those after K")
@@ -85,7 +82,6 @@ class Binauloc(Component, name="binauloc", version="1.0"):
         """No analysis yet: the default setup, no noise learnt, empty ports."""
         self._setup = LocaliserSetup(rate=0.0)
         self._localiser: SourceLocaliser | None = None
-        self._audio_in: str | None = None
         self._history = EstimateHistory()
         self.Azimuths.publish(AzimuthsData())
         self.Estimates.publish(self._history.window)
@@ -94,24 +90,22 @@ class Binauloc(Component, name="binauloc", version="1.0"):
     # -- which port, which analysis ----------------------------------------------------------
 
     @redeclare(Component.connect_port, doc=(
-        "Connect the in port local to the out port remote (component/port): Audio to bass/Audio, CapturePort to "
-        "capture/Port, KemarPort to kemarcapture/Port. The audio port connected last is the one analysed."))
+        "Connect the in port local to the out port remote (component/port): Audio to any audio port, bass/Audio, "
+        "capture/Port, kemarcapture/Port or another component's."))
     async def connect_port(self, **inputs: Any) -> None:
         await Component.connect_port(self, **inputs)
-        if inputs["local"] in AUDIO_PORTS:
-            self._audio_in = inputs["local"]
 
     def _feed(self, head: TurnableHead | None) -> PortFeed:
-        name = self._audio_in or next((n for n in AUDIO_PORTS if getattr(self.port(n), "remote", None) is not None),
-                                      None)
-        if name is None:
-            raise e_noData(what="no audio in port is connected: connect Audio to bass/Audio, CapturePort to "
-                                "capture/Port or KemarPort to kemarcapture/Port")
-        port = self.port(name)
-        assert isinstance(port, InPortRuntime)
-        # kemarcapture carries the head's azimuth with each chunk; otherwise it is read as the audio arrives.
-        position = None if name == "KemarPort" or head is None else head.position
-        return PortFeed(port, AUDIO_TYPES[port.type.name], position)
+        port = self.Audio
+        if port.remote is None:
+            raise e_noData(what="Audio is not connected: connect it to an audio port (bass/Audio, capture/Port, "
+                                "kemarcapture/Port...)")
+        # A port that carries the head's azimuth with each chunk (kemarcapture) needs no other head:
+        # for the others, it is read as the audio arrives.
+        kind = port.remote.type.carries if port.remote is not None else None
+        carried = isinstance(kind, AudioStream) and kind.head_azimuth is not None
+        position = None if carried or head is None else head.position
+        return PortFeed(port, position, self.clock.wall)
 
     async def _localiser_for(self, rate: int) -> SourceLocaliser:
         """The localiser of the current setup at the port's *rate* (built on first use, off the event loop)."""

@@ -9,13 +9,13 @@ from ._component import Capture, HeadPositionSource, frames_per_chunk
 from ._port_view import PortView
 from ._types import (
     ALREADY_CAPTURING, DEVICE_ERROR, ERROR_SEQUENCE_ENOMEM, INVALID_CHUNK_TIME, NO_SUCH_DEVICE, SOCKET_ERROR,
-    CaptureConfig, CaptureStatus, PortData, Timestamp,
+    PORT_AUDIO, CaptureConfig, CaptureStatus, PortData, Timestamp,
 )
 
 __all__ = [
     # The component and its port
-    "Capture", "HeadPositionSource", "PortView", "PortData", "Timestamp", "CaptureConfig", "CaptureStatus",
-    "frames_per_chunk",
+    "Capture", "HeadPositionSource", "PortView", "PortData", "PORT_AUDIO", "Timestamp", "CaptureConfig",
+    "CaptureStatus", "frames_per_chunk",
     # Exceptions
     "INVALID_CHUNK_TIME", "ERROR_SEQUENCE_ENOMEM", "NO_SUCH_DEVICE", "DEVICE_ERROR", "ALREADY_CAPTURING",
     "SOCKET_ERROR",

@@ -246,13 +246,22 @@ class Capture(Component, name="capture", version="1.1"):
         hands both over, and this loop publishes them in order.  At most one
         query is in flight: a chunk that arrives during one shares its answer,
         so a slow or silent bus delays publication but never piles up queries.
+        A chunk whose source knows the head's azimuth (a recording played again,
+        ``mcap:PATH``) is published with that one, the head not asked.
         """
         handed: asyncio.Queue[tuple[Chunk, asyncio.Future[float]] | None] = asyncio.Queue()
         queries: list[asyncio.Future[float]] = []
+        loop = asyncio.get_running_loop()
 
         async def read() -> None:
             try:
                 while (chunk := await backend.read()) is not None:
+                    if chunk.head_azimuth is not None:
+                        # The source knows where the head was (a recording played again): not the live head.
+                        known = loop.create_future()
+                        known.set_result(chunk.head_azimuth)
+                        handed.put_nowait((chunk, known))
+                        continue
                     if not queries or queries[-1].done():
                         queries[:] = [asyncio.ensure_future(head_position())]
                     handed.put_nowait((chunk, queries[-1]))

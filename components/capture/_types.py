@@ -9,10 +9,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import core
-from ..core import Boolean, GenomException, String, ULong, ULongLong, Unit, idl_struct
+from ..core import AudioStream, Boolean, GenomException, String, ULong, ULongLong, Unit, idl_struct
 
 __all__ = [
-    "Timestamp", "PortData", "CaptureConfig", "CaptureStatus", "Samples", "DeviceList",
+    "Timestamp", "PortData", "PORT_AUDIO", "CaptureConfig", "CaptureStatus", "Samples", "DeviceList",
     "INVALID_CHUNK_TIME", "ERROR_SEQUENCE_ENOMEM", "NO_SUCH_DEVICE", "DEVICE_ERROR", "ALREADY_CAPTURING",
     "SOCKET_ERROR",
 ]
@@ -31,7 +31,12 @@ class Timestamp(core.Timestamp):
     """A POSIX time split into seconds and nanoseconds."""
 
 
-@idl_struct("capture::port_t")
+#: What Port carries: chunks numbered by ``index``, timed from ``ts``.
+PORT_AUDIO = AudioStream(numbering="chunks", index="index", rate="transfer_rate", channels=("left", "right"),
+                         start="ts")
+
+
+@idl_struct("capture::port_t", carries=PORT_AUDIO)
 class PortData:
     """The newest chunks of the capture, oldest first (the linear port of the seed, section 5.2.1).
 

@@ -6,6 +6,7 @@ What a component author uses lives here; the runtime that hosts components
 client functions; ``components/demo`` is a complete one.
 """
 
+from ._audio_stream import FULL_SCALE, AudioPiece, AudioRead, AudioStream
 from ._budgets import Budgets, Ledger, Ledgers, OverBudget, Reservation
 from ._chunked import Chunk, Chunked, ChunkedArray
 from ._clock import Clock, ManualClock, RealClock, ScaledClock, VirtualClock
@@ -18,6 +19,10 @@ from ._host import ComponentHost, LoadError
 from ._log_limits import ThrottledLog
 from ._names import NAME_FORBIDDEN, forbidden_in_name
 from ._json_schema import JsonSchemas, json_schema, schema_name
+from ._kinds import (
+    HeadReading, HeadState, Image, ImageReading, JointReading, JointStates, LaserScan, MemberNeed, Odometry,
+    PlanarOdometry, PortKind, Pose, PoseReading, ScanReading, carried_by, member_at, seconds_of,
+)
 from ._settings import HostSettings
 from ._ports import ComputedOutPort, Incremental, InPort, InPortRuntime, OutPort, OutPortRuntime
 from ._public import show_as_public as _show_as_public
@@ -47,6 +52,10 @@ __all__ = [
     "LongLong", "ULongLong", "Float", "Double", "String", "sequence", "array", "optional", "string", "Timestamp",
     # Units of numbers, and what the index of a sequence stands for
     "Unit", "Grid",
+    # What a port carries (its kind, declared by its type), and each kind's reading of the data
+    "PortKind", "MemberNeed", "carried_by", "member_at", "seconds_of",
+    "AudioStream", "AudioRead", "AudioPiece", "FULL_SCALE", "HeadState", "HeadReading", "Image", "ImageReading",
+    "LaserScan", "ScanReading", "Pose", "PoseReading", "Odometry", "PlanarOdometry", "JointStates", "JointReading",
     # The type of a port known by its description only (another process's, a recording's)
     "DescribedType",
     # JSON Schemas of /info types (for recordings, live views, API documents)

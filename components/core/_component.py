@@ -21,7 +21,7 @@ from ._exceptions import (
     no_such_outport, no_such_service, port_io, remote_io, too_many_activities, unkex,
 )
 from ._log_limits import ThrottledLog
-from ._ports import ComputedOutPort, InPortRuntime, OutPortRuntime, PortSpec
+from ._ports import ComputedOutPort, InPort, InPortRuntime, OutPortRuntime, PortSpec
 from ._requests import SENDER_SCOPE, Request, RequestTracker
 from ._services import ServiceSpec, activity, check_redeclaration, check_validate_hook, function, service_spec
 from ._state import GenomState
@@ -574,13 +574,14 @@ class Component:
             raise port_io(what=str(exc)) from None
         if not isinstance(target, OutPortRuntime):
             raise no_such_outport()
-        if target.type.name != spec.type.name:
+        assert isinstance(spec, InPort)
+        if not spec.reads(target.type):
             # Connected anyway, the reader would take one struct for another: refuse, and say what fits.
             fitting = [name for name, other in self._ports.items()
-                       if other.direction == "in" and other.type.name == target.type.name]
+                       if isinstance(other, InPort) and other.reads(target.type)]
             hint = f"; {', '.join(fitting)} of {self.instance} reads it" if fitting else ""
-            raise port_io(what=f"{self.instance}/{local} reads {spec.type.name}, {remote.strip('/')} publishes "
-                               f"{target.type.name}{hint}")
+            raise port_io(what=f"{self.instance}/{local} reads {spec.what_it_reads()}, {remote.strip('/')} "
+                               f"publishes {target.type.name}{hint}")
         self.port(local).connect(target, remote, parts[2] if len(parts) > 2 else None)  # type: ignore[union-attr]
 
     @function(throws=(no_such_service,))

@@ -7,8 +7,10 @@ recording's JSON channels (a self-contained schema per channel, its structs unde
 (:meth:`IdlType.describe`), so a component host, a recorder on another machine or a
 client holding only ``/info`` makes the same schemas.
 
-A number's unit, where its component declares one, is the schema's ``x-unit`` (``"deg"``): JSON
-Schema keeps keywords it does not know as annotations, and OpenAPI takes ``x-`` extensions anywhere.
+A number's unit, where its component declares one, is the schema's ``x-unit`` (``"deg"``), and what
+a struct's data is, where its type declares a port kind, the struct schema's ``x-carries`` (the
+``carries`` object of ``/info``): JSON Schema keeps keywords it does not know as annotations, and
+OpenAPI takes ``x-`` extensions anywhere.
 
 Data comes in two directions that genom3 writes differently:
 
@@ -122,7 +124,8 @@ class JsonSchemas:
             return self.ref(schema_name(t["name"]), {
                 "type": "object", "title": schema_name(t["name"]), "description": t["name"],
                 "required": [m["name"] for m in t["members"]],
-                "properties": {m["name"]: self._member(m, self.output) for m in t["members"]}})
+                "properties": {m["name"]: self._member(m, self.output) for m in t["members"]},
+                **({"x-carries": t["carries"]} if isinstance(t.get("carries"), Mapping) else {})})
         if kind in ("sequence", "array"):
             return {"type": "array", "items": self.output(t["element"])}
         if kind == "optional":

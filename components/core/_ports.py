@@ -16,6 +16,7 @@ import builtins
 from typing import Any, Generic, Protocol, Self, TypeVar, overload, runtime_checkable
 
 from ._exceptions import GenomException, NoSuchPort, PortUnavailable, port_io
+from ._kinds import PortKind
 from ._types import IdlType, idl_type
 
 __all__ = ["OutPort", "ComputedOutPort", "InPort", "OutPortRuntime", "ComputedOutPortRuntime", "InPortRuntime",
@@ -141,18 +142,45 @@ class InPort(PortSpec, Generic[T]):
     ``self.Pose.read()``, ``await self.Pose.wait_published()``.
 
     Args:
-        annotation: The type of the data (the out port it connects to must have the same).
+        annotation: The type of the data (the out port it connects to must have the same, unless *carrying*).
         doc: What the port reads.
+        carrying: A port kind (:class:`~aiogenomix.components.core.AudioStream`...): the port also
+            reads any out port whose type carries it, whatever component declares that type (another
+            package's audio included); what it reads is then that type's data, read by its kind.
+
+    ``InPort(AudioPortData, carrying=AudioStream)`` reads bass's frames, a capture's chunks, or any
+    other component's audio; ``/info`` says so (``"reads": "audio"``).
     """
 
     direction = "in"
 
     @overload
-    def __init__(self: InPort[T], annotation: type[T], doc: str = "") -> None: ...
+    def __init__(self: InPort[T], annotation: type[T], doc: str = "", *,
+                 carrying: type[PortKind] | None = None) -> None: ...
     @overload
-    def __init__(self: InPort[Any], annotation: object, doc: str = "") -> None: ...
-    def __init__(self, annotation: object, doc: str = "") -> None:
+    def __init__(self: InPort[Any], annotation: object, doc: str = "", *,
+                 carrying: type[PortKind] | None = None) -> None: ...
+    def __init__(self, annotation: object, doc: str = "", *, carrying: type[PortKind] | None = None) -> None:
         super().__init__(annotation, doc)
+        self.carrying = carrying
+
+    def reads(self, published: IdlType) -> bool:
+        """Whether this port may be connected to an out port of the type *published*."""
+        return published.name == self.type.name or (
+            self.carrying is not None and isinstance(published.carries, self.carrying))
+
+    def what_it_reads(self) -> str:
+        """What the port reads, as a refusal says it: its type, or its kind (``audio (any type that carries it)``)."""
+        if self.carrying is None:
+            return self.type.name
+        return f"{self.carrying.kind} (any type that carries it)"
+
+    def describe(self) -> dict[str, Any]:
+        """The ``/info`` description of this port: with ``reads``, the kind it reads, when it reads one."""
+        described = super().describe()
+        if self.carrying is not None:
+            described["reads"] = self.carrying.kind
+        return described
 
     @overload
     def __get__(self, instance: None, owner: type) -> Self: ...
@@ -295,8 +323,9 @@ class ComputedOutPortRuntime(OutPortRuntime[T]):
 class InPortRuntime(_PortRuntime, Generic[T]):
     """The in port of one component instance: reads the out port it is connected to."""
 
-    def __init__(self, spec: PortSpec, owner: Any) -> None:
+    def __init__(self, spec: InPort[T], owner: Any) -> None:
         super().__init__(spec, owner)
+        self.in_spec = spec
         self.remote: OutPortRuntime[T] | None = None
         self.remote_name = ""
         self.element: str | None = None
@@ -309,13 +338,14 @@ class InPortRuntime(_PortRuntime, Generic[T]):
         return self.remote is not None
 
     def connect(self, remote: OutPortRuntime[Any], remote_name: str, element: str | None = None) -> None:
-        """Connect to *remote* (whose data type must be the same).
+        """Connect to *remote* (whose data type must be the same, or carry the kind the port reads).
 
         Raises:
-            port_io: when the data types differ (naming both).
+            port_io: when the port does not read that type (naming both).
         """
-        if remote.type.name != self.type.name:
-            raise port_io(what=f"{self.name} reads {self.type.name}, {remote_name} publishes {remote.type.name}")
+        if not self.in_spec.reads(remote.type):
+            raise port_io(what=f"{self.name} reads {self.in_spec.what_it_reads()}, {remote_name} publishes "
+                               f"{remote.type.name}")
         self.remote, self.remote_name, self.element = remote, remote_name, element
         if self._connected is not None:
             self._connected.set()
@@ -336,13 +366,17 @@ class InPortRuntime(_PortRuntime, Generic[T]):
     def read(self) -> T | None:
         """The latest data of the connected out port (None while unconnected).
 
+        A port that reads a kind (``carrying=``) and is connected to another type reads that type's
+        data (JSON-ready for a port of another process): read it by its kind.
+
         Raises:
             PortUnavailable: when the out port's component withdrew its data (a service reading
                 it ends with the component's reason).
         """
         if self.remote is None:
             return None
-        value: T = self.remote.read_as(self.type, self.element)
+        as_type = self.type if self.remote.type.name == self.type.name else self.remote.type
+        value: T = self.remote.read_as(as_type, self.element)
         return value
 
     def encoded(self, name: str | None = None) -> Any:

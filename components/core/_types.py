@@ -21,6 +21,7 @@ import numpy as np
 
 from ._chunked import ChunkedArray
 from ._exceptions import InputError
+from ._kinds import PortKind, carried_by
 
 __all__ = [
     "IdlType", "Scalar", "StringType", "EnumType", "StructType", "SequenceType", "ArrayType",
@@ -41,6 +42,11 @@ class IdlType:
     def describe(self) -> dict[str, Any]:
         """Return the ``/info`` description of this type."""
         return {"name": self.name, "kind": self.kind}
+
+    @property
+    def carries(self) -> PortKind | None:
+        """What data of this type is (audio, a head's state...), when its declaration says: its port kind."""
+        return None
 
     def decode(self, value: Any, path: str) -> Any:
         """Convert a JSON value into the Python value of this type.
@@ -80,6 +86,11 @@ class DescribedType(IdlType):
     def describe(self) -> dict[str, Any]:
         """The description it was made from."""
         return self.described
+
+    @functools.cached_property
+    def carries(self) -> PortKind | None:
+        """The kind its description carries (None: none, or one this process does not know)."""
+        return carried_by(self.described)
 
     def zero(self) -> Any:
         """Nothing until the first publication."""
@@ -268,9 +279,10 @@ class StructType(IdlType):
 
     kind = "struct"
 
-    def __init__(self, cls: type, name: str) -> None:
+    def __init__(self, cls: type, name: str, carries: PortKind | None = None) -> None:
         self.cls = cls
         self.name = name
+        self._carries = carries
 
     @functools.cached_property
     def members(self) -> list[tuple[str, IdlType]]:
@@ -292,13 +304,28 @@ class StructType(IdlType):
         hints = typing.get_type_hints(self.cls, include_extras=True)
         return {name: notes_of(hint) for name, hint in hints.items()}
 
-    def describe(self) -> dict[str, Any]:
+    def _shape(self) -> dict[str, Any]:
         notes = self.member_notes
         return {
             "name": self.name,
             "kind": "struct",
             "members": [{"name": n, "type": t.describe(), **notes.get(n, {})} for n, t in self.members],
         }
+
+    @functools.cached_property
+    def carries(self) -> PortKind | None:
+        """The kind the declaration says its data is, checked against its members (None: none said).
+
+        Raises:
+            TypeError: when the kind names a member the struct does not have, or one of another shape or unit.
+        """
+        return None if self._carries is None else self._carries.bind(self._shape())
+
+    def describe(self) -> dict[str, Any]:
+        described = self._shape()
+        if self.carries is not None:
+            described["carries"] = self.carries.describe()
+        return described
 
     def decode(self, value: Any, path: str) -> Any:
         if isinstance(value, self.cls):
@@ -622,17 +649,32 @@ _Class = TypeVar("_Class", bound=type)
 
 
 @dataclass_transform()
-def idl_struct(name: str) -> Callable[[_Class], _Class]:
+def idl_struct(name: str, *, carries: PortKind | None = None) -> Callable[[_Class], _Class]:
     """Class decorator: declare a class as the IDL struct *name* (``"demo::state"``).
 
     The class becomes a dataclass (unless it is one already): members are its
     annotated attributes, in order, with their defaults.  Type checkers see the
     generated ``__init__`` too.
+
+    Args:
+        name: The IDL name.
+        carries: What the data is (:class:`~aiogenomix.components.core.AudioStream`,
+            :class:`~aiogenomix.components.core.HeadState`...) and which members hold it: the
+            recordings, the live view and the localiser read any port of this type by it.
+
+    Raises:
+        TypeError: when *carries* names a member the struct does not have, or one of another shape or
+            unit (checked here, or when the struct is first described if its hints name later classes).
     """
 
     def decorate(cls: _Class) -> _Class:
         struct: Any = cls if dataclasses.is_dataclass(cls) else dataclasses.dataclass(cls)
-        struct.__idl_type__ = StructType(struct, _scoped(name))
+        declared = struct.__idl_type__ = StructType(struct, _scoped(name), carries)
+        if carries is not None:
+            try:
+                declared.carries  # noqa: B018 (checked now, where the author declares it)
+            except NameError:
+                pass  # a hint names a class not defined yet: checked when the struct is first described
         return typing.cast(_Class, struct)
 
     return decorate

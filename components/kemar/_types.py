@@ -7,7 +7,7 @@ import dataclasses
 from .. import core
 from typing import Annotated
 
-from ..core import Boolean, Double, GenomException, Long, String, Unit, idl_struct
+from ..core import Boolean, Double, GenomException, HeadState, Long, String, Unit, idl_struct
 
 __all__ = [
     "Timestamp",
@@ -30,7 +30,7 @@ class Timestamp(core.Timestamp):
     """A POSIX time split into seconds and nanoseconds."""
 
 
-@idl_struct("kemar::state")
+@idl_struct("kemar::state", carries=HeadState(position="position", velocity="speed"))
 class KemarState:
     """The head: azimuth (deg, positive = left), speed (deg/s), the limits found by Homing (deg), and when."""
 

@@ -9,7 +9,7 @@ from typing import Annotated, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
-from ..capture import PortData
+from ..capture import PORT_AUDIO, PortData
 from ..core import Boolean, Double, ULong, Unit, idl_struct
 
 __all__ = ["KemarPortData", "MoveIndexes", "Positions"]
@@ -22,7 +22,7 @@ def _no_positions() -> np.ndarray:
     return np.zeros(0, dtype=np.float64)
 
 
-@idl_struct("kemarcapture::port_t")
+@idl_struct("kemarcapture::port_t", carries=dataclasses.replace(PORT_AUDIO, head_azimuth="positions"))
 @dataclasses.dataclass
 class KemarPortData(PortData):
     """The capture port plus the head position (degrees) at the end of each chunk, oldest first."""

@@ -7,6 +7,7 @@ import logging
 import math
 from typing import Annotated, Any
 
+from ..audio import AudioReader
 from ..core import (
     Boolean, Component, ComponentHost, Double, Incremental, Out, OutPort, OutPortRuntime, OverBudget, String, Task,
     activity, function,
@@ -371,23 +372,27 @@ class Recorder(Component, name="recorder", version="1.0"):
 
     async def _follow_audio(self, port: OutPortRuntime[Any], recorder: AudioRecorder, recording: Recording) -> None:
         """Every frame once: the items after the last one recorded, at each publication."""
-        current = self._current(port, recorder)
-        if isinstance(current, Incremental):
-            recorder.start_at(current.index)
-        started = current is not _WITHDRAWN
+        reader = AudioReader(port)
+        started = port.withdrawn is None
+        if started:
+            reader.start_live()
+        else:
+            recorder.unavailable += 1
         while True:
             await self._room(recording)
-            value = self._current(port, recorder)
-            if isinstance(value, Incremental):
+            if port.withdrawn is not None:
+                recorder.unavailable += 1
+            else:
                 if not started:
                     # Not current when the recording started: recorded from the publication that ends that.
-                    recorder.start_at(value.index - int(getattr(value, "items_per_publication", 1)))
+                    reader.start_with_last_publication()
                     started = True
-                recorder.restarted(value.index)
-                if value.index > recorder.since:
-                    since = recorder.since
-                    data, lost = value.since(since)
-                    recorder.write(port.type.encode(data), since=since, lost=lost, rig_time=self.clock.wall())
+                try:
+                    read = reader.read(self.clock.wall())
+                except ValueError as exc:
+                    raise RecordingError(f"{recorder.name}: {exc}") from None
+                if read is not None:
+                    recorder.add(read)
                     continue
             # Nothing is awaited between the read above and this wait: no publication slips between them.
             await port.wait_published()

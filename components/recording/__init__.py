@@ -8,8 +8,9 @@ The ``recorder`` component, the ``replay`` component, captures that replay a rec
 * **The file** (:class:`McapFile`), written chunk by chunk so that a full disk or a spent budget
   (:class:`RecordQuotas`) leaves a readable recording, by a thread of its own (:class:`RecordingWriter`)
   fed through a bounded queue.
-* **What port data says** (its capture time, the head in radians, odometry in the robot's frame,
-  audio chunks), read once for the recording and the live view alike.
+* **When port data was captured**, read once for the recording and the live view alike; what it
+  is (audio, a head's state, pictures...) its type says, by its port kind
+  (:class:`~aiogenomix.components.core.PortKind`), for any component's port.
 * **Port recorders** (:class:`AudioRecorder`, :class:`ImageRecorder`, :class:`JsonRecorder`) and
   the :class:`Recording` that holds them; **paths** confined to the operator's directories.
 * **Reading and exporting**: :class:`RecordingReader`, :func:`export_recording` (WAV and CSV).
@@ -18,9 +19,7 @@ Decision 0031 records the formats and why.
 """
 
 from ._cdr import CdrError, Field, MessageType
-from ._conversions import (
-    AUDIO_TYPES, HeadState, PlanarOdometry, frames_per_chunk, head_state, number, planar_odometry, seconds_of, stamp_of,
-)
+from ._conversions import number, seconds_of, stamp_of
 from ._errors import NotARecording, PathRefused, RecordingError
 from ._export import AUDIO_COLUMNS, HEAD_COLUMNS, ExportedFile, export_recording
 from ._mcap_file import DEFAULT_CHUNK_SIZE, ByteQuota, McapFile, QuotaReached, WriteFailed
@@ -39,9 +38,8 @@ __all__ = [
     # Recording
     "Recording", "RecordingCounts", "PortRecorder", "AudioRecorder", "ImageRecorder", "JsonRecorder",
     "RecordedPort", "EventRecorder", "EVENTS_TYPE",
-    # What port data says, for every tool that shows it (the recording, the live view, binauloc)
-    "AUDIO_TYPES", "stamp_of", "seconds_of", "number", "HeadState", "head_state", "PlanarOdometry", "planar_odometry",
-    "frames_per_chunk",
+    # When port data was captured, for every tool that shows it (what it is, its type's kind says)
+    "stamp_of", "seconds_of", "number",
     # The file and its writer
     "McapFile", "RecordingWriter", "WriteFailed", "DEFAULT_CHUNK_SIZE", "DEFAULT_QUEUE_BYTES",
     # What the files may take (the host's budgets of bytes)

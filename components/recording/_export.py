@@ -2,14 +2,16 @@
 
 For each recorded audio port ``instance/port``:
 
-* ``instance_port.wav``: 32-bit PCM stereo at the capture's rate, exactly the recorded frames
+* ``instance_port.wav``: 32-bit PCM at the capture's rate (its channels: stereo for a binaural
+  capture), exactly the recorded frames
   in order (a frame the recording missed is not there: the CSV says where a gap falls);
   RF64 when it would pass WAV's 4 GiB.
 * ``instance_port.csv``: one row per recorded chunk, :data:`AUDIO_COLUMNS`; the azimuth is the
   one the chunk carries (``kemarcapture``), else the head state recorded beside it at the chunk's
   end (``kemar``'s ``currentState``), else NaN.
 
-For each recorded head state (``::kemar::state``): ``instance_port.csv``, :data:`HEAD_COLUMNS`.
+For each recorded head state (a port whose type carries :class:`~aiogenomix.components.core.HeadState`,
+such as ``kemar``'s ``currentState``): ``instance_port.csv``, :data:`HEAD_COLUMNS`, in degrees.
 
 Each file is made new in the output directory, by name, never through a symbolic link: a link
 planted there (to ``/tmp/victim``, or to a file of another user's) is refused, or with
@@ -27,14 +29,14 @@ import io
 import math
 import os
 import stat
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import BinaryIO, TextIO
 
 import numpy as np
 import soundfile
 
-from ._conversions import number
+from ..core import HeadState, carried_by
 from ._errors import NotARecording, RecordingError
 from ._reader import AudioChunk, RecordingReader
 
@@ -47,7 +49,6 @@ AUDIO_COLUMNS = ("chunk", "first_frame", "frames", "wav_first_sample", "lost_fra
 HEAD_COLUMNS = ("capture_time_s", "receive_time_s", "position_deg", "speed_deg_s")
 #: WAV's data chunk size is 32 bits: past this many bytes, RF64.
 _WAV_LIMIT = 2**32 - 2**20
-HEAD_STATE = "::kemar::state"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -160,7 +161,7 @@ def export_recording(recording: str | os.PathLike[str], directory: str | os.Path
         # As private as the recording: one its owner alone reads makes files its owner alone reads.
         mode = os.fstat(stream.fileno()).st_mode & 0o666
         with _Output(Path(directory), overwrite, mode) as out:
-            heads = [p for p in reader.ports() if reader.port_type(p).get("name") == HEAD_STATE]
+            heads = {p: kind for p in reader.ports() if isinstance(kind := carried_by(reader.port_type(p)), HeadState)}
             head_times, head_positions = _head_states(reader, heads, out, written)
             audio = reader.audio_ports()
             if not audio and not heads:
@@ -170,20 +171,21 @@ def export_recording(recording: str | os.PathLike[str], directory: str | os.Path
     return written
 
 
-def _head_states(reader: RecordingReader, heads: Sequence[str], out: _Output,
+def _head_states(reader: RecordingReader, heads: Mapping[str, HeadState], out: _Output,
                  written: list[ExportedFile]) -> tuple[np.ndarray, np.ndarray]:
-    """Write each head state's CSV; return the capture times and azimuths of the first, for the audio's rows."""
+    """Write each head state's CSV; return the first's capture times and azimuths (degrees), for the audio's rows."""
     times: list[float] = []
     positions: list[float] = []
-    for index, port in enumerate(heads):
+    for index, (port, kind) in enumerate(heads.items()):
         rows = 0
         with out.text(f"{_name(port)}.csv") as (path, table):
             writer = csv.writer(table)
             writer.writerow(HEAD_COLUMNS)
             for message in reader.publications([port]):
-                position = number(message.data.get("position"))
+                head = kind.read(message.data)
+                position = math.degrees(head.position)
                 writer.writerow((f"{message.capture_time:.9f}", f"{message.receive_time:.9f}", _text(position),
-                                 _text(number(message.data.get("speed")))))
+                                 _text(math.degrees(head.velocity))))
                 rows += 1
                 if index == 0:
                     times.append(message.capture_time)
@@ -204,12 +206,12 @@ def _export_audio(reader: RecordingReader, port: str, out: _Output, head_times: 
     first = next(chunks, None)
     if first is None:
         return []
-    rate = first.sample_rate
-    estimate = reader.message_count(f"/{port}") * len(first.frames) * 8
+    rate, channels = first.sample_rate, first.frames.shape[1]
+    estimate = reader.message_count(f"/{port}") * first.frames.nbytes
     frames = 0
     rows = 0
     wav_path, wav_file = out.create(f"{_name(port)}.wav")
-    with wav_file, soundfile.SoundFile(wav_file, "w", samplerate=rate, channels=2, subtype="PCM_32",
+    with wav_file, soundfile.SoundFile(wav_file, "w", samplerate=rate, channels=channels, subtype="PCM_32",
                                        format="RF64" if estimate > _WAV_LIMIT else "WAV") as wav, \
             out.text(f"{_name(port)}.csv") as (csv_path, table):
         writer = csv.writer(table)
@@ -219,6 +221,9 @@ def _export_audio(reader: RecordingReader, port: str, out: _Output, head_times: 
             if chunk.sample_rate != rate:
                 raise NotARecording(f"{port} changes its rate from {rate} to {chunk.sample_rate} Hz at frame "
                                     f"{chunk.first_frame}: a WAV file has one rate")
+            if chunk.frames.shape[1] != channels:
+                raise NotARecording(f"{port} changes from {channels} to {chunk.frames.shape[1]} channels at frame "
+                                    f"{chunk.first_frame}: a WAV file has one layout")
             wav.write(chunk.frames)
             azimuth = chunk.head_azimuth
             if math.isnan(azimuth) and head_times.size:
@@ -230,5 +235,6 @@ def _export_audio(reader: RecordingReader, port: str, out: _Output, head_times: 
             frames += len(chunk.frames)
             rows += 1
             chunk = next(chunks, None)
-    return [ExportedFile(wav_path, f"audio of {port}, {rate} Hz, 32-bit stereo", frames),
+    layout = "stereo" if channels == 2 else f"{channels} channels"
+    return [ExportedFile(wav_path, f"audio of {port}, {rate} Hz, 32-bit {layout}", frames),
             ExportedFile(csv_path, f"chunks of {port}", rows)]

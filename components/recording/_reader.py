@@ -24,7 +24,7 @@ from mcap.summary import Summary
 
 from ._cdr import CdrError
 from ._errors import NotARecording
-from ._messages import AUDIO_DATA_STAMPED, AUDIO_FRAMES, IMAGE
+from ._messages import AUDIO_DATA_STAMPED, AUDIO_FRAMES, AUDIO_INFO, IMAGE
 from ._ports import PORT_KEY, ROLE_KEY, TYPE_KEY
 from ._recover import Recovered, recover
 
@@ -36,7 +36,7 @@ class AudioChunk:
     """One recorded chunk of audio.
 
     Attributes:
-        frames: ``(n, 2)`` int32 frames, left then right.
+        frames: ``(n, channels)`` int32 frames (two: left then right).
         first_frame: The number of the first frame (frames count from 1 at the capture's start).
         chunk: The capture's number of the chunk.
         lost_frames: Frames the recording missed just before this chunk.
@@ -188,26 +188,30 @@ class RecordingReader:
             port = ports[0]
         elif port not in ports:
             raise NotARecording(f"{self.name} has no audio port {port!r} (audio ports: {', '.join(ports) or 'none'})")
-        topic, frames_topic = f"/{port}", f"/{port}/frames"
+        topic, frames_topic, info_topic = f"/{port}", f"/{port}/frames", f"/{port}/info"
         waiting: dict[int, tuple[Any, int]] = {}
+        channels = 2  # until the port's AudioInfo says (it comes before the first chunk of each format)
         try:
-            for _, channel, message in self._reader.iter_messages(topics=[topic, frames_topic]):
+            for _, channel, message in self._reader.iter_messages(topics=[topic, frames_topic, info_topic]):
+                if channel.topic == info_topic:
+                    channels = max(1, int(AUDIO_INFO.decode(message.data)["channels"]))
+                    continue
                 # A chunk is two messages of one sequence number, received together.
                 other = waiting.pop(message.sequence, None)
                 if other is None:
                     waiting[message.sequence] = (message, 0)
                     continue
                 audio, frames = (message, other[0]) if channel.topic == topic else (other[0], message)
-                yield self._chunk(audio.data, frames.data, message.log_time)
+                yield self._chunk(audio.data, frames.data, message.log_time, channels)
         except (McapError, CdrError) as exc:
             raise NotARecording(f"{self.name}: {exc}") from exc
 
     @staticmethod
-    def _chunk(audio: bytes, frames: bytes, log_time: int) -> AudioChunk:
+    def _chunk(audio: bytes, frames: bytes, log_time: int, channels: int) -> AudioChunk:
         index = AUDIO_FRAMES.decode(frames)
         samples = AUDIO_DATA_STAMPED.decode(audio)["audio"]["data"]
-        stereo = samples.view("<i4").reshape(-1, 2).astype(np.int32, copy=False)
-        return AudioChunk(frames=stereo, first_frame=int(index["first_frame"]), chunk=int(index["chunk"]),
+        interleaved = samples.view("<i4").reshape(-1, channels).astype(np.int32, copy=False)
+        return AudioChunk(frames=interleaved, first_frame=int(index["first_frame"]), chunk=int(index["chunk"]),
                           lost_frames=int(index["lost_frames"]), head_azimuth=float(index["head_azimuth"]),
                           sample_rate=int(index["sample_rate"]), capture_time=_stamp(index["header"]),
                           receive_time=log_time * 1e-9)

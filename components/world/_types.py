@@ -14,7 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import core
-from ..core import Double, Float, String, ULong, Unit, idl_struct
+from ..core import Double, Float, Image as ImageKind, JointStates, LaserScan as ScanKind, Odometry as OdometryKind
+from ..core import Pose as PoseKind, String, ULong, Unit, idl_struct
 
 __all__ = [
     "Timestamp", "Header", "Image", "Odometry", "JointState", "LaserScan", "Point", "Quaternion", "Pose",
@@ -41,7 +42,7 @@ class Header:
     frame_id: String = ""
 
 
-@idl_struct("subscriber::sensor_msgs__Image")
+@idl_struct("subscriber::sensor_msgs__Image", carries=ImageKind())
 class Image:
     """A camera frame: ``height`` rows of ``step`` octets, ``encoding`` ``"rgba8"`` (R, G, B, A per pixel).
 
@@ -59,7 +60,9 @@ class Image:
         return np.asarray(self.data, dtype=np.uint8).reshape(int(self.height), int(self.width), 4)
 
 
-@idl_struct("world::odometry")
+# The room's velocity (vx, vy along the room's axes), as the seed's world gave it.
+@idl_struct("world::odometry", carries=OdometryKind(x="x", y="y", yaw="w", vx="vx", vy="vy", turn="vw",
+                                                    velocity_frame="room"))
 class Odometry:
     """The PR2 base in the room: position (m), heading ``w`` (rad, counter-clockwise from x) and speeds."""
 
@@ -72,7 +75,7 @@ class Odometry:
     stamp: Timestamp = dataclasses.field(default_factory=Timestamp)
 
 
-@idl_struct("subscriber::sensor_msgs__JointState")
+@idl_struct("subscriber::sensor_msgs__JointState", carries=JointStates())
 class JointState:
     """Joint names with their positions (rad, or m for the torso) and speeds, in the same order."""
 
@@ -82,7 +85,7 @@ class JointState:
     velocity: NDArray[np.float64] = dataclasses.field(default_factory=lambda: np.zeros(0))
 
 
-@idl_struct("subscriber::sensor_msgs__LaserScan")
+@idl_struct("subscriber::sensor_msgs__LaserScan", carries=ScanKind())
 class LaserScan:
     """One sweep of the base laser: ranges (m) from ``angle_min`` to ``angle_max`` (rad, 0 = ahead, + = left).
 
@@ -125,7 +128,7 @@ class Pose:
     orientation: Quaternion = dataclasses.field(default_factory=Quaternion)
 
 
-@idl_struct("subscriber::geometry_msgs__PoseStamped")
+@idl_struct("subscriber::geometry_msgs__PoseStamped", carries=PoseKind())
 class PoseStamped:
     """A pose in the room, stamped."""
 

@@ -164,7 +164,7 @@ async def test_axes_with_units_for_the_head_audio_a_camera_and_binaulocs_dial(
         # binauloc's estimates on a dial: the azimuth (radians on the wire, degrees here), the head's, and the
         # log-likelihood of every direction as a ring.
         localiser = await rig.load("binauloc")
-        await localiser.connect_port("KemarPort", "kemarcapture/Port")
+        await localiser.connect_port("Audio", "kemarcapture/Port")
         await localiser.LocalizeSources(ack=True)
         await open_module(page, url, "binauloc")
         azimuths = port(page, "Azimuths")

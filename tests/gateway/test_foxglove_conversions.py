@@ -17,9 +17,12 @@ from typing import Any
 
 import pytest
 
-from aiogenomix.components.core import Component, ComponentHost, Double, HostSettings, ManualClock, OutPort
+from aiogenomix.components.core import (
+    Component, ComponentHost, Double, HeadState, HostSettings, ManualClock, Odometry as OdometryKind, OutPort,
+    carried_by,
+)
+from aiogenomix.components.core.runtime import idl_type
 from aiogenomix.components.kemar import KemarState
-from aiogenomix.components.recording import head_state, planar_odometry
 from aiogenomix.components.world import Odometry
 from aiogenomix.gateway._access import AccessPolicy
 from aiogenomix.gateway._door import Door
@@ -99,8 +102,15 @@ async def test_data_without_a_time_is_stamped_on_the_rigs_clock(view: tuple[Foxg
 
 
 def test_the_recording_and_the_view_read_the_same_conversion() -> None:
-    """One reading of the port's data serves both (the recording's JointState and Odometry use it too)."""
-    state = head_state({"position": -90.0, "speed": None})
+    """One reading of the port's data, its kind's, serves both (the recording's JointState and Odometry use it too).
+
+    The kind comes from the type's ``/info`` description, as a recording or another process has it.
+    """
+    head = carried_by(idl_type(KemarState).describe())
+    assert isinstance(head, HeadState)
+    state = head.read({"position": -90.0, "speed": None})  # the port says degrees
     assert state.position == pytest.approx(-math.pi / 2) and math.isnan(state.velocity)
-    moved = planar_odometry({"x": 0, "y": 0, "w": math.pi, "vx": 1.0, "vy": 0.5, "vw": 0})
+    odometry = carried_by(idl_type(Odometry).describe())
+    assert isinstance(odometry, OdometryKind)
+    moved = odometry.read({"x": 0, "y": 0, "w": math.pi, "vx": 1.0, "vy": 0.5, "vw": 0})
     assert (moved.forward, moved.leftward) == pytest.approx((-1.0, -0.5))

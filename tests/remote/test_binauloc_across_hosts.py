@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-from aiogenomix.clients import Interrupted, RemoteError, aconnect
+from aiogenomix.clients import Interrupted, aconnect
 
 from ._processes import Process
 from .test_ports_across_hosts import reader_and_writer_hosts
@@ -22,12 +22,7 @@ async def test_binauloc_in_one_host_localises_on_bass_in_another(started: list[P
     async with aconnect(url) as client:
         bass = await client.load("bass")
         binauloc = await client.load("binauloc")
-        # The type is checked across processes too, and the refusal names both.
-        with pytest.raises(RemoteError) as refused:
-            await binauloc.connect_port("KemarPort", "bass/Audio")
-        assert refused.value.ex == "::genom::port_io"
-        assert refused.value.detail["what"] == ("binauloc/KemarPort reads ::kemarcapture::port_t, bass/Audio "
-                                                "publishes ::binaudio::portStruct; Audio of binauloc reads it")
+        # Audio reads any port whose type carries audio: the other process's is known by its description.
         await binauloc.connect_port("Audio", "bass/Audio")
         acquiring = await bass.Acquire(device="sim", ack=True)        # the default scene, 44.1 kHz
         assert await binauloc.LocalizeSources(nEstimates=3) == 3

@@ -19,12 +19,15 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from aiogenomix.components.audio import FormatRefused, open_backend
-from aiogenomix.components.bass import Bass
+from aiogenomix.components.bass import AudioPortData, Bass
 from aiogenomix.components.core import ComponentHost, HostSettings, ManualClock, VirtualClock
+from aiogenomix.components.core.runtime import idl_type
 from aiogenomix.components.recorder import Recorder
 from aiogenomix.components.recording import AudioRecorder, Recording, create_recording
 
 RATE, FPC = 44100, 2205
+#: bass's port as /info describes it (what it carries: audio numbered by frame).
+BASS_AUDIO = idl_type(AudioPortData).describe()
 
 
 @pytest.fixture
@@ -111,8 +114,7 @@ async def test_a_gap_in_the_recording_stays_a_gap(tmp_path: Path) -> None:
     """A recording that missed three chunks: the replay delivers nothing for them, then says so, on time."""
     stream, path, *_ = create_recording(str(tmp_path / "gap.mcap"), None)
     recording = Recording.open(stream, path, {})
-    audio = recording.add_port("bass/Audio", {"name": "Audio", "doc": "", "type": {
-        "name": "::binaudio::portStruct", "kind": "struct", "members": []}})
+    audio = recording.add_port("bass/Audio", {"name": "Audio", "doc": "", "type": BASS_AUDIO})
     rng = np.random.default_rng(3)
     chunks = [rng.integers(-2**31, 2**31, (FPC, 2), dtype=np.int32) for _ in range(8)]
     now = time.time()
@@ -122,8 +124,8 @@ async def test_a_gap_in_the_recording_stays_a_gap(tmp_path: Path) -> None:
         return {"sampleRate": RATE, "nChunksOnPort": 20, "nFramesPerChunk": FPC, "lastFrameIndex": last_chunk * FPC,
                 "left": both[:, 0], "right": both[:, 1]}
 
-    audio.write(port(2, 2), since=0, lost=0, rig_time=now)                 # chunks 1 and 2
-    audio.write(port(8, 3), since=2 * FPC, lost=3 * FPC, rig_time=now)     # 3, 4, 5 missed; 6, 7, 8 kept
+    audio.write(port(2, 2), lost=0, rig_time=now)           # chunks 1 and 2
+    audio.write(port(8, 3), lost=3 * FPC, rig_time=now)     # 3, 4, 5 missed; 6, 7, 8 kept
     await recording.close("test")
 
     clock = ManualClock()
@@ -147,8 +149,7 @@ async def bass_recording(path: Path, captures: list[tuple[int, int, float]], see
     """A recording of bass's port over captures ``(chunks, rate, rig time of the last read)``; their chunks."""
     stream, real, *_ = create_recording(str(path), None)
     recording = Recording.open(stream, real, {})
-    audio = recording.add_port("bass/Audio", {"name": "Audio", "doc": "", "type": {
-        "name": "::binaudio::portStruct", "kind": "struct", "members": []}})
+    audio = recording.add_port("bass/Audio", {"name": "Audio", "doc": "", "type": BASS_AUDIO})
     assert isinstance(audio, AudioRecorder)
     rng = np.random.default_rng(seed)
     made = []
@@ -157,7 +158,7 @@ async def bass_recording(path: Path, captures: list[tuple[int, int, float]], see
         both = np.concatenate(chunks)
         audio.restarted(count * FPC)  # a new capture numbers its frames from 1 again
         audio.write({"sampleRate": rate, "nChunksOnPort": 20, "nFramesPerChunk": FPC, "lastFrameIndex": count * FPC,
-                     "left": both[:, 0], "right": both[:, 1]}, since=0, lost=0, rig_time=read_at)
+                     "left": both[:, 0], "right": both[:, 1]}, lost=0, rig_time=read_at)
         made += chunks
     await recording.close("test")
     return made

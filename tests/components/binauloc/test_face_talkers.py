@@ -42,7 +42,7 @@ async def test_kemarcapture_faces_the_talker_asked_for(rig: ComponentHost, tmp_p
                                                        faced: float) -> None:
     merged, binauloc = await rig.load("kemarcapture"), await rig.load("binauloc")
     await done(merged, "Homing")
-    await done(binauloc, "connect_port", {"local": "KemarPort", "remote": "kemarcapture/Port"})
+    await done(binauloc, "connect_port", {"local": "Audio", "remote": "kemarcapture/Port"})
     began = rig.clock.now()
     capturing = await merged.send("StartCapture", {"device": two_talkers(tmp_path)})
     await done(binauloc, "LearnNoise", {"seconds": 1.0})                  # the talkers start at 1.2 s
@@ -66,7 +66,7 @@ async def test_morse_kemar_faces_the_talker_asked_for(tmp_path: Path) -> None:
         await host.load("world", ["-size", "32x32", "-rate", "2"])
         await host.load("morse_kemar")
         capture, binauloc = await host.load("capture"), await host.load("binauloc")
-        await done(binauloc, "connect_port", {"local": "CapturePort", "remote": "capture/Port"})
+        await done(binauloc, "connect_port", {"local": "Audio", "remote": "capture/Port"})
         began = host.clock.now()
         capturing = await capture.send("StartCapture", {"device": two_talkers(tmp_path)})
         await done(binauloc, "LearnNoise", {"seconds": 1.0})

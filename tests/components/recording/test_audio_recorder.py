@@ -17,8 +17,24 @@ from aiogenomix.components.recording import AudioRecorder, Recording, RecordingE
 
 RATE = 1000
 PER_CHUNK = 50
-BASS = {"name": "b/Audio", "dir": "out", "type": {"name": "::binaudio::portStruct", "kind": "struct"}}
-CAPTURE = {"name": "c/Port", "dir": "out", "type": {"name": "::capture::port_t", "kind": "struct"}}
+SAMPLES = {"kind": "sequence", "name": "sequence<long>", "bound": None, "element": {"name": "long", "kind": "long"}}
+INTEGER = {"name": "unsigned long", "kind": "unsigned long"}
+TIME = {"name": "::t", "kind": "struct", "members": [{"name": "tv_sec", "type": {"name": "long", "kind": "long"}},
+                                                       {"name": "tv_nsec", "type": {"name": "long", "kind": "long"}}]}
+# Audio ports as /info describes them: what the port carries says how it is numbered and where its samples are.
+BASS = {"name": "b/Audio", "dir": "out", "type": {
+    "name": "::b::frames", "kind": "struct",
+    "members": [{"name": n, "type": t} for n, t in (("sampleRate", INTEGER), ("nFramesPerChunk", INTEGER),
+                                                    ("lastFrameIndex", INTEGER), ("left", SAMPLES),
+                                                    ("right", SAMPLES))],
+    "carries": {"kind": "audio", "numbering": "frames", "index": "lastFrameIndex", "rate": "sampleRate",
+                "channels": ["left", "right"], "chunk_frames": "nFramesPerChunk"}}}
+CAPTURE = {"name": "c/Port", "dir": "out", "type": {
+    "name": "::c::chunks", "kind": "struct",
+    "members": [{"name": n, "type": t} for n, t in (("transfer_rate", INTEGER), ("index", INTEGER), ("ts", TIME),
+                                                    ("left", SAMPLES), ("right", SAMPLES))],
+    "carries": {"kind": "audio", "numbering": "chunks", "index": "index", "rate": "transfer_rate",
+                "channels": ["left", "right"], "start": "ts"}}}
 
 
 def frames(first: int, last: int) -> np.ndarray:
@@ -47,8 +63,8 @@ async def recorded(path: Path, description: dict[str, Any], reads: list[tuple[di
     assert isinstance(recorder, AudioRecorder)
     recorder.start_at(reads[0][1])
     try:
-        for data, since, lost in reads:
-            recorder.write(data, since=since, lost=lost, rig_time=2000.0)
+        for data, _, lost in reads:  # each read holds what it holds: the recorder reads its items from the data
+            recorder.write(data, lost=lost, rig_time=2000.0)
     finally:
         await recording.close("stopped")
     with open(path, "rb") as file, RecordingReader(file) as reader:
@@ -83,5 +99,5 @@ async def test_chunks_a_read_repeats_are_recorded_once(tmp_path: Path) -> None:
 async def test_a_capture_read_that_is_not_whole_chunks_is_refused(tmp_path: Path) -> None:
     read = capture_read(3, 4)
     read["left"], read["right"] = read["left"][:-1], read["right"][:-1]
-    with pytest.raises(RecordingError, match="99 frames are not 2 whole chunks"):
+    with pytest.raises(RecordingError, match="holds 99 frames, not 2 whole chunks"):
         await recorded(tmp_path / "c.mcap", CAPTURE, [(read, 2, 0)])
