@@ -146,7 +146,7 @@ class Component:
         self.host = host
         self.instance = instance
         self.argv = list(argv or [])
-        self.requests = RequestTracker(instance, host.announce_request)
+        self.requests = RequestTracker(instance, host.announce_request, wall=host.clock.wall)
         self._port_runtimes: dict[str, OutPortRuntime[Any] | InPortRuntime[Any]] = {}
         self._task_runtimes: dict[str, TaskRuntime] = {}
         self._started = False

@@ -154,6 +154,10 @@ class ServiceSpec:
                 decoded[param.name] = param.type.zero()
         return decoded
 
+    def encode_inputs(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        """Decoded inputs (keyword arguments of the service) as the JSON ``input`` a client would send."""
+        return {p.name: p.type.encode(inputs[p.name]) for p in self.inputs if p.name in inputs}
+
     def encode_outputs(self, result: Any) -> dict[str, Any]:
         """Turn a service's return value into the ``output`` object of its request."""
         if self.output_style == "none":
