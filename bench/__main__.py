@@ -17,8 +17,8 @@ import time
 from typing import Any
 
 from . import (
-    budgets, fanout, instructions, load, localisation, memory, port_read, profile, record, remote, rooms, service,
-    sessions, soak, sse_clients, storm, viewers, world,
+    budgets, fanout, instructions, load, localisation, memory, port_read, profile, record, remote, rooms, scale,
+    service, sessions, soak, sse_clients, storm, viewers, world,
 )
 from ._common import ROOT
 from ._report import render
@@ -33,6 +33,9 @@ BENCHMARKS = {
     "world": (world.run, {"seconds": 5.0, "calls": 2000, "rounds": 5}, {"seconds": 2.0, "calls": 300, "rounds": 1}),
     "remote": (remote.run, {"calls": 2000, "reads": 200, "seconds": 60.0},
                {"calls": 300, "reads": 40, "blocks": 4, "seconds": 4.0}),
+    # As root (network namespaces): skipped, saying why, otherwise.
+    "scale": (scale.run, {"hosts": (1, 5, 10, 20), "idle": 20.0, "calls": 2000},
+              {"hosts": (1, 2), "idle": 2.0, "calls": 100, "blocks": 2}),
     "sse_clients": (sse_clients.run, {"events": 50}, {"events": 5}),
     "sessions": (sessions.run, {"sessions": 15_000, "sample": 500}, {"sessions": 1_000, "sample": 100}),
     "budgets": (budgets.run, {}, {"clients": 8, "chunks": 40, "seconds": 2.0, "rounds": 1, "size": "256x256"}),

@@ -37,10 +37,11 @@ class RawReader(asyncio.BufferedProtocol):
         self.expected = 1 << 16
 
     @classmethod
-    async def connect(cls, port: int, *, http: bool, sized: Callable[[bytes], int] | None = None) -> RawReader:
-        """Connect to 127.0.0.1:*port*."""
+    async def connect(cls, port: int, *, http: bool, sized: Callable[[bytes], int] | None = None,
+                      host: str = "127.0.0.1") -> RawReader:
+        """Connect to *host*:*port*."""
         loop = asyncio.get_running_loop()
-        _, protocol = await loop.create_connection(lambda: cls(http, sized), "127.0.0.1", port)
+        _, protocol = await loop.create_connection(lambda: cls(http, sized), host, port)
         return protocol
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:

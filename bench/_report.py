@@ -124,6 +124,7 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     from .record import render as record_section
     from .remote import render as remote_section
     from .rooms import render as rooms_section
+    from .scale import render as scale_section
     from .sessions import render as sessions_section
     from .sse_clients import render as sse_section
     from .storm import render as storm_section
@@ -134,6 +135,7 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     out = [HEAD.format(quick=" (quick runs)" if machine.get("quick") else "", **facts)]
     sections = [("port_read", _port_read), ("service", _service), ("fanout", _fanout), ("load", _load),
                 ("soak", _soak), ("memory", _memory), ("world", world_section), ("remote", remote_section),
+                ("scale", scale_section),
                 ("sse_clients", sse_section), ("sessions", sessions_section), ("storm", storm_section),
                 ("budgets", budgets_section), ("viewers", viewers_section),
                 ("record", record_section), ("instructions", instructions_section),

@@ -26,6 +26,7 @@ from ._errors import (
     Forbidden,
     GenoMError,
     GenomixError,
+    HostUnreachable,
     Interrupted,
     InvalidInput,
     ModuleUnloaded,
@@ -61,8 +62,8 @@ __all__ = [
     "PortEvent", "SessionEvent", "GatewayClock",
     # Errors
     "GenomixError", "GenoMError", "RemoteError", "Interrupted", "InvalidInput", "NotFound", "Forbidden",
-    "TooManyActivities", "TransportError", "RequestTimeout", "ProtocolError", "ModuleUnloaded", "ClientClosed",
-    "remote_exception_class",
+    "TooManyActivities", "HostUnreachable", "TransportError", "RequestTimeout", "ProtocolError", "ModuleUnloaded",
+    "ClientClosed", "remote_exception_class",
     # The dedicated audio socket (clients/audio_socket.py)
     "AudioSocketClient", "AsyncAudioSocketClient", "AudioBlock", "AudioSocketError", "DEFAULT_PORT",
     # The frame-indexed socket of 2015 (bass; clients/frame_socket.py)

@@ -225,6 +225,7 @@ class AsyncClient:
 
         Raises:
             NotFound: when no such instance is loaded.
+            HostUnreachable: when it ran on a component host that is gone (or does not answer).
         """
         gateway = self._check_open()
         info = check_info(await gateway.get_json(f"/module/{instance}/info", timeout=self._timeout(timeout),

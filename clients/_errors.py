@@ -9,6 +9,7 @@
     │   ├── NotFound (LookupError)    no such module, service, port, request or session (HTTP 404)
     │   ├── Forbidden                 ::genomix::forbidden, ::genomix::unauthorized (HTTP 403, 401)
     │   ├── TooManyActivities         ::genom::too_many_activities (HTTP 429)
+    │   ├── HostUnreachable           ::genom::remote_io: a component host did not answer (504) or is gone (503)
     │   └── <generated>               one class per declared exception, e.g. ``demo.TOO_FAR_AWAY``
     ├── TransportError (ConnectionError)  the gateway cannot be reached, or the connection broke
     ├── RequestTimeout (TimeoutError)     a blocking call did not end in time; .request still runs
@@ -33,6 +34,7 @@ __all__ = [
     "Forbidden",
     "GenoMError",
     "GenomixError",
+    "HostUnreachable",
     "Interrupted",
     "InvalidInput",
     "ModuleUnloaded",
@@ -149,6 +151,16 @@ class TooManyActivities(RemoteError):
     """The component runs as many activities as it can (HTTP 429)."""
 
 
+class HostUnreachable(RemoteError):
+    """The component host that runs the instance did not answer, was not heard from, or is gone.
+
+    ``::genom::remote_io``: HTTP 504 for a host that did not answer in time or fell silent (a cut
+    network, a frozen process); HTTP 503 for an instance whose host is gone (it may come back, and the
+    gateway loads it again then), with the detail members ``host`` and ``last_heard`` (ISO 8601, UTC).
+    A request that was running there ends with it too.
+    """
+
+
 class TransportError(GenomixError, ConnectionError):
     """The gateway cannot be reached, or the connection broke before the reply."""
 
@@ -193,6 +205,7 @@ _WELL_KNOWN: dict[str, type[RemoteError]] = {
     "::genomix::forbidden": Forbidden,
     "::genomix::unauthorized": Forbidden,
     "::genom::too_many_activities": TooManyActivities,
+    "::genom::remote_io": HostUnreachable,
 }
 
 _generated: dict[str, type[RemoteError]] = {}

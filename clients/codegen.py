@@ -40,8 +40,8 @@ from typing import Any, Callable, Literal, Optional
 import numpy
 
 from aiogenomix.clients import (
-    USE_CLIENT_DEFAULT, Client, Forbidden, Interrupted, InvalidInput, Module, NotFound, Record, RemoteError, Request,
-    TooManyActivities, connect, remote_exception_class,
+    USE_CLIENT_DEFAULT, Client, Forbidden, HostUnreachable, Interrupted, InvalidInput, Module, NotFound, Record,
+    RemoteError, Request, TooManyActivities, connect, remote_exception_class,
 )
 """
 

@@ -12,7 +12,7 @@ import orjson
 from aiohttp import web
 
 from ..components.core import Clock
-from ..components.core.runtime import NoSuchModule
+from ..components.core.runtime import NoSuchModule, names_hint
 from ._access import console_policy
 from ._auth import AUTH_PATH, LOGIN_PATH
 from ._errors import BadQuery, LoadForbidden
@@ -174,7 +174,7 @@ async def load(request: web.Request) -> web.Response:
         )
     allow = request.app[CONFIG].components
     if allow is not None and name.partition("@")[0] not in allow:
-        raise NoSuchModule(f"no component {name!r} (available: {', '.join(_allowed(request))})")
+        raise NoSuchModule(f"no component {name!r} {names_hint(name, _allowed(request), 'available')}")
     component = await request.app[HOST].load(name, _argv(request))
     reply = text_reply(component.instance)
     reply.headers[WHERE_HEADER] = orjson.dumps(component.placement()).decode()
@@ -194,5 +194,5 @@ async def usage(request: web.Request) -> web.Response:
     """The load options of a component, as ``[{"option": ..., "descr": ...}]``."""
     name = request.match_info["name"]
     if name not in _allowed(request):
-        raise NoSuchModule(f"no component {name!r} (available: {', '.join(_allowed(request))})")
+        raise NoSuchModule(f"no component {name!r} {names_hint(name, _allowed(request), 'available')}")
     return json_reply(request.app[HOST].usage(name))

@@ -1,11 +1,13 @@
 """Finding components of other processes on Zenoh, following their hosts, and noticing when they go and return.
 
 A :class:`ZenohDirectory` is a host's :class:`~aiogenomix.components.core.runtime.RemoteFinder`: ``load``
-asks it first, and it decides where a name runs.  It follows every offer (liveliness tokens) and
-every host's heartbeat.  A token that disappears (the process died, or the network was cut longer
-than Zenoh's lease) makes the proxy of that instance end its requests and unload; when the same
-host offers the instance again, the gateway loads it again under the same name and tells every
-session (an ``offered`` event).
+asks it first, and it decides where a name runs.  A gateway's follows every offer (liveliness tokens)
+and every host's heartbeat; a component host's only the offers of the names it looks for and the
+heartbeats of the hosts it reads from, so that what a host hears does not grow with the number of
+hosts (decision 38).  A token that disappears (the process died, or the network was cut longer than
+Zenoh's lease) makes the proxy of that instance end its requests and unload; until the same host
+offers the instance again, its name is refused as gone (503), then the gateway loads it again under
+the same name and tells every session (an ``offered`` event).
 """
 
 from __future__ import annotations
@@ -21,11 +23,14 @@ from typing import Any
 import zenoh
 
 from ..components.core import ComponentHost, LoadError
-from ..components.core.runtime import LoadedInstance, NoSuchModule, RemoteUnreachable
+from ..components.core.runtime import LoadedInstance, NoSuchModule, RemoteHostGone, RemoteUnreachable, names_hint
+from ._links import report_unlinked
 from ._offers import OfferBook, OfferedBefore, split_name
-from ._proxy import RemoteInstance, RemoteLink, RemoteTimeouts, describe_remote
+from ._proxy import RemoteInstance, RemoteLink, RemoteTimeouts, describe_remote, heard_text, utc_text
 from ._session import Unanswered, ZenohSettings, alive, ask, on_zenoh_thread, open_session
-from ._wire import BEATS, LEGACY_OFFERS, OFFERS, OfferKey, facts_key, gateway_token, parse_offer
+from ._wire import (
+    BEATS, LEGACY_OFFERS, OFFERS, OfferKey, beat_key, facts_key, gateway_token, legacy_offer, offers_of, parse_offer,
+)
 
 __all__ = ["ZenohDirectory"]
 
@@ -69,17 +74,27 @@ class ZenohDirectory:
         self._proxies: dict[str, RemoteInstance] = {}
         #: The instances lost with their host, by (host id, instance): re-attached when offered again.
         self._lost: dict[tuple[str, str], str] = {}
+        #: The same, by name here: the host id and when it was last heard from (epoch s), for their refusals.
+        self._gone: dict[str, tuple[str, float]] = {}
         self._host: ComponentHost | None = None
         self._tasks: set[asyncio.Task[Any]] = set()
         self.link = RemoteLink(session, self.zid, self.timeouts, self.silence)
-        self._declared: list[Any] = [session.declare_subscriber(BEATS, on_zenoh_thread(self._on_beat))]
-        # With history: the tokens already declared come first, then every change.
-        for key in (OFFERS, LEGACY_OFFERS):
-            self._declared.append(session.liveliness().declare_subscriber(
-                key, on_zenoh_thread(self._on_offer), history=True))
+        self._declared: list[Any] = []
+        #: What a host's directory follows, declared as it needs it: the offers of each instance name it
+        #: looked for, and the heartbeat of each host run it holds a proxy of.
+        self._names: dict[str, list[Any]] = {}
+        self._beats: dict[str, Any] = {}
         if gateway:
+            # A gateway hears every host (``/`` says when each was heard) and every offer; a host hears only
+            # the hosts it reads from (see _follow_name and _follow_beats): with N hosts, N beats reach each
+            # gateway, and none reach a host that reads no other host's port, not N - 1.
+            self._declared.append(session.declare_subscriber(BEATS, on_zenoh_thread(self._on_beat)))
+            for key in (OFFERS, LEGACY_OFFERS):
+                self._declared.append(self._offers_subscriber(key))
             # Declared before any request is sent: a host that runs our motions sees us vanish.
             self._declared.append(session.liveliness().declare_token(gateway_token(self.zid)))
+        # Zenoh retries an endpoint that refuses us without a word: say it once, and why.
+        self._spawn(report_unlinked(session, config), "zenoh links")
 
     @classmethod
     async def open(cls, settings: ZenohSettings, timeouts: RemoteTimeouts | None = None, *,
@@ -121,6 +136,7 @@ class ZenohDirectory:
         if host_id is None and name in self._local:
             return None
         self._follow(host)
+        self._follow_name(instance)
         local_name = _local_name(instance, argv)
         existing = host.instances.get(local_name)
         if (isinstance(existing, RemoteInstance) and existing.remote_instance == instance
@@ -136,7 +152,7 @@ class ZenohDirectory:
                 if host.knows(instance):
                     raise NoSuchModule(f"no component host offers {instance}; to run {instance} in this gateway, "
                                        f"start the gateway with --local {instance}")
-                raise NoSuchModule(f"no component {instance!r} (available: {', '.join(host.available()) or 'none'})")
+                raise NoSuchModule(f"no component {instance!r} {names_hint(instance, host.available(), 'available')}")
             if existing is not None:
                 where = existing.placement()
                 place = ("this gateway" if where.get("runs") == "here"
@@ -153,6 +169,7 @@ class ZenohDirectory:
                 # The host withdrew it (or went away) as it was asked: the token's removal is on its way.
                 # Once it is heard, the name is one offered before: waited for as any restarting host's.
                 await self._withdrawn(offer, deadline, exc)
+        self._follow_beats(offer.zid)
         proxy = RemoteInstance(host, self.link, offer, local_name, description,
                                lambda: self._book.facts(offer.zid))
         try:
@@ -221,11 +238,28 @@ class ZenohDirectory:
         offer = instance.offer
         self._proxies[instance.instance] = instance
         self._lost.pop((offer.host, offer.instance), None)
+        self._gone.pop(instance.instance, None)
         if offer.key not in {o.key for o in self._book.offers_of(offer.instance)}:
             # Withdrawn while it started: lost at once, as if heard now.
-            self._lost[(offer.host, offer.instance)] = instance.instance
-            instance.lost(f"{instance.instance} ran on component host {offer.host}, which stopped or cannot be "
-                          f"reached")
+            self._lose(instance)
+
+    def _lose(self, proxy: RemoteInstance) -> None:
+        """*proxy*'s host withdrew its instance or is gone: end what waits on it, unload it, say so until it returns."""
+        offer = proxy.offer
+        self._lost[(offer.host, offer.instance)] = proxy.instance
+        proxy.lost(f"{proxy.instance} ran on component host {offer.host}, which stopped or cannot be reached "
+                   f"({proxy.last_heard()})")
+        self._gone[proxy.instance] = (offer.host, proxy.heard_at())
+
+    def absent(self, instance: str) -> RemoteHostGone | None:
+        """Why *instance* is not loaded, when it was lost with its host (None: this directory knows nothing of it)."""
+        gone = self._gone.get(instance)
+        if gone is None:
+            return None
+        host, heard_at = gone
+        return RemoteHostGone(f"{instance} ran on component host {host}, which stopped or cannot be reached "
+                              f"({heard_text(heard_at)}); it is loaded again when {host} offers it again", host,
+                              utc_text(heard_at))
 
     def _forget(self, instance: str) -> None:
         proxy = self._proxies.get(instance)
@@ -238,6 +272,31 @@ class ZenohDirectory:
         """Seconds since the host of session *zid* was heard from (infinite: never)."""
         heard = self._heard.get(zid)
         return math.inf if heard is None else time.monotonic() - heard
+
+    def _offers_subscriber(self, key: str) -> Any:
+        # With history: the tokens already declared come first, then every change.
+        return self.session.liveliness().declare_subscriber(key, on_zenoh_thread(self._on_offer), history=True)
+
+    def _follow_name(self, instance: str) -> None:
+        """Follow the offers of *instance* from now on (a host's directory follows the names it looks for)."""
+        if self._gateway or instance in self._names:
+            return
+        self._names[instance] = [self._offers_subscriber(offers_of(instance)),
+                                 self._offers_subscriber(legacy_offer(instance))]
+
+    def _follow_beats(self, zid: str) -> None:
+        """Hear the heartbeat of the host run *zid* (a gateway hears every host's already)."""
+        if self._gateway or zid in self._beats:
+            return
+        self._beats[zid] = self.session.declare_subscriber(beat_key(zid), on_zenoh_thread(self._on_beat))
+
+    def _run_over(self, zid: str) -> None:
+        """The host run *zid* offers nothing any more: stop hearing it."""
+        self._heard.pop(zid, None)
+        beats = self._beats.pop(zid, None)
+        if beats is not None:
+            with contextlib.suppress(zenoh.ZError):
+                beats.undeclare()
 
     def _on_beat(self, sample: zenoh.Sample) -> None:
         # On Zenoh's thread, whatever the event loop is doing: a busy gateway does not make a host stale.
@@ -257,16 +316,19 @@ class ZenohDirectory:
             if not self._book.add(offer):
                 log.warning("refused the offer %s: it is of remote protocol %d", key, offer.protocol)
             else:
-                if not self._book.facts(offer.zid):
+                if self._gateway and not self._book.facts(offer.zid):
+                    # For `/` (a host's directory asks when it loads: see find).
                     self._spawn(self._ask_facts(offer.zid), f"facts of {offer.host}")
                 self._spawn(self._offered(offer), f"offered {offer.name}")
         else:
             gone = self._book.remove(key)
-            for name, proxy in list(self._proxies.items()):
+            for proxy in list(self._proxies.values()):
                 if gone is not None and proxy.offer == gone:
-                    log.warning("%s is gone: its component host %s stopped or cannot be reached", name, gone.host)
-                    self._lost[(gone.host, gone.instance)] = name
-                    proxy.lost(f"{name} ran on component host {gone.host}, which stopped or cannot be reached")
+                    log.warning("%s is gone: its component host %s stopped or cannot be reached (%s)",
+                                proxy.instance, gone.host, proxy.last_heard())
+                    self._lose(proxy)
+            if gone is not None and not self._book.offers_by(gone.zid):
+                self._run_over(gone.zid)
         self._change.set_result(None)
         self._change = self._loop.create_future()
 
@@ -298,6 +360,8 @@ class ZenohDirectory:
             except Exception as exc:  # noqa: BLE001  # said in the log; the offered event says it was not loaded
                 log.warning("%s is offered again by %s, but could not be loaded again: %s", offer.instance,
                             offer.host, exc)
+        if name is not None:
+            self._gone.pop(name, None)  # loaded again, or not to be: no longer waiting for its host
         if self.on_offered is not None:
             self.on_offered({"name": offer.instance, "host": offer.host, "loaded": loaded})
 
@@ -322,7 +386,7 @@ class ZenohDirectory:
         for task in list(self._tasks):
             task.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
-        for declared in self._declared:
+        for declared in [*self._declared, *(s for pair in self._names.values() for s in pair), *self._beats.values()]:
             with contextlib.suppress(zenoh.ZError):
                 declared.undeclare()
         await asyncio.to_thread(self.session.close)

@@ -46,7 +46,11 @@ _throttled = ThrottledLog(log)
 _EAGER: dict[str, Any] = {"eager_start": True} if sys.version_info >= (3, 12) else {}
 
 #: Seconds between two publications of a computed port (its data is made when read, on each change).
-COMPUTED_PERIOD = 0.05
+#: genom_state changes with every request: a host that gets one call every few tens of milliseconds (calls
+#: spread over many hosts) would publish it once per call at a shorter period, a message and two thread
+#: wake-ups more per call in the host and in the gateway.  A quarter of a second, as the heartbeat: a
+#: monitoring port, current within that.
+COMPUTED_PERIOD = 0.25
 
 
 class PortEncoder:

@@ -89,6 +89,10 @@ class OfferBook:
         """The instances offered now, each once, whoever offers them."""
         return sorted({offer.instance for offer in self._offers.values()})
 
+    def offers_by(self, zid: str) -> list[OfferKey]:
+        """The offers of the host run *zid* now."""
+        return [o for o in self._offers.values() if o.zid == zid]
+
     def offers_of(self, instance: str, host: str | None = None) -> list[OfferKey]:
         """The offers of *instance* now (by *host* only, when given), in a stable order."""
         return sorted((o for o in self._offers.values() if o.instance == instance and host in (None, o.host)),

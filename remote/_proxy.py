@@ -41,7 +41,10 @@ from ._wire import (
 if TYPE_CHECKING:
     from ..components.core import ComponentHost, InPortRuntime, OutPortRuntime
 
-__all__ = ["RemoteInstance", "RemoteRequest", "RemoteTimeouts", "RemoteLink", "REMOTE_IO", "describe_remote"]
+__all__ = [
+    "RemoteInstance", "RemoteRequest", "RemoteTimeouts", "RemoteLink", "REMOTE_IO", "describe_remote", "heard_text",
+    "utc_text",
+]
 
 log = logging.getLogger(__name__)
 
@@ -166,6 +169,8 @@ class RemoteInstance:
         self._sent = False
         #: When a port message or an answer last came (set on Zenoh's thread too): news of the host.
         self._last_message = time.monotonic()
+        #: When the host was last heard from, kept when it was found gone (see heard_at).
+        self._heard_when_lost: float | None = None
 
     # -- what the routes use ------------------------------------------------------------------
 
@@ -294,11 +299,19 @@ class RemoteInstance:
         self._last_message = time.monotonic()  # an answer is news from the host
         return result
 
-    def last_heard(self) -> str:
-        """When the host was last heard from (a heartbeat, an answer, a port message), said for a message."""
+    def heard_at(self) -> float:
+        """When the host was last heard from (a heartbeat, an answer, a port message): seconds since the epoch.
+
+        Kept as it was when the host was found gone (its heartbeats are forgotten then).
+        """
+        if self._heard_when_lost is not None:
+            return self._heard_when_lost
         silence = min(self.link.silence(self.offer.zid), time.monotonic() - self._last_message)
-        at = datetime.datetime.fromtimestamp(time.time() - silence, datetime.UTC)
-        return f"last heard {silence:.2f} s before, at {at.isoformat(timespec='milliseconds')[:-6]}Z"
+        return time.time() - silence
+
+    def last_heard(self) -> str:
+        """When the host was last heard from, said for a message."""
+        return heard_text(self.heard_at())
 
     def _publish_cleans(self) -> None:
         """Publish the cleans no query carried (the publication travels before any later query)."""
@@ -433,6 +446,7 @@ class RemoteInstance:
         """The host process is gone: end the pending queries and requests with ``::genom::remote_io``, then unload."""
         if self._gone:
             return
+        self._heard_when_lost = self.heard_at()
         self._end_all(why)
         self.host.unload_soon(self.instance)
 
@@ -481,6 +495,16 @@ class RemoteInstance:
                 if request is not None and request.serial == status["serial"] and request.take(status):
                     self.host.announce_request(request)
         return going_on
+
+
+def utc_text(at: float) -> str:
+    """The time *at* (seconds since the epoch) in ISO 8601, UTC, to the millisecond: ``2026-11-27T23:08:05.126Z``."""
+    return datetime.datetime.fromtimestamp(at, datetime.UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+
+
+def heard_text(at: float) -> str:
+    """``last heard 0.52 s ago, at 2026-11-27T23:08:05.126Z``: when a host was last heard from (*at*: epoch s)."""
+    return f"last heard {max(0.0, time.time() - at):.2f} s ago, at {utc_text(at)}"
 
 
 async def describe_remote(session: zenoh.Session, offer: OfferKey, timeout: float) -> dict[str, Any]:

@@ -20,6 +20,8 @@ import orjson
 import zenoh
 
 from ..components.core.runtime import RemoteRefusal, RemoteUnreachable
+from ._shm import SETTINGS as SHARED_MEMORY
+from ._shm import remove_orphaned_segments
 
 __all__ = [
     "ZenohSettings", "ZenohSessionError", "open_session", "on_zenoh_thread", "ask", "ask_all", "alive",
@@ -44,7 +46,9 @@ class ZenohSettings:
     Isolated by default: a session connects to the ``connect`` endpoints and listens on the
     ``listen`` ones, and on nothing else.  No multicast scouting, no gossip (a session would
     otherwise connect to every locator it hears of, the machine's other addresses included), and
-    no listener unless asked (Zenoh's own default listens on every interface).
+    no listener unless asked (Zenoh's own default listens on every interface).  Shared memory
+    between processes of one machine carries only messages of 64 KiB or more, from a pool of 4 MiB
+    (see ``_shm``).
 
     Attributes:
         connect: Endpoints to connect to, such as ``tcp/192.168.1.10:7447``.
@@ -52,8 +56,8 @@ class ZenohSettings:
         config_file: A Zenoh configuration file (JSON5, Zenoh's own format: TLS, user/password
             authentication, access control, a router to connect to...).  Its settings are kept,
             even those it sets to Zenoh's default; ``connect`` and ``listen`` replace its endpoints
-            when given.  A setting it leaves out (scouting, gossip, listeners, the mode) is isolated
-            as above.
+            when given.  A setting it leaves out (scouting, gossip, listeners, the mode, the shared
+            memory's threshold and pool) is as above.
         scout: Find peers by multicast scouting and gossip, and listen on every interface
             (Zenoh's defaults): for a lab network where every machine is trusted.
     """
@@ -80,8 +84,12 @@ class ZenohSettings:
         else:
             config = zenoh.Config()
         default = zenoh.Config()
-        written = _written(self.config_file) if self.config_file is not None else set()
+        written = _written(self.config_file, (*_ISOLATION, *SHARED_MEMORY)) if self.config_file is not None else set()
         unset = {key for key in _ISOLATION if key not in written and config.get_json(key) == default.get_json(key)}
+        for key, value in SHARED_MEMORY.items():
+            # For large messages only, from a smaller pool than Zenoh's (see _shm).
+            if key not in written and config.get_json(key) == default.get_json(key):
+                config.insert_json5(key, value)
         if "mode" in unset:
             config.insert_json5("mode", '"peer"')
         for key in ("scouting/multicast/enabled", "scouting/gossip/enabled"):
@@ -120,8 +128,8 @@ class ZenohSettings:
                 + (f"; configuration {self.config_file}" if self.config_file else ""))
 
 
-def _written(path: str) -> set[str]:
-    """The keys of ``_ISOLATION`` the configuration file *path* writes, whatever their value.
+def _written(path: str, keys: tuple[str, ...]) -> set[str]:
+    """The *keys* the configuration file *path* writes, whatever their value.
 
     Zenoh's configuration cannot tell a value the file wrote from its default; the file itself can.
     A file this cannot read (Zenoh read it) writes nothing as far as it knows: its values that
@@ -132,7 +140,7 @@ def _written(path: str) -> set[str]:
     except (OSError, ValueError):
         return set()
     written = set()
-    for key in _ISOLATION:
+    for key in keys:
         node = tree
         for part in key.split("/"):
             if not isinstance(node, dict) or part not in node:
@@ -184,10 +192,17 @@ def open_session(settings: ZenohSettings) -> tuple[zenoh.Session, zenoh.Config]:
             listened on.
     """
     config = settings.config()
+    remove_orphaned_segments()  # what killed processes left in /dev/shm, before this one adds its own
     try:
         return zenoh.open(config), config
     except zenoh.ZError as exc:
-        raise ZenohSessionError(f"cannot open the Zenoh session ({settings.summary(config)}): {_reason(exc)}; "
+        reason = _reason(exc)
+        if reason.startswith("Unable to connect"):  # a client reaches its router, or fails: say why it failed
+            from ._links import why_unlinked
+
+            reason = "; ".join(f"no link to {endpoint}: {why_unlinked(endpoint)}"
+                               for endpoint in connect_endpoints(config)) or reason
+        raise ZenohSessionError(f"cannot open the Zenoh session ({settings.summary(config)}): {reason}; "
                                 f"check --zenoh-connect, --zenoh-listen (e.g. tcp/192.168.1.10:7447) and "
                                 f"--zenoh-config") from None
 
@@ -259,12 +274,18 @@ async def ask(session: zenoh.Session, key: str, payload: Any, timeout: float, *,
         if not answer.done():
             answer.set_result(value)
 
+    replied = False  # set on Zenoh's thread, which calls on_reply and on_end one after the other
+
     def on_reply(reply: zenoh.Reply) -> None:
+        nonlocal replied
         body = reply.ok.payload.to_bytes() if reply.ok is not None else None
-        if body is not None:
+        if body is not None and not replied:
+            replied = True
             loop.call_soon_threadsafe(settle, body)
 
     def on_end() -> None:
+        if replied:
+            return  # the reply settled it: the end need not wake the event loop a second time per call
         # Timed here, on Zenoh's thread: a late event loop must not turn an early end into a timeout.
         # Zenoh's own timer starts after *sent* and never fires early, so an end before *timeout* is
         # never Zenoh giving up.

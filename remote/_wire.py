@@ -62,9 +62,9 @@ from ..components.core.runtime import BINARY_MAGIC, encode_binary
 
 __all__ = [
     "PROTOCOL", "OFFERS", "LEGACY_OFFERS", "GATEWAYS", "BEATS", "BEAT_PERIOD", "OfferKey", "offer_token",
-    "parse_offer", "gateway_token", "host_id_error", "facts_key", "beat_key", "info_key", "request_key",
-    "events_key", "cleaned_key", "port_key", "snapshot_key", "ok_reply", "error_reply", "encode_message",
-    "decode_message", "strip_arrays", "arrays_of",
+    "parse_offer", "offers_of", "legacy_offer", "gateway_token", "host_id_error", "facts_key", "beat_key",
+    "info_key", "request_key", "events_key", "cleaned_key", "port_key", "snapshot_key", "ok_reply", "error_reply",
+    "encode_message", "decode_message", "strip_arrays", "arrays_of",
 ]
 
 #: The version of the key space and messages: a gateway and a host of different versions refuse each other.
@@ -147,6 +147,16 @@ def parse_offer(key: str) -> OfferKey | None:
     # Another version's layout is not ours to read: its last chunk is taken for the instance, to name it
     # when its load is refused.
     return OfferKey(protocol, "", "", chunks[-1], key)
+
+
+def offers_of(instance: str) -> str:
+    """Every offer of *instance*, by any host, of any protocol version that keeps the instance last."""
+    return f"{_ROOT}/offer/**/{instance}"
+
+
+def legacy_offer(instance: str) -> str:
+    """The offer of *instance* by a host of protocol 1."""
+    return f"{_ROOT}/alive/{instance}"
 
 
 def gateway_token(zid: str) -> str:

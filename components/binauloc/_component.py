@@ -9,10 +9,12 @@ import math
 from collections.abc import AsyncIterator
 from typing import Annotated, Any
 
+import numpy as np
+
 from ..bass import AudioPortData
 from ..binaural import (
-    AzimuthEstimate, BinauralError, BinauralLocaliser, FrontBackPolicy, HeadTurnFailed, LocaliserSetup, NoiseLearner,
-    TurnableHead, radians,
+    BinauralError, HeadTurnFailed, LocaliserSetup, NoiseLearner, RoomAzimuthFilter, SourceAzimuth, SourceLocaliser,
+    SourcesEstimate, TurnableHead, TurnPlanner, radians, wrap_degrees,
 )
 from ..binaural import Window as WindowName
 from ..capture import PortData
@@ -22,7 +24,11 @@ from ..core import (
 from ..kemarcapture import KemarPortData
 from ..recording import AUDIO_TYPES
 from ._feed import AudioBlock, NotStreaming, PortFeed
-from ._types import AzimuthsData, SourceData, Window, e_head, e_noData, e_noHead, e_rate, e_setup
+from ._history import EstimateHistory, EstimateWindow
+from ._types import (
+    MAX_SOURCES, AzimuthsData, EstimatesData, SourceAzimuthData, SourceData, Target, Window, e_head, e_noData,
+    e_noHead, e_rate, e_setup,
+)
 
 __all__ = ["Binauloc", "AUDIO_PORTS"]
 
@@ -45,6 +51,13 @@ def _radians(degrees: float | None) -> float:
     return math.nan if degrees is None or not math.isfinite(degrees) else radians(degrees)
 
 
+def _source_data(source: SourceAzimuth, head: float | None) -> SourceAzimuthData:
+    """A source of an estimate (head frame, degrees) as the ports carry it."""
+    return SourceAzimuthData(azimuth=radians(source.azimuth),
+                             roomAzimuth=_radians(None if head is None else source.azimuth + head),
+                             confidence=source.confidence, weight=source.weight, power=source.power)
+
+
 class Binauloc(Component, name="binauloc", version="1.0"):
     """Binaural sound localisation on the measured KEMAR HRTFs, after the Two!Ears ``binauloc``.
 
@@ -63,15 +76,19 @@ class Binauloc(Component, name="binauloc", version="1.0"):
     Audio = InPort(AudioPortData, doc="Connect to bass/Audio: frames, read by frame index without loss")
     CapturePort = InPort(PortData, doc="Connect to capture/Port: chunks, read by chunk index")
     KemarPort = InPort(KemarPortData, doc="Connect to kemarcapture/Port: chunks and the head azimuth of each")
-    Azimuths = OutPort(AzimuthsData, doc="The newest estimate of the dominant source's direction")
-    Source = OutPort(SourceData, doc="What FaceSource found: its estimates combined in the room, after each look")
+    Azimuths = OutPort(AzimuthsData, doc="The newest estimate: its sources, the strongest first")
+    Estimates: OutPort[EstimateWindow] = OutPort(
+        EstimatesData, doc="The last 1024 estimates, numbered: read with since=K for those after K")
+    Source = OutPort(SourceData, doc="What FaceSource found: every frame heard combined in the room, after each look")
 
     async def on_start(self) -> None:
         """No analysis yet: the default setup, no noise learnt, empty ports."""
         self._setup = LocaliserSetup(rate=0.0)
-        self._localiser: BinauralLocaliser | None = None
+        self._localiser: SourceLocaliser | None = None
         self._audio_in: str | None = None
+        self._history = EstimateHistory()
         self.Azimuths.publish(AzimuthsData())
+        self.Estimates.publish(self._history.window)
         self.Source.publish(SourceData())
 
     # -- which port, which analysis ----------------------------------------------------------
@@ -96,7 +113,7 @@ class Binauloc(Component, name="binauloc", version="1.0"):
         position = None if name == "KemarPort" or head is None else head.position
         return PortFeed(port, AUDIO_TYPES[port.type.name], position)
 
-    async def _localiser_for(self, rate: int) -> BinauralLocaliser:
+    async def _localiser_for(self, rate: int) -> SourceLocaliser:
         """The localiser of the current setup at the port's *rate* (built on first use, off the event loop)."""
         if self._localiser is not None and self._localiser.setup.rate == rate:
             return self._localiser
@@ -109,7 +126,7 @@ class Binauloc(Component, name="binauloc", version="1.0"):
         try:
             # The templates come from the HRIRs (read from the cache, or converted once per user).
             with self.clock.holding():
-                self._localiser = await asyncio.to_thread(BinauralLocaliser, setup)
+                self._localiser = await asyncio.to_thread(SourceLocaliser, setup)
         except BinauralError as exc:
             raise e_setup(what=str(exc)) from exc
         return self._localiser
@@ -121,8 +138,15 @@ class Binauloc(Component, name="binauloc", version="1.0"):
             except NotStreaming:
                 raise e_noData(what=f"{feed.port.name} is no longer connected") from None
 
-    async def _estimates(self, feed: PortFeed) -> AsyncIterator[tuple[AzimuthEstimate, int]]:
-        """The estimates of the new audio, with the number of the last frame each rests on."""
+    async def _estimates(self, feed: PortFeed, count: int | None,
+                         room: RoomAzimuthFilter | None = None) -> AsyncIterator[tuple[SourcesEstimate, int]]:
+        """The estimates of the new audio, with the number of the last frame each rests on.
+
+        Args:
+            feed: The connected port's audio.
+            count: Sources per estimate (None: counted).
+            room: A filter every frame with a head azimuth feeds too.
+        """
         origin: int | None = None
         async for block in self._blocks(feed):
             localiser = await self._localiser_for(block.rate)
@@ -133,15 +157,21 @@ class Binauloc(Component, name="binauloc", version="1.0"):
                                 block.first)
                 localiser.reset_stream()
                 origin = block.first
-            for estimate in localiser.feed(block.samples, block.heads):
+            for estimate in localiser.feed(block.samples, block.heads, count, also=room):
                 yield estimate, origin + estimate.end - 1
 
-    def _publish(self, estimate: AzimuthEstimate, frame: int, number: int) -> None:
+    def _publish(self, estimate: SourcesEstimate, frame: int, number: int) -> None:
+        """Publish an estimate on Azimuths and in the history."""
         head = estimate.head_azimuth
+        sources = tuple(_source_data(s, head) for s in estimate.sources[:MAX_SOURCES])
+        window = self._history.append(frame, estimate.frames, _radians(head), sources)
+        first = sources[0] if sources else SourceAzimuthData(azimuth=math.nan, roomAzimuth=math.nan)
         self.Azimuths.publish(AzimuthsData(
-            azimuth=estimate.azimuth, confidence=estimate.confidence, frameIndex=frame, nFrames=estimate.frames,
-            headAzimuth=_radians(head), roomAzimuth=_radians(None if head is None else estimate.degrees + head),
-            estimate=number, logLikelihood=estimate.likelihood.log_likelihood.copy()))
+            azimuth=first.azimuth, confidence=first.confidence, frameIndex=frame, nFrames=estimate.frames,
+            headAzimuth=_radians(head), roomAzimuth=first.roomAzimuth, estimate=number,
+            logLikelihood=np.log(np.maximum(estimate.distribution, 1e-300)), nSources=len(sources),
+            sources=list(sources), index=window.index))
+        self.Estimates.publish(window)
 
     # -- services -----------------------------------------------------------------------------
 
@@ -218,32 +248,41 @@ class Binauloc(Component, name="binauloc", version="1.0"):
             raise e_setup(what=str(exc)) from exc
         return learner.frames
 
-    @activity(task=localize, interrupts=ANALYSES, throws=(e_setup, e_noData, e_rate), progress="Azimuths.estimate")
+    def _validate_localize(self, nEstimates: int, nSources: int) -> None:
+        if nSources > MAX_SOURCES:
+            raise e_setup(what=f"an estimate names at most {MAX_SOURCES} sources, not {nSources}")
+
+    @activity(task=localize, interrupts=ANALYSES, throws=(e_setup, e_noData, e_rate), validate=_validate_localize,
+              progress="Azimuths.estimate")
     async def LocalizeSources(
         self, nEstimates: Annotated[ULong, "Estimates to make before ending (0: until Stop)"] = 0,
+        nSources: Annotated[ULong, "Sources each estimate names (0: as many as are found, at most 6)"] = 0,
     ) -> Annotated[ULong, Out("nEstimates", "Estimates made")]:
-        """Localise the dominant source in the new audio: an estimate every smoothing frames, on Azimuths.
+        """Localise the sources in the new audio: an estimate every smoothing frames, on Azimuths and Estimates.
 
         Reads the connected port from now on, by index, so no frame is skipped or read twice; lost
-        frames (a reader too slow for the port) start a new run of estimates after the gap.
+        frames (a reader too slow for the port) start a new run of estimates after the gap. Each
+        estimate joins the numbered history (the Estimates port), which a client reads with
+        since= to have every one.
         """
         made = 0
         head = self.host.find(TurnableHead)
-        async for estimate, frame in self._estimates(self._feed(head)):
+        async for estimate, frame in self._estimates(self._feed(head), nSources or None):
             made += 1
             self._publish(estimate, frame, made)
             if made == nEstimates:
                 break
         return made
 
-    def _validate_face(self, turn: float, velocity: float, look: float, confidence: float, maxTurns: int) -> None:
+    def _validate_face(self, turn: float, velocity: float, look: float, confidence: float, maxTurns: int,
+                       target: Target, azimuth: float) -> None:
         checks = (("turn", turn, 0 < turn <= 90), ("velocity", velocity, 0 < velocity <= 900),
                   ("look", look, 0 < look <= 10), ("confidence", confidence, 0 < confidence < 1),
-                  ("maxTurns", maxTurns, 1 <= maxTurns <= 20))
+                  ("maxTurns", maxTurns, 1 <= maxTurns <= 20), ("azimuth", azimuth, -360 <= azimuth <= 360))
         for name, value, good in checks:
             if not (math.isfinite(value) and good):
                 raise e_setup(what=f"{name} {value!r} is out of range (turn 0-90 deg, velocity 0-900 deg/s, "
-                                   "look 0-10 s, confidence 0-1, maxTurns 1-20)")
+                                   "look 0-10 s, confidence 0-1, maxTurns 1-20, azimuth -360-360 deg)")
         if self.host.find(TurnableHead) is None:
             raise e_noHead(what="no component of this host turns a head: load kemar, kemarcapture or morse_kemar")
 
@@ -252,52 +291,71 @@ class Binauloc(Component, name="binauloc", version="1.0"):
               validate=_validate_face, progress="Azimuths.estimate")
     async def FaceSource(
         self,
-        turn: Annotated[Double, Unit("deg"),
-                         "Degrees each look turns the head from the start, the source's side first"] = 30.0,
+        turn: Annotated[Double, Unit("deg"), "The largest turn from one look to the next, degrees"] = 30.0,
         velocity: Annotated[Double, Unit("deg/s"), "Head speed, deg/s"] = 60.0,
         look: Annotated[Double, Unit("s"), "Seconds of audio heard from each head azimuth"] = 0.5,
         confidence: Annotated[Double, "Posterior probability within 10 degrees that settles it"] = 0.9,
         maxTurns: Annotated[ULong, "Looks from other azimuths before settling whatever the confidence"] = 4,
+        target: Annotated[Target, "Which source to face: the loudest, or the one nearest azimuth"] = Target.LOUDEST,
+        azimuth: Annotated[Double, "With NEAREST: the room azimuth the source is sought near, degrees"] = 0.0,
     ) -> Annotated[SourceData, Out("source", "The source found, and where the head ended")]:
-        """Find the dominant source by turning the head, then face it (as far as the head turns).
+        """Find the sources by turning the head, then face the one asked for (as far as the head turns).
 
-        Listens from the head's azimuth, then from others (``turn`` degrees either side, the
-        source's side first), while the estimates, each turned into the room with the head
-        azimuths of its own frames (a turn during an estimate included), add up. Once the
-        posterior within 10 degrees reaches ``confidence`` after at least one turn, the head
-        turns to the source. Each estimate is published on Azimuths, the combination on Source.
+        Every frame heard, those heard while the head turns included, joins a mixture of sources
+        in the room at the head's azimuth of its time; between looks the head turns where the next
+        look is expected to tell apart most of what is still confused (a source and its mirror
+        image), at most ``turn`` degrees. After at least one turn, once the source asked for has a
+        posterior of ``confidence`` within 10 degrees (or after ``maxTurns``), the head turns to it.
+        Each estimate is published on Azimuths and Estimates, the combination on Source.
         """
         head = self.host.require(TurnableHead)
-        policy = FrontBackPolicy(turn=turn, limits=head.limits, confidence=confidence, max_turns=maxTurns)
+        room = RoomAzimuthFilter(capacity=4096)
         heard = _Heard()
+        looks: list[float] = []
 
         async def listen() -> None:
-            async for estimate, frame in self._estimates(self._feed(head)):
+            async for estimate, frame in self._estimates(self._feed(head), None, room):
                 setup = self._localiser.setup if self._localiser is not None else self._setup
                 heard.add(estimate.frames * setup.hop / setup.rate)
                 self._publish(estimate, frame, heard.count)
-                if estimate.head_azimuth is not None:
-                    policy.add(estimate)
+
+        def chosen() -> SourceAzimuth | None:
+            sources = room.sources()
+            if not sources:
+                return None
+            if target == Target.NEAREST:
+                return min(sources, key=lambda s: abs(float(wrap_degrees(s.azimuth - azimuth))))
+            return max(sources, key=lambda s: s.power)
 
         listener = asyncio.create_task(listen(), name=f"{self.instance} FaceSource listener")
         try:
-            start = await head.position()
-            policy.looked(start)
+            reached = await head.position()
+            looks.append(reached)
             await heard.wait_for(look, listener)
-            if policy.room is None:
+            if room.frames == 0:
                 raise e_noData(what="the head's azimuth was unknown for every estimate (the head does not answer)")
-            while (target := policy.next_look()) is not None:
-                reached = await self._turn(head, target, velocity)
-                policy.looked(reached)
+            assert self._localiser is not None
+            planner = TurnPlanner(self._localiser.analyser, tuple(t for t in (10.0, 20.0, 30.0, 45.0, 60.0, 90.0)
+                                                                  if t <= turn) or (turn,))
+            while len(looks) - 1 < maxTurns:
+                found = chosen()
+                if len(looks) > 1 and found is not None and found.confidence >= confidence:
+                    break
+                weights, _ = room.distribution()
+                reached = await self._turn(head, planner.next_head(weights, looks, reached, head.limits), velocity)
+                looks.append(reached)
                 await heard.wait_for(look, listener)
-                self.Source.publish(self._found(policy, reached, faced=False))
+                self.Source.publish(self._found(room, chosen(), reached, len(looks) - 1, heard.count, faced=False))
         finally:
             # Settled: what was heard decides where to face (the head's last turn adds nothing to it).
             listener.cancel()
             await asyncio.gather(listener, return_exceptions=True)
-        azimuth, _ = policy.found()
-        reached = await self._turn(head, policy.facing(), velocity)
-        result = self._found(policy, reached, faced=abs(math.remainder(azimuth - reached, 360.0)) <= 2.0)
+        found = chosen()
+        if found is None:
+            raise e_noData(what="no source was heard")
+        reached = await self._turn(head, found.azimuth, velocity)
+        faced = abs(math.remainder(found.azimuth - reached, 360.0)) <= 2.0
+        result = self._found(room, found, reached, len(looks) - 1, heard.count, faced=faced)
         self.Source.publish(result)
         return result
 
@@ -309,13 +367,15 @@ class Binauloc(Component, name="binauloc", version="1.0"):
             raise e_head(what=str(exc)) from exc
 
     @staticmethod
-    def _found(policy: FrontBackPolicy, head: float, *, faced: bool) -> SourceData:
-        azimuth, confidence = policy.found()
-        room = policy.room
-        assert room is not None
-        return SourceData(roomAzimuth=_radians(azimuth), confidence=confidence, headAzimuth=_radians(head),
-                          faced=faced, turns=max(0, len(policy.looks) - 1), estimates=policy.estimates,
-                          logLikelihood=room.log_likelihood.copy())
+    def _found(room: RoomAzimuthFilter, found: SourceAzimuth | None, head: float, turns: int, estimates: int, *,
+               faced: bool) -> SourceData:
+        weights, _ = room.distribution()
+        sources = [_source_data(dataclasses.replace(s, azimuth=float(wrap_degrees(s.azimuth - head))), head)
+                   for s in room.sources()[:MAX_SOURCES]]
+        return SourceData(roomAzimuth=_radians(None if found is None else found.azimuth),
+                          confidence=0.0 if found is None else found.confidence, headAzimuth=_radians(head),
+                          faced=faced, turns=turns, estimates=estimates,
+                          logLikelihood=np.log(np.maximum(weights, 1e-300)), sources=sources)
 
     @function(interrupts=ANALYSES)
     def Stop(self) -> None:

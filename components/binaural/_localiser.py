@@ -53,8 +53,8 @@ from ._hrir_set import HrirSet
 from ._kemar import load_kemar
 from ._likelihood import GRID_DEGREES, AzimuthLikelihood, combine_in_room, radians
 
-__all__ = ["LocaliserSetup", "BinauralLocaliser", "AzimuthEstimate", "NoiseLearner", "Window", "WINDOWS",
-           "MOTION_TOLERANCE", "BATCH_SAMPLES"]
+__all__ = ["LocaliserSetup", "FrameAnalysis", "BinauralLocaliser", "AzimuthEstimate", "NoiseLearner", "Window",
+           "WINDOWS", "MOTION_TOLERANCE", "BATCH_SAMPLES"]
 
 #: How sharp the log-likelihood is for each frame and unit of weighted match: chosen so that the
 #: confidence (posterior within ±10° of the peak) follows how often estimates are that close.
@@ -229,7 +229,7 @@ class NoiseLearner:
     Only the covariance's sums and less than a frame of samples are held, however long the noise.
     """
 
-    def __init__(self, localiser: BinauralLocaliser) -> None:
+    def __init__(self, localiser: FrameAnalysis) -> None:
         #: The localiser it learns for.
         self.localiser = localiser
         self._framer = _Framer(localiser.setup.frame, localiser.setup.hop)
@@ -262,48 +262,30 @@ class NoiseLearner:
         self.localiser._noise = self._covariance
 
 
-class BinauralLocaliser:
-    """Estimates the azimuth of the dominant source from two ear signals.
+class FrameAnalysis:
+    """What every localiser here shares: the setup checked, the frames' spectra, the noise learnt.
 
     Args:
         setup: The analysis parameters.
         hrirs: The measured set the templates come from (default: the MIT KEMAR set).
-        template_azimuths: Template directions in the horizontal plane, degrees (default: the
-            measured ones; other azimuths are interpolated, see :class:`HorizontalInterpolator`).
 
-    Use :meth:`localise` on a block of audio for one estimate, or :meth:`feed` to stream
-    audio and get an estimate every ``setup.smoothing`` frames.
+    Attributes:
+        setup: The analysis parameters.
+        measured: The measured set at the analysis rate.
+        batch: Frames transformed at once.
     """
 
-    def __init__(self, setup: LocaliserSetup | None = None, *, hrirs: HrirSet | None = None,
-                 template_azimuths: npt.ArrayLike | None = None) -> None:
-        from ._interpolation import HorizontalInterpolator
-
+    def __init__(self, setup: LocaliserSetup | None = None, *, hrirs: HrirSet | None = None) -> None:
         self.setup = setup if setup is not None else LocaliserSetup()
         self.setup.check()
-        measured = (hrirs if hrirs is not None else load_kemar()).resampled(self.setup.rate)
-        interpolator = HorizontalInterpolator(measured)
-        azimuths = interpolator.azimuths if template_azimuths is None else np.sort(
-            np.mod(np.asarray(template_azimuths, dtype=np.float64), 360.0))
-        self.template_azimuths = np.mod(np.asarray(azimuths, dtype=np.float64), 360.0)
-        order = np.argsort(self.template_azimuths)
-        self.template_azimuths = self.template_azimuths[order]
-        frame = self.setup.frame
-        freqs = np.fft.rfftfreq(frame, 1.0 / self.setup.rate)
+        self.measured = (hrirs if hrirs is not None else load_kemar()).resampled(self.setup.rate)
+        freqs = np.fft.rfftfreq(self.setup.frame, 1.0 / self.setup.rate)
         self._bins = np.flatnonzero((freqs >= self.setup.min_frequency) & (freqs <= self.setup.max_frequency))
         if len(self._bins) == 0:
             raise LocalisationError("no frequency bin between the lowest and highest frequency")
-        responses = interpolator.at(self.template_azimuths)
-        # A frame shorter than the responses cuts their tails (of little energy after 200 samples).
-        steering = np.fft.rfft(responses, frame, axis=1)[:, self._bins]                # (templates, bins, 2)
-        steering /= np.maximum(np.linalg.norm(steering, axis=-1, keepdims=True), 1e-300)
-        self._steering_conj = np.conj(steering)
-        self._window = _window(self.setup.window, frame)
-        self._spline = self._spline_matrix()
-        #: Frames transformed at once.
-        self.batch = max(1, BATCH_SAMPLES // frame)
+        self._window = _window(self.setup.window, self.setup.frame)
+        self.batch = max(1, BATCH_SAMPLES // self.setup.frame)
         self._noise: _Covariance | None = None
-        self.reset_stream()
 
     # -- noise ---------------------------------------------------------------------------------
 
@@ -325,6 +307,62 @@ class BinauralLocaliser:
     def forget_noise(self) -> None:
         """Localise without a noise estimate again."""
         self._noise = None
+
+    @staticmethod
+    def _checked(audio: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """``(frames, 2)`` float samples.
+
+        Raises:
+            LocalisationError: for another shape.
+        """
+        samples = np.asarray(audio, dtype=np.float64)
+        if samples.ndim != 2 or samples.shape[1] != 2:
+            raise LocalisationError(f"audio must be (frames, 2), not {samples.shape}")
+        return samples
+
+    def _spectra(self, samples: npt.NDArray[np.float64]) -> npt.NDArray[np.complex128]:
+        """``(frames, bins, 2)`` windowed spectra of every full frame, at the analysed bins."""
+        frame, hop = self.setup.frame, self.setup.hop
+        if samples.ndim != 2 or samples.shape[1] != 2:
+            raise LocalisationError(f"audio must be (frames, 2), not {samples.shape}")
+        if len(samples) < frame:
+            return np.zeros((0, len(self._bins), 2), dtype=np.complex128)
+        frames = np.lib.stride_tricks.sliding_window_view(samples, frame, axis=0)[::hop]    # (n, 2, frame)
+        spectra = np.fft.rfft(frames * self._window, axis=-1)[..., self._bins]
+        return np.ascontiguousarray(spectra.transpose(0, 2, 1))
+
+
+class BinauralLocaliser(FrameAnalysis):
+    """Estimates the azimuth of the dominant source from two ear signals.
+
+    Args:
+        setup: The analysis parameters.
+        hrirs: The measured set the templates come from (default: the MIT KEMAR set).
+        template_azimuths: Template directions in the horizontal plane, degrees (default: the
+            measured ones; other azimuths are interpolated, see :class:`HorizontalInterpolator`).
+
+    Use :meth:`localise` on a block of audio for one estimate, or :meth:`feed` to stream
+    audio and get an estimate every ``setup.smoothing`` frames.
+    """
+
+    def __init__(self, setup: LocaliserSetup | None = None, *, hrirs: HrirSet | None = None,
+                 template_azimuths: npt.ArrayLike | None = None) -> None:
+        from ._interpolation import HorizontalInterpolator
+
+        super().__init__(setup, hrirs=hrirs)
+        interpolator = HorizontalInterpolator(self.measured)
+        azimuths = interpolator.azimuths if template_azimuths is None else np.sort(
+            np.mod(np.asarray(template_azimuths, dtype=np.float64), 360.0))
+        self.template_azimuths = np.mod(np.asarray(azimuths, dtype=np.float64), 360.0)
+        order = np.argsort(self.template_azimuths)
+        self.template_azimuths = self.template_azimuths[order]
+        responses = interpolator.at(self.template_azimuths)
+        # A frame shorter than the responses cuts their tails (of little energy after 200 samples).
+        steering = np.fft.rfft(responses, self.setup.frame, axis=1)[:, self._bins]    # (templates, bins, 2)
+        steering /= np.maximum(np.linalg.norm(steering, axis=-1, keepdims=True), 1e-300)
+        self._steering_conj = np.conj(steering)
+        self._spline = self._spline_matrix()
+        self.reset_stream()
 
     def reset_stream(self) -> None:
         """Start a new stream: forget the samples and frames fed since the last estimate (after a gap)."""
@@ -431,29 +469,6 @@ class BinauralLocaliser:
         likelihood = combine_in_room(self._runs).relative_to(last)
         peak = likelihood.peak()
         return AzimuthEstimate(radians(peak), likelihood.mass_near(peak), likelihood, frames, end, last)
-
-    @staticmethod
-    def _checked(audio: npt.ArrayLike) -> npt.NDArray[np.float64]:
-        """``(frames, 2)`` float samples.
-
-        Raises:
-            LocalisationError: for another shape.
-        """
-        samples = np.asarray(audio, dtype=np.float64)
-        if samples.ndim != 2 or samples.shape[1] != 2:
-            raise LocalisationError(f"audio must be (frames, 2), not {samples.shape}")
-        return samples
-
-    def _spectra(self, samples: npt.NDArray[np.float64]) -> npt.NDArray[np.complex128]:
-        """``(frames, bins, 2)`` windowed spectra of every full frame, at the analysed bins."""
-        frame, hop = self.setup.frame, self.setup.hop
-        if samples.ndim != 2 or samples.shape[1] != 2:
-            raise LocalisationError(f"audio must be (frames, 2), not {samples.shape}")
-        if len(samples) < frame:
-            return np.zeros((0, len(self._bins), 2), dtype=np.complex128)
-        frames = np.lib.stride_tricks.sliding_window_view(samples, frame, axis=0)[::hop]    # (n, 2, frame)
-        spectra = np.fft.rfft(frames * self._window, axis=-1)[..., self._bins]
-        return np.ascontiguousarray(spectra.transpose(0, 2, 1))
 
     def _estimate(self, covariance: _Covariance, end: int) -> AzimuthEstimate:
         likelihood = self._log_likelihood(covariance)

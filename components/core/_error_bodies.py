@@ -11,7 +11,7 @@ from typing import Any
 from ._budgets import OverBudget
 from ._exceptions import (
     AmbiguousModule, ComponentError, GenomException, InputError, NoSuchModule, NoSuchPort, NoSuchRequest,
-    NoSuchService, PortUnavailable, RemoteRefusal, RemoteUnreachable, RequestRunning, disallowed,
+    NoSuchService, PortUnavailable, RemoteHostGone, RemoteRefusal, RemoteUnreachable, RequestRunning, disallowed,
     too_many_activities,
 )
 from ._host import LoadError, TooManyInstances
@@ -42,6 +42,10 @@ def error_body(exc: Exception) -> tuple[int, dict[str, Any]]:
     message = message_of(exc)
     if isinstance(exc, RemoteRefusal):
         return exc.status, exc.body
+    if isinstance(exc, RemoteHostGone):
+        # Not a timeout (504) nor an unknown name (404): the instance's host is gone, and may come back.
+        return 503, {"ex": REMOTE_IO, "detail": {"what": message, "host": exc.host, "last_heard": exc.last_heard},
+                     "message": message}
     if isinstance(exc, RemoteUnreachable):
         return 504, {"ex": REMOTE_IO, "detail": {"what": message}, "message": message}
     if isinstance(exc, AmbiguousModule):

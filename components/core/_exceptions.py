@@ -12,6 +12,7 @@
     ├── PortUnavailable                  a read of a port whose data is withdrawn (its sensor is down)
     ├── AmbiguousModule (LookupError)    a name that several component hosts offer: say which
     ├── RemoteUnreachable                an instance of another process did not answer, or is not heard from
+    │   └── RemoteHostGone               an instance of another process whose host is gone (it may come back)
     ├── RemoteRefusal                    an instance of another process refused: its error, as answered there
     └── GenomException                   an exception in the genom3 sense, with an id and a detail
         ├── (declared by components, e.g. ::demo::TOO_FAR_AWAY)
@@ -24,15 +25,34 @@ its detail members, in declaration order.
 
 from __future__ import annotations
 
+import difflib
 import typing
+from collections.abc import Collection
 from typing import Any, ClassVar
 
 __all__ = [
     "ComponentError", "InputError", "NoSuchModule", "NoSuchService", "NoSuchPort", "NoSuchRequest",
-    "RequestRunning", "PortUnavailable", "AmbiguousModule", "RemoteUnreachable", "RemoteRefusal", "GenomException",
-    "interrupted", "too_many_activities", "unkex", "syserr", "no_such_service", "no_such_outport", "no_such_inport",
-    "port_io", "serialization", "disallowed", "no_such_activity", "remote_io",
+    "RequestRunning", "PortUnavailable", "AmbiguousModule", "RemoteUnreachable", "RemoteHostGone", "RemoteRefusal",
+    "GenomException", "interrupted", "too_many_activities", "unkex", "syserr", "no_such_service", "no_such_outport",
+    "no_such_inport", "port_io", "serialization", "disallowed", "no_such_activity", "remote_io", "names_hint",
 ]
+
+#: Up to this many names are listed whole in a refusal; beyond, the likely ones and where the rest are.
+_LISTED = 12
+
+
+def names_hint(name: str, names: Collection[str], what: str) -> str:
+    """What a refusal of the unknown *name* says of the *names* it may have meant: all when few, else the close ones.
+
+    ``(available: demo, kemar)``; with a hundred remote instances, ``(did you mean h01d1 or h01d2? 100 loaded,
+    listed by /)``: a refusal does not repeat a hundred names.
+    """
+    ordered = sorted(names)
+    if len(ordered) <= _LISTED:
+        return f"({what}: {', '.join(ordered) or 'none'})"
+    close = difflib.get_close_matches(name, ordered, n=3)
+    guess = f"did you mean {' or '.join(close)}? " if close else ""
+    return f"({guess}{len(ordered)} {what}, listed by /)"
 
 
 class ComponentError(Exception):
@@ -95,6 +115,23 @@ class RemoteUnreachable(ComponentError):
 
     Its process died, froze, or the network between is cut: answered as ``::genom::remote_io``.
     """
+
+
+class RemoteHostGone(RemoteUnreachable):
+    """An instance that ran in another process whose host is gone: unknown here until that host offers it again.
+
+    Not an unknown name (404): the instance existed and may come back; answered 503 ``::genom::remote_io``
+    naming the host and when it was last heard from.
+
+    Args:
+        message: What happened, in words.
+        host: The id of the host that ran it.
+        last_heard: When that host was last heard from (ISO 8601, UTC; None: never).
+    """
+
+    def __init__(self, message: str, host: str, last_heard: str | None) -> None:
+        super().__init__(message)
+        self.host, self.last_heard = host, last_heard
 
 
 class RemoteRefusal(ComponentError):

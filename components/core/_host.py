@@ -21,7 +21,7 @@ from ._budgets import Ledgers
 from ._clock import Clock, RealClock
 from ._component import Component
 from ._events import HostEvents, InstanceLoaded, InstanceUnloaded, SessionEnded
-from ._exceptions import ComponentError, NoSuchModule
+from ._exceptions import ComponentError, NoSuchModule, names_hint
 from ._instance import LoadedInstance
 from ._log_limits import ThrottledLog
 from ._requests import RequestStatus
@@ -87,6 +87,9 @@ class RemoteFinder(Protocol):
 
     def view(self) -> dict[str, Any]:
         """What this finder knows, for ``/``: the hosts it hears (where each runs, what each offers)."""
+
+    def absent(self, instance: str) -> ComponentError | None:
+        """Why *instance*, which is not loaded here, is not, when the finder knows (its host is gone); else None."""
 
 
 class ComponentHost:
@@ -159,7 +162,7 @@ class ComponentHost:
         """
         factory = self._factories.get(name)
         if factory is None:
-            raise NoSuchModule(f"no component {name!r} (available: {', '.join(self.available())})")
+            raise NoSuchModule(f"no component {name!r} {names_hint(name, self.available(), 'available')}")
         return factory.load() if isinstance(factory, _LazyFactory) else factory  # type: ignore[return-value]
 
     def usage(self, name: str) -> list[dict[str, str]]:
@@ -177,13 +180,17 @@ class ComponentHost:
         """The loaded instance *instance*.
 
         Raises:
-            NoSuchModule: when no such instance is loaded.
+            NoSuchModule: when no such instance is loaded (naming the loaded ones it may be a typo of).
+            RemoteHostGone: when it ran in another process whose host is gone (the finder says so).
         """
         try:
             return self._instances[instance]
         except KeyError:
-            loaded = ", ".join(self._instances) or "none"
-            raise NoSuchModule(f"no module {instance!r} is loaded (loaded: {loaded})") from None
+            pass
+        why = None if self.finder is None else self.finder.absent(instance)
+        if why is not None:
+            raise why
+        raise NoSuchModule(f"no module {instance!r} is loaded {names_hint(instance, self._instances, 'loaded')}")
 
     async def load(self, name: str, argv: list[str] | None = None) -> LoadedInstance:
         """Load component *name* (``-i INSTANCE`` in *argv* picks the instance name).

@@ -11,7 +11,7 @@ from ._describe import describe
 from ._error_bodies import REMOTE_IO, error_body, message_of
 from ._exceptions import (
     AmbiguousModule, ComponentError, InputError, NoSuchModule, NoSuchPort, NoSuchRequest, NoSuchService,
-    PortUnavailable, RemoteRefusal, RemoteUnreachable, RequestRunning,
+    PortUnavailable, RemoteHostGone, RemoteRefusal, RemoteUnreachable, RequestRunning, names_hint,
 )
 from ._host import NoCapability, RemoteFinder, TooManyInstances
 from ._instance import LoadedInstance, Placement
@@ -38,8 +38,8 @@ __all__ = [
     "encode_binary", "BINARY_MAGIC", "BINARY_CONTENT_TYPE",
     # What the runtime refuses, and how a refusal reads on the wire
     "ComponentError", "InputError", "NoSuchModule", "NoSuchService", "NoSuchPort", "NoSuchRequest",
-    "RequestRunning", "NoCapability", "PortUnavailable", "AmbiguousModule", "RemoteUnreachable", "RemoteRefusal",
-    "error_body", "message_of", "REMOTE_IO",
+    "RequestRunning", "NoCapability", "PortUnavailable", "AmbiguousModule", "RemoteUnreachable", "RemoteHostGone",
+    "RemoteRefusal", "error_body", "message_of", "REMOTE_IO", "names_hint",
     # The command line of a rig (the gateway's and a component host's)
     "add_rig_arguments", "rig_settings", "add_budget_arguments", "budgets_from", "parse_amount",
     # Amounts of bytes, as the budgets count and say them

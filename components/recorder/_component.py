@@ -39,8 +39,9 @@ class Recorder(Component, name="recorder", version="1.0"):
 
     ``Start`` records the ports it is given (``instance/port``) into a new file under a directory
     the operator allowed (``--record-dir``), until ``Stop``, its ``duration`` or a full disk; the
-    ``Status`` port says how far it is.  Every audio frame is recorded once, read by index; other
-    ports as their publications come, counting those replaced before they were read.
+    ``Status`` port says how far it is.  Every audio frame is recorded once, read by index, and so is
+    every item of other numbered ports (binauloc's Estimates); other ports as their publications
+    come, counting those replaced before they were read.
 
     A recording sent in a session ends with that session (its client stopped it, or went away
     and it expired after ``--session-idle``) unless ``Start`` asks it to outlive it; one sent in
@@ -328,6 +329,10 @@ class Recorder(Component, name="recorder", version="1.0"):
         if isinstance(recorder, AudioRecorder):
             await self._follow_audio(port, recorder, recording)
             return
+        # (A look, not a read: a withdrawn port is counted unavailable by the loop that reads it.)
+        if isinstance(recorder, JsonRecorder) and port.withdrawn is None and isinstance(port.read(), Incremental):
+            await self._follow_numbered(port, recorder, recording)
+            return
         delivered = 0
         while True:
             await self._room(recording)
@@ -339,6 +344,30 @@ class Recorder(Component, name="recorder", version="1.0"):
             value = self._current(port, recorder)
             if value is not _WITHDRAWN:  # (else the next publication is current again)
                 recorder.write(port.type.encode(value), coalesced=coalesced, rig_time=self.clock.wall())
+
+    async def _follow_numbered(self, port: OutPortRuntime[Any], recorder: JsonRecorder,
+                               recording: Recording) -> None:
+        """Numbered data that is not audio (binauloc's Estimates): each item once, those after the last recorded.
+
+        Each message holds the items a publication added (several when the writer was slow), from the
+        newest held when the recording started; items the port no longer held are counted as coalesced.
+        """
+        current = self._current(port, recorder)
+        since = max(0, current.index - int(getattr(current, "items_per_publication", 1))) \
+            if isinstance(current, Incremental) else 0
+        while True:
+            await self._room(recording)
+            value = self._current(port, recorder)
+            if isinstance(value, Incremental):
+                if value.index < since:
+                    since = 0                      # numbered anew (a component started again)
+                if value.index > since:
+                    data, lost = value.since(since)
+                    since = value.index
+                    recorder.write(port.type.encode(data), coalesced=lost, rig_time=self.clock.wall())
+                    continue
+            # Nothing is awaited between the read above and this wait: no publication slips between them.
+            await port.wait_published()
 
     async def _follow_audio(self, port: OutPortRuntime[Any], recorder: AudioRecorder, recording: Recording) -> None:
         """Every frame once: the items after the last one recorded, at each publication."""

@@ -13,7 +13,9 @@ from aiogenomix.components.core import (
     Component, ComponentHost, Double, GenomException, HostSettings, InPort, ManualClock, Out, OutPort, RequestEvent,
     Short, String, Task, activity, attribute, function, idl_struct, port_io,
 )
-from aiogenomix.components.core.runtime import InputError, NoSuchPort, NoSuchRequest, RequestRunning, describe
+from aiogenomix.components.core.runtime import (
+    InputError, NoSuchModule, NoSuchPort, NoSuchRequest, RequestRunning, describe,
+)
 
 
 class TOO_BIG(GenomException):
@@ -279,3 +281,19 @@ async def test_too_many_activities(host: ComponentHost, monkeypatch: pytest.Monk
     with pytest.raises(too_many_activities):
         await gadget.send("Hold")
     assert (await gadget.send("GetName")).status == "done"  # functions are not limited
+
+
+async def test_an_unknown_instance_is_refused_naming_the_likely_ones_not_every_loaded_one(host: ComponentHost) -> None:
+    for name in ("gadget", "gadget2"):
+        await host.load("gadget", ["-i", name])
+    with pytest.raises(NoSuchModule, match=r"^no module 'gadgte' is loaded \(loaded: gadget, gadget2\)$"):
+        host.get("gadgte")
+    # Forty remote instances are not repeated in every refusal: the close ones are, and where the rest are.
+    for number in range(3, 41):
+        await host.load("gadget", ["-i", f"gadget{number}"])
+    with pytest.raises(NoSuchModule) as refused:
+        host.get("gadget400")
+    assert str(refused.value) == ("no module 'gadget400' is loaded (did you mean gadget40 or gadget4 or gadget34? "
+                                  "40 loaded, listed by /)")
+    with pytest.raises(NoSuchModule, match=r"^no module 'robot' is loaded \(40 loaded, listed by /\)$"):
+        host.get("robot")

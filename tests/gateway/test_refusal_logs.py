@@ -105,3 +105,15 @@ async def test_the_parsers_refusals_log_no_traceback_under_any_runner(caplog: py
     assert _loud(caplog) == []
     refusals = [r.getMessage() for r in caplog.records if "refused" in r.getMessage()]
     assert len(refusals) == 4 and all("\n" not in line for line in refusals)
+
+
+@pytest.mark.parametrize("target", ["http://evil.example/module/demo/read/Mobile", "http://127.0.0.1:5/x?#frag"])
+async def test_a_connect_naming_a_url_is_refused_with_400_and_one_debug_line(
+        gateway: str, caplog: pytest.LogCaptureFixture, target: str) -> None:
+    # A CONNECT names an authority (host:port); given a URL, aiohttp before 3.14.4 built the request's URL
+    # from it, crashed the connection's task (no reply) and logged the traceback at ERROR.
+    caplog.set_level(logging.DEBUG)
+    status, body = await _exchange(gateway, f"CONNECT {target} HTTP/1.1\r\nHost: {gateway}\r\n\r\n".encode())
+    assert status == 400
+    assert json.loads(body)["ex"] == "::genomix::http"
+    assert _loud(caplog) == []

@@ -105,8 +105,12 @@ async def start_component_host(names: Sequence[str], *, listen: str | None = Non
 
 
 async def start_gateway(connect: Sequence[str] = (), *, listen: str | None = None, extra: Sequence[str] = (),
-                        address: str = "127.0.0.1", prefix: Sequence[str] = ()) -> tuple[Process, str]:
-    """The gateway with ``--zenoh``; returns it with its base URL once it listens."""
+                        address: str = "127.0.0.1", prefix: Sequence[str] = (),
+                        drain: bool = True) -> tuple[Process, str]:
+    """The gateway with ``--zenoh``; returns it with its base URL once it listens.
+
+    With *drain* false, its output is left for the caller to read (``line_matching``).
+    """
     args = ["--host", address, "--port", "0", "--audio-socket-port", "0", "--time-scale", str(TIME_SCALE),
             "--zenoh", *extra]
     for endpoint in connect:
@@ -123,8 +127,37 @@ async def start_gateway(connect: Sequence[str] = (), *, listen: str | None = Non
     except BaseException:
         await gateway.end()
         raise
-    gateway.drain()
+    if drain:
+        gateway.drain()
     return gateway, url
+
+
+#: A Zenoh router, as zenohd runs one, from the Python package (zenohd is not on the package index).
+_ROUTER = """
+import json, sys, threading, zenoh
+config = zenoh.Config()
+for key, value in (("mode", '"router"'), ("scouting/multicast/enabled", "false"),
+                   ("scouting/gossip/enabled", "false"), ("listen/endpoints", json.dumps([sys.argv[1]]))):
+    config.insert_json5(key, value)
+session = zenoh.open(config)
+print("router ready", file=sys.stderr, flush=True)
+threading.Event().wait()
+"""
+
+
+async def start_router(listen: str, *, prefix: Sequence[str] = ()) -> Process:
+    """A Zenoh router listening on *listen*; returns once it does (run under *prefix*, e.g. ``ip netns exec``)."""
+    process = await asyncio.create_subprocess_exec(
+        *prefix, sys.executable, "-c", _ROUTER, listen, stdin=asyncio.subprocess.DEVNULL,
+        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE)
+    router = Process(process, "router")
+    try:
+        await router.line_matching("router ready")
+    except BaseException:
+        await router.end()
+        raise
+    router.drain()
+    return router
 
 
 async def start_host_and_gateway(started: list[Process], names: Sequence[str], *, extra: Sequence[str] = (),

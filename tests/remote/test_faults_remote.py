@@ -56,8 +56,11 @@ async def test_a_killed_host_ends_its_requests_once_and_is_loaded_again_when_it_
             noticed = time.monotonic() - killed
             assert noticed < 10, f"the death was noticed after {noticed:.1f} s"
             assert await waiting == (200, ended)
+            # Not an unknown name: its host is gone, and may come back.
             status, error = await _get(http, "/module/demo/info")
-            assert status == 404 and error["ex"] == "::genomix::no_such_module"
+            assert (status, error["ex"], error["detail"]["host"]) == (503, "::genom::remote_io", "robot"), error
+            assert "demo ran on component host robot" in error["message"] and "last heard" in error["message"]
+            assert error["detail"]["last_heard"].endswith("Z")
 
             # A new host on the same endpoint and with the same host id: the gateway connects again, loads demo
             # again under its name, and says so to every session.

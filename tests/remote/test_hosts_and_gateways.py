@@ -24,7 +24,7 @@ import pytest
 
 from tests.conftest import RawEventStream
 
-from ._processes import Process, free_port, start_component_host, start_gateway
+from ._processes import Process, free_port, start_component_host, start_gateway, start_router
 
 pytestmark = pytest.mark.skipif(os.environ.get("AIOGENOMIX_HEAVY") == "0",
                                 reason="several hosts and gateways: run once, on the default Python")
@@ -216,27 +216,9 @@ async def test_loads_raced_against_a_restarting_host_never_run_in_the_gateway(st
     assert index["where"]["kemar"]["runs"] == "remote" and index["where"]["kemar"]["host"] == "robot1"
 
 
-#: A Zenoh router, as zenohd runs one, from the Python package (zenohd is not on the package index).
-_ROUTER = """
-import json, sys, threading, zenoh
-config = zenoh.Config()
-for key, value in (("mode", '"router"'), ("scouting/multicast/enabled", "false"),
-                   ("scouting/gossip/enabled", "false"), ("listen/endpoints", json.dumps([sys.argv[1]]))):
-    config.insert_json5(key, value)
-session = zenoh.open(config)
-print("router ready", file=sys.stderr, flush=True)
-threading.Event().wait()
-"""
-
-
 async def test_hosts_and_gateways_meet_at_a_router(tmp_path: pathlib.Path, started: list[Process]) -> None:
     router_endpoint = f"tcp/127.0.0.1:{free_port()}"
-    router = Process(await asyncio.create_subprocess_exec(
-        sys.executable, "-c", _ROUTER, router_endpoint, stdin=asyncio.subprocess.DEVNULL,
-        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE), "router")
-    started.append(router)
-    await router.line_matching("router ready")
-    router.drain()
+    started.append(await start_router(router_endpoint))
     # Both are Zenoh clients of the router, from Zenoh's own configuration file.
     client = tmp_path / "client.json5"
     client.write_text(f'{{mode: "client", connect: {{endpoints: ["{router_endpoint}"]}}}}')

@@ -356,6 +356,9 @@ class _Refusing:
     def view(self) -> dict[str, Any]:
         return {}
 
+    def absent(self, instance: str) -> None:
+        return None
+
 
 class Listener(Component, name="listener"):
     Frames = InPort(Frame, doc="connect to turner/Reading")

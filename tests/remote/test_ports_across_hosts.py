@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+from collections.abc import Sequence
 
 import pytest
 
@@ -11,15 +12,17 @@ from aiogenomix.clients import Interrupted, RemoteError, aconnect
 from ._processes import Process, free_port, start_component_host, start_gateway
 
 
-async def reader_and_writer_hosts(started: list[Process], *, writer: str, reader: str) -> str:
+async def reader_and_writer_hosts(started: list[Process], *, writer: str, reader: str,
+                                  extra: Sequence[str] = ()) -> str:
     """Component *writer* in one host, *reader* in another that connects to it, and a gateway of both.
 
-    Returns the gateway's URL.
+    *extra* are more options of both hosts. Returns the gateway's URL.
     """
     writer_endpoint = f"tcp/127.0.0.1:{free_port()}"
     reader_endpoint = f"tcp/127.0.0.1:{free_port()}"
-    started.append(await start_component_host([writer], listen=writer_endpoint))
-    started.append(await start_component_host([reader], listen=reader_endpoint, connect=[writer_endpoint]))
+    started.append(await start_component_host([writer], listen=writer_endpoint, extra=extra))
+    started.append(await start_component_host([reader], listen=reader_endpoint, connect=[writer_endpoint],
+                                              extra=extra))
     gateway, url = await start_gateway([writer_endpoint, reader_endpoint])
     started.append(gateway)
     return url
@@ -52,7 +55,9 @@ async def test_countclient_in_one_host_fed_by_countserver_in_another(started: li
 
 
 async def test_basc_in_one_host_reads_blocks_of_bass_in_another(started: list[Process]) -> None:
-    url = await reader_and_writer_hosts(started, writer="bass", reader="basc")
+    # Real time: the ten seconds bass's window holds stay ten seconds while the test compares (at the suite's
+    # 20 times real time they were half a second of a busy machine, and the block could leave the window).
+    url = await reader_and_writer_hosts(started, writer="bass", reader="basc", extra=["--time-scale", "1"])
     async with aconnect(url) as client:
         bass = await client.load("bass")
         basc = await client.load("basc")

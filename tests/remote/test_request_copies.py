@@ -155,4 +155,4 @@ async def test_a_host_found_gone_ends_the_queries_waiting_for_it_at_once() -> No
         with pytest.raises(RemoteUnreachable) as gone:
             await sending  # at once, not after the send's 60 s
         assert ("send GotoPosition of demo: its host robot1 went away, or withdrew demo, before answering (last "
-                "heard 0.00 s before, at ") in str(gone.value)
+                "heard 0.00 s ago, at ") in str(gone.value)

@@ -1,0 +1,127 @@
+"""A lab of network namespaces on one machine: a hub (the router's) and machines linked to it by a bridge.
+
+Each machine is a namespace of its own with one interface, ``agx0``, whose veth peer is a port of
+the bridge ``agxbr`` in the hub; every address is link-local (169.254.78.0/24: never routed, and
+never one of the machine's own). Nothing exists outside the namespaces, and :meth:`Star.close`
+(or leaving :func:`star`) deletes them all, whatever happened. Creating them needs root and ``ip``.
+
+Shared by the scale benchmark and the tests that check what each host hears.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import os
+import shutil
+import subprocess
+from collections.abc import Iterator
+
+__all__ = ["Star", "star", "unavailable"]
+
+#: The hub's address; machine *n* (from 1) has ``169.254.78.(n + 1)``.
+_NET = "169.254.78"
+#: Each machine's interface.
+INTERFACE = "agx0"
+
+
+def unavailable() -> str | None:
+    """Why namespaces cannot be made here (None: they can)."""
+    if shutil.which("ip") is None:
+        return "the ip command (iproute2) is not installed: cannot create network namespaces"
+    if os.geteuid() != 0:
+        return "creating network namespaces needs root"
+    return None
+
+
+def _ip(*args: str) -> str:
+    return subprocess.run(["ip", *args], check=True, capture_output=True, timeout=30, text=True).stdout
+
+
+@dataclasses.dataclass
+class Star:
+    """The hub and the machines added so far (namespaces named ``PREFIX-hub``, ``PREFIX-NAME``).
+
+    Attributes:
+        prefix: What every namespace name starts with (unique per run: the process id).
+        machines: The address of each machine added, by name.
+    """
+
+    prefix: str
+    machines: dict[str, str] = dataclasses.field(default_factory=dict)
+
+    @property
+    def hub(self) -> str:
+        """The hub's namespace (where the router runs)."""
+        return f"{self.prefix}-hub"
+
+    @property
+    def hub_address(self) -> str:
+        """The hub's address on the bridge."""
+        return f"{_NET}.1"
+
+    def namespace(self, name: str) -> str:
+        """The namespace of machine *name* (``hub`` for the hub's)."""
+        return self.hub if name == "hub" else f"{self.prefix}-{name}"
+
+    def on(self, name: str) -> list[str]:
+        """The prefix of a command run on machine *name* (``hub``: on the hub)."""
+        return ["ip", "netns", "exec", self.namespace(name)]
+
+    def open(self) -> None:
+        """Create the hub: its namespace and its bridge, up."""
+        _ip("netns", "add", self.hub)
+        _ip("-n", self.hub, "link", "add", "agxbr", "type", "bridge")
+        _ip("-n", self.hub, "addr", "add", f"{self.hub_address}/24", "dev", "agxbr")
+        for link in ("lo", "agxbr"):
+            _ip("-n", self.hub, "link", "set", link, "up")
+
+    def add(self, name: str) -> str:
+        """Add machine *name* linked to the hub; return its address."""
+        number = len(self.machines) + 1
+        if number > 250:
+            raise ValueError("a star holds at most 250 machines")
+        namespace, port = self.namespace(name), f"agxp{number}"
+        address = f"{_NET}.{number + 1}"
+        _ip("netns", "add", namespace)
+        # Made inside the namespaces: the link never touches the machine's own interfaces.
+        _ip("-n", self.hub, "link", "add", port, "type", "veth", "peer", "name", INTERFACE, "netns", namespace)
+        _ip("-n", self.hub, "link", "set", port, "master", "agxbr")
+        _ip("-n", namespace, "addr", "add", f"{address}/24", "dev", INTERFACE)
+        for link in ("lo", INTERFACE):
+            _ip("-n", namespace, "link", "set", link, "up")
+        _ip("-n", self.hub, "link", "set", port, "up")
+        self.machines[name] = address
+        return address
+
+    def received(self, name: str) -> tuple[int, int]:
+        """The packets and bytes machine *name* has received on its interface so far."""
+        stats = json.loads(_ip("-n", self.namespace(name), "-j", "-s", "link", "show", "dev", INTERFACE))[0]
+        rx = stats["stats64"]["rx"]
+        return int(rx["packets"]), int(rx["bytes"])
+
+    def close(self) -> None:
+        """Delete every namespace (a namespace's end of a link goes with it, and the pair with it)."""
+        for namespace in [*map(self.namespace, self.machines), self.hub]:
+            with contextlib.suppress(subprocess.CalledProcessError, subprocess.TimeoutExpired):
+                _ip("netns", "del", namespace)
+        self.machines.clear()
+
+
+@contextlib.contextmanager
+def star(prefix: str | None = None) -> Iterator[Star]:
+    """A :class:`Star` with its hub made; every namespace is deleted on the way out.
+
+    Raises:
+        RuntimeError: when namespaces cannot be made here (:func:`unavailable` says why).
+    """
+    why = unavailable()
+    if why is not None:
+        raise RuntimeError(why)
+    lab = Star(prefix or f"agxs{os.getpid()}")
+    try:
+        lab.open()
+        yield lab
+    finally:
+        lab.close()

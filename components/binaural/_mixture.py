@@ -1,0 +1,321 @@
+"""Several sources in the room: a mixture over room azimuth that explains every glimpse, fed frame by frame.
+
+Each unit (a frame in a band, :mod:`._glimpses`) is taken to come from one of
+the sources or from a diffuse background (reverberation, noise), with the
+posterior p_u(θ) its log-likelihood gives under a flat prior. Turned into the
+room frame with the head's azimuth at its frame, it says where in the room its
+source is. The sources are the weights π(θ) of a mixture over the 1° grid, plus
+a uniform background of weight β::
+
+    p(unit u) = Σ_θ π(θ) p_u(θ) + β / 360
+
+found by expectation-maximisation over the units' weights w_u (Dempster, Laird
+& Rubin 1977): each unit is shared among the directions by its responsibility
+π(θ) p_u(θ) / p(u), and π and β become the shares of all units. Sources are
+the peaks of π.
+
+This is the seed's layer (B), audio-motor localisation: every frame counts
+with the head's azimuth at its time, a still head as a turning one. A front/back
+mirror image fits the frames of one head azimuth only; once the head has
+turned, the true direction explains the units of every frame and takes their
+weight, and the mirror image's fades (where adding log-likelihoods would only
+work for one source, a mixture keeps several). With a still head nothing tells
+a mirror image from its source but the templates' spectral detail, so
+:meth:`RoomAzimuthFilter.sources` leaves out a weaker peak at the mirror image
+of a stronger one.
+
+Memory is bounded: the units of the last ``capacity`` frames are kept (their
+room-frame posteriors, float32) and iterated over; older ones are folded into
+fixed sums of their responsibilities at the time (stochastic EM, Cappé &
+Moulines, JRSS B 71(3), 2009).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import numpy.typing as npt
+
+from ._errors import LocalisationError
+from ._glimpses import Glimpses
+from ._hrir_set import wrap_degrees
+from ._likelihood import GRID_DEGREES
+
+__all__ = ["SourceAzimuth", "RoomAzimuthFilter", "SourceCounting", "pick_sources", "mirror_image", "unit_posteriors"]
+
+_GRID = len(GRID_DEGREES)
+
+
+@dataclasses.dataclass(frozen=True)
+class SourceAzimuth:
+    """One source found.
+
+    Attributes:
+        azimuth: Degrees in [-180, 180), in the frame named where it is given (room or head).
+        confidence: The share of its region's probability that lies within ±10° of it: its region is
+            the azimuths nearer it than any other source found, and the background's share of them
+            (about 0.5 for a front/back tie; low when reverberation or noise explain most there).
+        weight: Its share of the mixture (the units it explains), summed over ±10°: the sources'
+            weights and the background's make 1.
+        power: The share of the glimpses' power it explains (the loudest source has the most).
+    """
+
+    azimuth: float
+    confidence: float
+    weight: float
+    power: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class SourceCounting:
+    """How many sources to report when the number is not given, and how far apart.
+
+    Attributes:
+        min_weight: The least mixture weight of a peak (within ±``peak_width``) that counts as a source.
+        peak_width: Degrees either side of a peak whose weight ranks it.
+        most: The most sources reported.
+        separation: Degrees between two sources at least.
+        mirror_ratio: A peak at the front/back mirror image of a stronger source (seen from a head that
+            did not turn) is left out unless its weight is at least this share of the stronger one's.
+    """
+
+    min_weight: float = 0.05
+    peak_width: float = 2.0
+    most: int = 6
+    separation: float = 10.0
+    mirror_ratio: float = 0.5
+
+
+def mirror_image(azimuth: npt.ArrayLike, head: float) -> npt.NDArray[np.float64]:
+    """The front/back mirror image of room *azimuth* (degrees) across the interaural axis of a head at *head*."""
+    return np.asarray(wrap_degrees(2.0 * head + 180.0 - np.asarray(azimuth, dtype=np.float64)))
+
+
+def _window_mass(values: npt.NDArray[np.float64], centre: float, width: float = 10.0) -> float:
+    return float(values[np.abs(wrap_degrees(GRID_DEGREES - centre)) <= width].sum())
+
+
+def pick_sources(weights: npt.NDArray[np.float64], count: int | None, counting: SourceCounting = SourceCounting(),
+                 still_head: float | None = None, power: npt.NDArray[np.float64] | None = None,
+                 background: float = 0.0) -> list[SourceAzimuth]:
+    """The sources among the peaks of a distribution over the 1° grid, strongest first.
+
+    Args:
+        weights: ``(360,)`` mixture weights (or any non-negative distribution) in one frame.
+        count: How many to report (fewer only when the distribution has fewer peaks), or None:
+            as many peaks as weigh at least ``counting.min_weight``.
+        counting: The rules of the count.
+        still_head: The azimuth of a head that did not turn (in the same frame), whose front/back
+            mirror images are suspect; None when it turned.
+        power: ``(360,)`` the glimpses' power each direction explains (for :attr:`SourceAzimuth.power`).
+        background: The background's weight (spread evenly round the circle, it lowers the confidences).
+    """
+    values = np.asarray(weights, dtype=np.float64)
+    local = np.flatnonzero((values >= np.roll(values, 1)) & (values > np.roll(values, -1)))
+    # Peaks are ranked by the weight at them (±2°): a source's share gathers into a few degrees, while
+    # the spread of reverberation is low and wide.
+    masses = {int(i): _window_mass(values, float(i), counting.peak_width) for i in local}
+    order = sorted(masses, key=lambda i: -masses[i])
+    most = counting.most if count is None else count
+    chosen: list[int] = []
+    deferred: list[int] = []
+    for index in order:
+        if len(chosen) >= most or (count is None and masses[index] < counting.min_weight):
+            break
+        if any(abs(float(wrap_degrees(index - c))) < counting.separation for c in chosen):
+            continue
+        if still_head is not None and any(
+                abs(float(wrap_degrees(mirror_image(c, still_head) - index))) <= counting.separation
+                and masses[index] < counting.mirror_ratio * masses[c] for c in chosen):
+            deferred.append(index)       # probably the mirror image of a source already found
+            continue
+        chosen.append(index)
+    if count is not None:
+        # Asked for more than the clear peaks: the suspected mirror images come last.
+        for index in deferred:
+            if len(chosen) >= count:
+                break
+            if all(abs(float(wrap_degrees(index - c))) >= counting.separation for c in chosen):
+                chosen.append(index)
+    return _described(values, chosen, power, background)
+
+
+def _described(values: npt.NDArray[np.float64], chosen: list[int], power: npt.NDArray[np.float64] | None,
+               background: float) -> list[SourceAzimuth]:
+    if not chosen:
+        return []
+    peaks = np.array([float(GRID_DEGREES[c]) for c in chosen])
+    nearest = np.argmin(np.abs(wrap_degrees(GRID_DEGREES[:, np.newaxis] - peaks[np.newaxis, :])), axis=1)
+    total_power = float(power.sum()) if power is not None else 0.0
+    sources = []
+    for k, index in enumerate(chosen):
+        inside = nearest == k
+        region = float(values[inside].sum()) + background * float(inside.sum()) / _GRID
+        # Its ±10° that are its own (another source may be nearer than 20°).
+        near = float(values[inside & (np.abs(wrap_degrees(GRID_DEGREES - index)) <= 10.0)].sum())
+        share = _window_mass(power, float(index)) / total_power if power is not None and total_power > 0 else 0.0
+        sources.append(SourceAzimuth(_refined(values, index), near / region if region > 0 else 0.0, near, share))
+    return sources
+
+
+def _refined(values: npt.NDArray[np.float64], index: int) -> float:
+    """The peak at grid *index* refined by a parabola through its neighbours, degrees in [-180, 180)."""
+    below, at, above = values[index - 1], values[index], values[(index + 1) % _GRID]
+    curvature = below - 2.0 * at + above
+    offset = 0.5 * (below - above) / curvature if curvature < 0 else 0.0
+    return float(wrap_degrees(GRID_DEGREES[index] + offset))
+
+
+class RoomAzimuthFilter:
+    """The mixture of sources over room azimuth, fed with glimpses and the head's azimuth at each frame.
+
+    Args:
+        capacity: Frames whose units are kept and iterated over; older ones are folded into fixed sums.
+        iterations: EM iterations per :meth:`fit`.
+        counting: How sources are counted and told apart (:meth:`sources`).
+        sparsity: Weight each degree loses to the background at each iteration (a sparse prior, MAP-EM):
+            the scattered units of reverberation go to the background instead of making peaks of their own.
+    """
+
+    def __init__(self, capacity: int = 256, iterations: int = 40,
+                 counting: SourceCounting = SourceCounting(), sparsity: float = 0.0) -> None:
+        if capacity < 1 or iterations < 1 or not 0.0 <= sparsity < 1.0 / _GRID:
+            raise LocalisationError("a filter keeps at least one frame, iterates at least once, and its sparsity "
+                                    f"is in [0, 1/{_GRID})")
+        self.capacity, self.iterations, self.counting, self.sparsity = capacity, iterations, counting, sparsity
+        self.clear()
+
+    def clear(self) -> None:
+        """Forget everything fed."""
+        self._posteriors: list[npt.NDArray[np.float32]] = []      # per batch: (units, 360), room frame
+        self._weights: list[npt.NDArray[np.float64]] = []         # per batch: (units,)
+        self._powers: list[npt.NDArray[np.float64]] = []          # per batch: (units,)
+        self._frames: list[int] = []                              # per batch
+        self._folded = np.zeros(_GRID)                            # responsibilities of folded units
+        self._folded_background = 0.0
+        self._folded_power = np.zeros(_GRID)
+        self._folded_weight = 0.0
+        self._pi = np.full(_GRID, 0.8 / _GRID)
+        self._background = 0.2
+        self._heads: list[float] = []
+        self._fitted = True
+        #: Frames fed since the last :meth:`clear`.
+        self.frames = 0
+
+    def add(self, glimpses: Glimpses, heads: npt.ArrayLike) -> None:
+        """Feed the glimpses of consecutive frames and the head's room azimuth at each frame (degrees)."""
+        head = np.broadcast_to(np.asarray(heads, dtype=np.float64), (glimpses.frames,))
+        if glimpses.frames == 0:
+            return
+        posterior = unit_posteriors(glimpses)
+        room = _to_room(posterior, head).reshape(-1, _GRID)
+        weight = glimpses.weight.reshape(-1)
+        keep = weight > 0
+        self._posteriors.append(room[keep].astype(np.float32))
+        self._weights.append(weight[keep])
+        self._powers.append(glimpses.power.reshape(-1)[keep])
+        self._frames.append(glimpses.frames)
+        self._heads.extend(float(h) for h in head[[0, -1]])
+        self.frames += glimpses.frames
+        self._fitted = False
+        while sum(self._frames) > self.capacity and len(self._frames) > 1:
+            self._fold_oldest()
+
+    def _fold_oldest(self) -> None:
+        """Fix the oldest batch's responsibilities under the mixture now, and let its units go."""
+        self.fit()
+        posterior, weight, power = self._posteriors.pop(0), self._weights.pop(0), self._powers.pop(0)
+        self._frames.pop(0)
+        mixture = posterior @ self._pi + self._background / _GRID
+        share = weight / np.maximum(mixture, 1e-300)
+        self._folded += self._pi * (share @ posterior)
+        self._folded_background += self._background / _GRID * float(share.sum())
+        self._folded_power += self._pi * ((power / np.maximum(mixture, 1e-300)) @ posterior)
+        self._folded_weight += float(weight.sum())
+
+    def fit(self) -> None:
+        """Run the EM iterations over the units kept (done by :meth:`distribution` and :meth:`sources` as needed)."""
+        if self._fitted:
+            return
+        self._fitted = True
+        if not self._posteriors:
+            return
+        posterior = np.concatenate(self._posteriors)
+        weight = np.concatenate(self._weights)
+        total = weight.sum() + self._folded_weight
+        if total <= 0:
+            return
+        pi, background = self._pi, self._background
+        if pi.sum() <= 0:
+            pi = np.full(_GRID, 0.8 / _GRID)
+        for _ in range(self.iterations):
+            # float32 products (the posteriors are kept so): half the memory traffic of float64.
+            mixture = posterior @ pi.astype(np.float32) + np.float32(background / _GRID)
+            share = (weight / np.maximum(mixture, 1e-30)).astype(np.float32)
+            pi = (self._folded + pi * (share @ posterior)) / total
+            background = (self._folded_background + background / _GRID * float(share.sum())) / total
+            if self.sparsity:
+                # A sparse prior on the directions (MAP-EM): what each degree holds below the sparsity goes to
+                # the background, which then takes the scattered units of reverberation.
+                kept = np.maximum(pi - self.sparsity, 0.0)
+                background += float(pi.sum() - kept.sum())
+                pi = kept
+        self._pi, self._background = pi, background
+
+    def distribution(self) -> tuple[npt.NDArray[np.float64], float]:
+        """The mixture's weight of each room azimuth on the 1° grid, and the background's (they sum to 1)."""
+        self.fit()
+        return self._pi.copy(), self._background
+
+    def explained_power(self) -> npt.NDArray[np.float64]:
+        """``(360,)`` the glimpses' power each room azimuth explains (responsibilities times power)."""
+        self.fit()
+        power = self._folded_power.copy()
+        for posterior, powers in zip(self._posteriors, self._powers, strict=True):
+            mixture = posterior @ self._pi + self._background / _GRID
+            power += self._pi * ((powers / np.maximum(mixture, 1e-300)) @ posterior)
+        return power
+
+    @property
+    def still_head(self) -> float | None:
+        """The head's azimuth when it stayed within a few degrees through every frame fed, else None."""
+        if not self._heads:
+            return None
+        heads = np.asarray(self._heads)
+        spread = np.abs(wrap_degrees(heads - heads[0]))
+        return float(heads[0] + wrap_degrees(heads - heads[0]).mean()) if spread.max() <= 5.0 else None
+
+    def sources(self, count: int | None = None) -> list[SourceAzimuth]:
+        """The sources found, strongest first, room azimuths (see :func:`pick_sources`).
+
+        Args:
+            count: How many (None: as many as the counting rules find).
+        """
+        if self.frames == 0:
+            return []
+        weights, background = self.distribution()
+        return pick_sources(weights, count, self.counting, self.still_head, self.explained_power(), background)
+
+
+def unit_posteriors(glimpses: Glimpses) -> npt.NDArray[np.float64]:
+    """``(frames, bands, 360)`` each unit's head-frame posterior, its unreliable share spread evenly."""
+    log_likelihood = glimpses.log_likelihood
+    posterior = np.exp(log_likelihood - log_likelihood.max(axis=-1, keepdims=True))
+    posterior /= posterior.sum(axis=-1, keepdims=True)
+    if glimpses.reliability is not None:
+        reliability = glimpses.reliability[..., np.newaxis]
+        posterior = reliability * posterior + (1.0 - reliability) / _GRID
+    return np.asarray(posterior)
+
+
+def _to_room(posterior: npt.NDArray[np.float64], heads: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """``(frames, bands, 360)`` head-frame values read in the room frame, frame by frame (linear interpolation)."""
+    position = np.mod(GRID_DEGREES[np.newaxis, :] - heads[:, np.newaxis], 360.0)              # (frames, 360)
+    lower = np.floor(position).astype(np.intp)
+    fraction = (position - lower)[:, np.newaxis, :]
+    lower %= _GRID
+    upper = (lower + 1) % _GRID
+    below = np.take_along_axis(posterior, np.broadcast_to(lower[:, np.newaxis, :], posterior.shape), axis=-1)
+    above = np.take_along_axis(posterior, np.broadcast_to(upper[:, np.newaxis, :], posterior.shape), axis=-1)
+    return np.asarray(below * (1.0 - fraction) + above * fraction)
