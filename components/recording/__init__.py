@@ -12,12 +12,15 @@ The ``recorder`` component, the ``replay`` component, captures that replay a rec
   audio chunks), read once for the recording and the live view alike.
 * **Port recorders** (:class:`AudioRecorder`, :class:`ImageRecorder`, :class:`JsonRecorder`) and
   the :class:`Recording` that holds them; **paths** confined to the operator's directories.
+* **What was commanded when**: a host's requests and events (:class:`EventsRecorder`), as JSON
+  and as log lines.
 * **Reading and exporting**: :class:`RecordingReader`, :func:`export_recording` (WAV and CSV).
 
 Decision 0031 records the formats and why.
 """
 
 from ._cdr import CdrError, Field, MessageType
+from ._commands import EVENT_COLUMNS, EVENTS_SCHEMA, EVENTS_TOPIC, LOG, EventsRecorder, RecordedEvent
 from ._conversions import (
     AUDIO_TYPES, HeadState, PlanarOdometry, frames_per_chunk, head_state, number, planar_odometry, seconds_of, stamp_of,
 )
@@ -38,7 +41,7 @@ from ._writer import DEFAULT_QUEUE_BYTES, RecordingWriter
 __all__ = [
     # Recording
     "Recording", "RecordingCounts", "PortRecorder", "AudioRecorder", "ImageRecorder", "JsonRecorder",
-    "RecordedPort", "EventRecorder", "EVENTS_TYPE",
+    "RecordedPort", "EventRecorder", "EVENTS_TYPE", "EventsRecorder",
     # What port data says, for every tool that shows it (the recording, the live view, binauloc)
     "AUDIO_TYPES", "stamp_of", "seconds_of", "number", "HeadState", "head_state", "PlanarOdometry", "planar_odometry",
     "frames_per_chunk",
@@ -50,8 +53,10 @@ __all__ = [
     "create_recording", "NewRecording", "open_recording", "replay_roots", "SUFFIX",
     # Reading and exporting
     "RecordingReader", "Recovered", "AudioChunk", "PortMessage", "SessionEventRecord", "export_recording",
-    "ExportedFile",
-    "AUDIO_COLUMNS", "HEAD_COLUMNS",
+    "ExportedFile", "RecordedEvent",
+    "AUDIO_COLUMNS", "HEAD_COLUMNS", "EVENT_COLUMNS",
+    # A host's events as recorded (what was commanded when)
+    "EVENTS_SCHEMA", "EVENTS_TOPIC", "LOG",
     # Message types
     "MessageType", "Field", "CdrError", "HEADER", "AUDIO_DATA_STAMPED", "AUDIO_FRAMES", "AUDIO_INFO", "JOINT_STATE",
     "IMAGE", "LASER_SCAN", "ODOMETRY", "POSE_STAMPED",

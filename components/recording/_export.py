@@ -11,6 +11,10 @@ For each recorded audio port ``instance/port``:
 
 For each recorded head state (``::kemar::state``): ``instance_port.csv``, :data:`HEAD_COLUMNS`.
 
+When the ``recorder`` component kept its host's requests and events: ``events.csv``, one row an
+event (:data:`~aiogenomix.components.recording.EVENT_COLUMNS`: the rig's time, the request's id,
+service, input as JSON, status, output or exception).
+
 Each file is made new in the output directory, by name, never through a symbolic link: a link
 planted there (to ``/tmp/victim``, or to a file of another user's) is refused, or with
 ``overwrite`` replaced by the file itself, never written through.  The files are as private as
@@ -34,6 +38,7 @@ from typing import BinaryIO, TextIO
 import numpy as np
 import soundfile
 
+from ._commands import write_events_csv
 from ._conversions import number
 from ._errors import NotARecording, RecordingError
 from ._reader import AudioChunk, RecordingReader
@@ -149,7 +154,7 @@ def export_recording(recording: str | os.PathLike[str], directory: str | os.Path
     chunk; *notice*, when given, is told so in a sentence first.
 
     Raises:
-        NotARecording: when the file is not a recording, or holds neither audio nor a head state.
+        NotARecording: when the file is not a recording, or holds no audio, head state or events.
         RecordingError: when an output file exists already (and *overwrite* is false), or a link or a
             directory has its name.
     """
@@ -163,8 +168,12 @@ def export_recording(recording: str | os.PathLike[str], directory: str | os.Path
             heads = [p for p in reader.ports() if reader.port_type(p).get("name") == HEAD_STATE]
             head_times, head_positions = _head_states(reader, heads, out, written)
             audio = reader.audio_ports()
-            if not audio and not heads:
-                raise NotARecording(f"{recording} holds no audio and no head state to export")
+            events = reader.has_events()
+            if not audio and not heads and not events:
+                raise NotARecording(f"{recording} holds no audio, no head state and no events to export")
+            if events:
+                with out.text("events.csv") as (path, table):
+                    written.append(ExportedFile(path, "requests and events", write_events_csv(reader.events(), table)))
             for port in audio:
                 written += _export_audio(reader, port, out, head_times, head_positions)
     return written

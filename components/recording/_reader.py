@@ -23,6 +23,7 @@ from mcap.records import Channel
 from mcap.summary import Summary
 
 from ._cdr import CdrError
+from ._commands import EVENTS_TOPIC, RecordedEvent
 from ._errors import NotARecording
 from ._messages import AUDIO_DATA_STAMPED, AUDIO_FRAMES, IMAGE
 from ._ports import PORT_KEY, ROLE_KEY, TYPE_KEY
@@ -225,6 +226,18 @@ class RecordingReader:
                 body = orjson.loads(message.data)
                 yield SessionEventRecord(body["event"], body["data"], message.log_time * 1e-9)
         except (McapError, orjson.JSONDecodeError, KeyError) as exc:
+            raise NotARecording(f"{self.name}: {exc}") from exc
+
+    def has_events(self) -> bool:
+        """Whether the ``recorder`` component recorded its host's events here."""
+        return any(c.topic == EVENTS_TOPIC for c in self.channels())
+
+    def events(self) -> Iterator[RecordedEvent]:
+        """The host events the ``recorder`` component recorded (requests and their ends...), in the order received."""
+        try:
+            for _, _, message in self._reader.iter_messages(topics=[EVENTS_TOPIC]):
+                yield RecordedEvent(orjson.loads(message.data), message.publish_time * 1e-9, message.log_time * 1e-9)
+        except (McapError, orjson.JSONDecodeError) as exc:
             raise NotARecording(f"{self.name}: {exc}") from exc
 
     def ports(self) -> list[str]:
