@@ -79,6 +79,7 @@ async def test_a_recording_holds_each_command_of_its_session_at_its_time(
                          "lab")
     assert refused["exception"]["ex"] == "::recorder::ALREADY_RECORDING"
     # Another session's command is not this recording's.
+    other_at = clock.wall()
     assert (await call(http, clock, "kemar", "MoveAbsolutePosition", {"target": 10}, "other"))["status"] == "done"
     assert (await call(http, clock, "recorder", "Stop", {}, "lab"))["status"] == "done"
     path = directory / "moves.mcap"
@@ -109,10 +110,13 @@ async def test_a_recording_holds_each_command_of_its_session_at_its_time(
         assert sent_ns * 1e-9 == pytest.approx(sent_at, abs=1e-6) and sent["time"] == pytest.approx(sent_at)
         assert sent_at < done_ns * 1e-9 <= ended_at + 1e-6 and done["sent"] == pytest.approx(sent_at)
         # ... among the head states it caused: at its sending the head was elsewhere, at its end at the target.
+        # (The head publishes its state as it moves; the recorder reads it when it can: publications it
+        # missed are coalesced, never reordered.)
+        following = moves[index + 1][1] if index + 1 < len(moves) else other_at
         before = [azimuth for time, azimuth in states if time <= sent_at]
-        during = [azimuth for time, azimuth in states if sent_at < time <= done_ns * 1e-9]
+        after = [azimuth for time, azimuth in states if sent_at < time < following]
         assert before and abs(before[-1] - target) > 20
-        assert len(during) > 2 and during[-1] == pytest.approx(target, abs=0.5)
+        assert after and after[-1] == pytest.approx(target, abs=0.5)
     errors = [r for _, r in records if r.get("status") == "error"]
     assert [(r["id"], r["service"], r["input"]["path"], r["exception"]) for r in errors] == [
         (refused["id"], "Start", "again.mcap", refused["exception"])]
