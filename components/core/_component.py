@@ -226,6 +226,28 @@ class Component:
             raise NoSuchPort(f"{self.instance} has no port {name!r} (ports: {', '.join(self._ports)})")
         return self._port_runtime(name)
 
+    def out_port(self, name: str) -> OutPortRuntime[Any]:
+        """The runtime of the out port *name* (one that components publish on).
+
+        Raises:
+            NoSuchPort: when the component has no such port, or it is an in port.
+        """
+        runtime = self.port(name)
+        if not isinstance(runtime, OutPortRuntime):
+            raise NoSuchPort(f"{self.instance}/{name} is an in port, not an out port")
+        return runtime
+
+    def in_port(self, name: str) -> InPortRuntime[Any]:
+        """The runtime of the in port *name* (one the component reads another's out port through).
+
+        Raises:
+            NoSuchPort: when the component has no such port, or it is an out port.
+        """
+        runtime = self.port(name)
+        if not isinstance(runtime, InPortRuntime):
+            raise NoSuchPort(f"{self.instance}/{name} is an out port, not an in port")
+        return runtime
+
     # -- lifecycle ------------------------------------------------------------------------
 
     async def start(self) -> None:
@@ -581,7 +603,7 @@ class Component:
             hint = f"; {', '.join(fitting)} of {self.instance} reads it" if fitting else ""
             raise port_io(what=f"{self.instance}/{local} reads {spec.type.name}, {remote.strip('/')} publishes "
                                f"{target.type.name}{hint}")
-        self.port(local).connect(target, remote, parts[2] if len(parts) > 2 else None)  # type: ignore[union-attr]
+        self.in_port(local).connect(target, remote, parts[2] if len(parts) > 2 else None)
 
     @function(throws=(no_such_service,))
     def connect_service(self, local: Annotated[str, Bound(128)], remote: Annotated[str, Bound(128)]) -> None:

@@ -163,7 +163,11 @@ class ComponentHost:
         factory = self._factories.get(name)
         if factory is None:
             raise NoSuchModule(f"no component {name!r} {names_hint(name, self.available(), 'available')}")
-        return factory.load() if isinstance(factory, _LazyFactory) else factory  # type: ignore[return-value]
+        if isinstance(factory, _LazyFactory):
+            return factory.load()
+        if not (isinstance(factory, type) and issubclass(factory, Component)):
+            raise TypeError(f"the component {name!r} was registered as {factory!r}, not a Component class")
+        return factory
 
     def usage(self, name: str) -> list[dict[str, str]]:
         """The load options of component *name*, as ``{"option", "descr"}`` objects."""
