@@ -13,7 +13,8 @@ all) and writes each one twice:
 Each message's ``publish_time`` is the event's time on the rig's clock, the clock the ports'
 captures are stamped with, so that a command sits among the data it caused; its ``log_time``
 when the recorder received it (decision 0031).  :func:`export_events` writes them as
-``events.csv``, one row an event.
+``events.csv``, one row an event, with those of the sessions ``aiogenomix-record --session``
+listened to (:func:`listened_record`: what their listen streams said).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from ._ports import ROLE_KEY, SCHEMA_KEY, RecordedPort, _ns, _time
 from ._writer import RecordingWriter
 
 __all__ = ["EventsRecorder", "RecordedEvent", "EVENTS_SCHEMA", "EVENT_COLUMNS", "LOG", "EVENTS_TOPIC",
-           "write_events_csv"]
+           "write_events_csv", "listened_record"]
 
 #: The channel of the events as JSON, and of their log lines.
 EVENTS_TOPIC, LOG_TOPIC = "/events", "/events/log"
@@ -136,6 +137,17 @@ class RecordedEvent:
     record: dict[str, Any]
     time: float
     receive_time: float
+
+
+def listened_record(session: str, event: str, data: Any) -> dict[str, Any]:
+    """The record (:data:`EVENTS_SCHEMA`) of an event a session's listen stream told (a request's status, or data)."""
+    record: dict[str, Any] = {"event": event, "session": session}
+    if event == "request" and isinstance(data, dict) and isinstance(data.get("id"), str):
+        instance, _, _ = data["id"].rpartition("::")
+        record.update(instance=instance, service="", input=None, **data)
+    else:
+        record["data"] = data
+    return record
 
 
 def write_events_csv(events: Iterable[RecordedEvent], table: TextIO) -> int:
