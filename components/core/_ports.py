@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import asyncio
 import builtins
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any, Generic, Protocol, Self, TypeVar, cast, overload, runtime_checkable
 
 from ._exceptions import GenomException, NoSuchPort, PortUnavailable, port_io
-from ._types import IdlType, idl_type
+from ._types import DescribedType, IdlType, idl_type
 
 __all__ = ["OutPort", "ComputedOutPort", "InPort", "OutPortRuntime", "ComputedOutPortRuntime", "InPortRuntime",
            "PortSpec", "Incremental"]
@@ -116,6 +116,22 @@ class OutPort(PortSpec, Generic[T]):
     def runtime(self, owner: Any) -> OutPortRuntime[T]:
         """Create the runtime of this port for a component instance."""
         return OutPortRuntime(self, owner)
+
+    @staticmethod
+    def from_description(described: Mapping[str, Any], origin: str = "described") -> OutPort[Any]:
+        """The declaration of an out port known only by its ``/info`` description (a recorded or remote port).
+
+        Its type is the description's (:class:`DescribedType`): data comes JSON-ready and is passed
+        on as it is; ``/info`` describes the port as it was described.
+
+        Args:
+            described: The port's description: ``name``, ``type``, and optionally ``doc`` and ``kind``.
+            origin: Where the description comes from (``recorded``, ``mirrored``): its type's ``kind``.
+        """
+        port: OutPort[Any] = OutPort(object, str(described.get("doc") or ""), described.get("kind") == "multiple")
+        port.name = str(described["name"])
+        port._type = DescribedType(dict(described.get("type") or {}), origin)
+        return port
 
 
 class ComputedOutPort(OutPort[T]):

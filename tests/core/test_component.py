@@ -297,3 +297,18 @@ async def test_an_unknown_instance_is_refused_naming_the_likely_ones_not_every_l
                                   "40 loaded, listed by /)")
     with pytest.raises(NoSuchModule, match=r"^no module 'robot' is loaded \(40 loaded, listed by /\)$"):
         host.get("robot")
+
+
+def test_a_port_known_only_by_its_description_has_a_public_declaration() -> None:
+    """What the replay and the remote mirror build: a port whose type is its description's, data passed as it is."""
+    described = {"name": "Pose", "dir": "out", "kind": "simple", "doc": "Where the robot is",
+                 "type": {"name": "::far::pose", "kind": "struct", "members": [
+                     {"name": "x", "type": {"name": "double", "kind": "double"}}]}}
+    port = OutPort.from_description(described, "recorded")
+    assert port.describe() == described and port.name == "Pose"
+    assert port.type.kind == "recorded" and port.type.zero() is None   # nothing until the first publication
+    runtime = port.runtime(object())
+    runtime.publish({"x": 1.5})
+    assert runtime.read() == {"x": 1.5} and runtime.version == 1
+    several = OutPort.from_description({"name": "Poses", "kind": "multiple", "type": described["type"]}, "mirrored")
+    assert several.multiple and several.describe()["kind"] == "multiple" and several.doc == ""
