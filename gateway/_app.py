@@ -129,9 +129,12 @@ async def _foxglove_lifetime(app: web.Application) -> AsyncIterator[None]:
 
     host.add_load_listener(view.show)
     host.add_unload_listener(hide)
+    # (With a view, every request becomes an event object; it is framed only while a viewer subscribes.)
+    events = host.events.subscribe(view.show_event)
     try:
         yield
     finally:
+        events.close()
         await asyncio.gather(*hiding, return_exceptions=True)
         await view.stop()
 

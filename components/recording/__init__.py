@@ -20,7 +20,7 @@ Decision 0031 records the formats and why.
 """
 
 from ._cdr import CdrError, Field, MessageType
-from ._commands import EVENT_COLUMNS, EVENTS_SCHEMA, EVENTS_TOPIC, LOG, EventsRecorder, RecordedEvent
+from ._commands import EVENT_COLUMNS, EVENTS_SCHEMA, EVENTS_TOPIC, LOG, EventsRecorder, RecordedEvent, log_line
 from ._conversions import (
     AUDIO_TYPES, HeadState, PlanarOdometry, frames_per_chunk, head_state, number, planar_odometry, seconds_of, stamp_of,
 )
@@ -56,7 +56,7 @@ __all__ = [
     "ExportedFile", "RecordedEvent",
     "AUDIO_COLUMNS", "HEAD_COLUMNS", "EVENT_COLUMNS",
     # A host's events as recorded (what was commanded when)
-    "EVENTS_SCHEMA", "EVENTS_TOPIC", "LOG",
+    "EVENTS_SCHEMA", "EVENTS_TOPIC", "LOG", "log_line",
     # Message types
     "MessageType", "Field", "CdrError", "HEADER", "AUDIO_DATA_STAMPED", "AUDIO_FRAMES", "AUDIO_INFO", "JOINT_STATE",
     "IMAGE", "LASER_SCAN", "ODOMETRY", "POSE_STAMPED",

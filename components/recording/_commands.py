@@ -33,7 +33,7 @@ from ._ports import ROLE_KEY, SCHEMA_KEY, RecordedPort, _ns, _time
 from ._writer import RecordingWriter
 
 __all__ = ["EventsRecorder", "RecordedEvent", "EVENTS_SCHEMA", "EVENT_COLUMNS", "LOG", "EVENTS_TOPIC",
-           "write_events_csv", "listened_record"]
+           "write_events_csv", "listened_record", "log_line"]
 
 #: The channel of the events as JSON, and of their log lines.
 EVENTS_TOPIC, LOG_TOPIC = "/events", "/events/log"
