@@ -12,7 +12,7 @@ The ``recorder`` component, the ``replay`` component, captures that replay a rec
   audio chunks), read once for the recording and the live view alike.
 * **Port recorders** (:class:`AudioRecorder`, :class:`ImageRecorder`, :class:`JsonRecorder`) and
   the :class:`Recording` that holds them; **paths** confined to the operator's directories.
-* **What was commanded when**: a host's requests and events (:class:`EventsRecorder`), as JSON
+* **What was commanded when**: a host's requests and events (:class:`HostEventRecorder`), as JSON
   and as log lines.
 * **Reading and exporting**: :class:`RecordingReader`, :func:`export_recording` (WAV and CSV).
 
@@ -20,7 +20,7 @@ Decision 0031 records the formats and why.
 """
 
 from ._cdr import CdrError, Field, MessageType
-from ._commands import EVENT_COLUMNS, EVENTS_SCHEMA, EVENTS_TOPIC, LOG, EventsRecorder, RecordedEvent, log_line
+from ._commands import EVENT_COLUMNS, EVENTS_SCHEMA, EVENTS_TOPIC, LOG, HostEventRecorder, RecordedEvent, log_line
 from ._conversions import (
     AUDIO_TYPES, HeadState, PlanarOdometry, frames_per_chunk, head_state, number, planar_odometry, seconds_of, stamp_of,
 )
@@ -41,7 +41,7 @@ from ._writer import DEFAULT_QUEUE_BYTES, RecordingWriter
 __all__ = [
     # Recording
     "Recording", "RecordingCounts", "PortRecorder", "AudioRecorder", "ImageRecorder", "JsonRecorder",
-    "RecordedPort", "EventRecorder", "EVENTS_TYPE", "EventsRecorder",
+    "RecordedPort", "EventRecorder", "EVENTS_TYPE", "HostEventRecorder",
     # What port data says, for every tool that shows it (the recording, the live view, binauloc)
     "AUDIO_TYPES", "stamp_of", "seconds_of", "number", "HeadState", "head_state", "PlanarOdometry", "planar_odometry",
     "frames_per_chunk",

@@ -32,7 +32,7 @@ from ._messages import TIME
 from ._ports import ROLE_KEY, SCHEMA_KEY, RecordedPort, _ns, _time
 from ._writer import RecordingWriter
 
-__all__ = ["EventsRecorder", "RecordedEvent", "EVENTS_SCHEMA", "EVENT_COLUMNS", "LOG", "EVENTS_TOPIC",
+__all__ = ["HostEventRecorder", "RecordedEvent", "EVENTS_SCHEMA", "EVENT_COLUMNS", "LOG", "EVENTS_TOPIC",
            "write_events_csv", "listened_record", "log_line"]
 
 #: The channel of the events as JSON, and of their log lines.
@@ -76,7 +76,7 @@ EVENT_COLUMNS = ("time_s", "event", "session", "id", "instance", "service", "inp
                  "output", "exception", "data", "receive_time_s")
 
 
-class EventsRecorder(RecordedPort):
+class HostEventRecorder(RecordedPort):
     """Writes a host's events (:class:`~aiogenomix.components.core.Event`) on ``/events`` and ``/events/log``.
 
     Args:
