@@ -8,11 +8,12 @@ all) and writes each one twice:
   input, session, status, output or exception, when it was sent), its JSON Schema in the
   channel's metadata (:data:`EVENTS_SCHEMA`, under the same key as the ports' JSON channels);
 * on ``/events/log``, as the ``foxglove_msgs/msg/Log`` robotics tools show in their log panels
-  (one line an event: ``lamp::0 Dim {"to":0.25} done``, an error at the error level).
+  (one line an event: ``lamp::0 Dim {"to":0.25,"seconds":1.0} done {} [lab]``, an error at the
+  error level), as the live view shows them.
 
 Each message's ``publish_time`` is the event's time on the rig's clock, the clock the ports'
 captures are stamped with, so that a command sits among the data it caused; its ``log_time``
-when the recorder received it (decision 0031).  :func:`export_events` writes them as
+when the recorder received it (decisions 0031 and 0039).  :func:`write_events_csv` writes them as
 ``events.csv``, one row an event, with those of the sessions ``aiogenomix-record --session``
 listened to (:func:`listened_record`: what their listen streams said).
 """
