@@ -65,7 +65,7 @@ def dress(func: Callable[..., Any], *, name: str, qualname: str, signature: Any,
     func.__qualname__ = qualname
     func.__module__ = GENERATED_MODULE
     func.__doc__ = doc
-    func.__signature__ = signature  # type: ignore[attr-defined]
+    vars(func)["__signature__"] = signature
     annotations = {n: p.annotation for n, p in signature.parameters.items()}
     annotations["return"] = signature.return_annotation
     func.__annotations__ = annotations

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import concurrent.futures
 import dataclasses
-from collections.abc import Callable
-from typing import Any, Self
+from collections.abc import Callable, Coroutine
+from typing import Any, Self, TypeVar
 
 from ._async_client import AsyncClient, AsyncModule
 from ._ctrl_c import wait_until
@@ -18,6 +18,8 @@ from ._types import Record
 from ._wire import GatewayClock, Status
 
 __all__ = ["Client", "Module", "Request", "connect"]
+
+_T = TypeVar("_T")
 
 
 class Request:
@@ -129,7 +131,7 @@ class Client:
         """The requests of this client that have not ended (e.g. after a Ctrl-C in a blocking call)."""
         return [self._wrap(h) for h in self._core.pending()]
 
-    def _run(self, coro: Any) -> Any:
+    def _run(self, coro: Coroutine[Any, Any, _T]) -> _T:
         return self._thread.run(coro)
 
     # -- lifetime ------------------------------------------------------------------------------------
@@ -183,11 +185,11 @@ class Client:
 
     def loaded(self, *, timeout: Any = USE_CLIENT_DEFAULT) -> dict[str, str]:
         """The instances loaded on the gateway, ``{instance: component}``."""
-        return self._run(self._core.loaded(timeout=timeout))  # type: ignore[no-any-return]
+        return self._run(self._core.loaded(timeout=timeout))
 
     def clock(self, *, timeout: Any = USE_CLIENT_DEFAULT) -> GatewayClock | None:
         """The gateway's clock now: the time its rig stamps the ports' data with (None from a genomixd)."""
-        return self._run(self._core.clock(timeout=timeout))  # type: ignore[no-any-return]
+        return self._run(self._core.clock(timeout=timeout))
 
     def _module(self, core: AsyncModule) -> Module:
         description = core._description
@@ -225,9 +227,10 @@ class Client:
                      doc=port.doc)
 
     def _wrap(self, handle: AsyncRequest) -> Request:
-        if handle.facade is None:
-            handle.facade = Request(handle, self)
-        return handle.facade  # type: ignore[no-any-return]
+        facade = handle.facade
+        if not isinstance(facade, Request):
+            facade = handle.facade = Request(handle, self)
+        return facade
 
     def _callback(self, callback: Callable[[Request], Any]) -> Callable[[AsyncRequest], None]:
         # User callbacks run on their own thread: there they may call the client, which the

@@ -7,7 +7,7 @@ import enum
 import math
 import re
 from collections.abc import Mapping
-from typing import Any, Literal, NotRequired, TypedDict
+from typing import Any, Literal, NotRequired, TypedDict, cast
 from urllib.parse import urlsplit
 
 from ._errors import ProtocolError
@@ -171,7 +171,7 @@ def parse_status(data: Any) -> StatusObject:
         raise ProtocolError(f"an error status without its exception: {data!r:.200}")
     if status == "done" and not isinstance(data.get("output", {}), Mapping):
         raise ProtocolError(f"a done status whose output is not an object: {data!r:.200}")
-    return data  # type: ignore[return-value]
+    return cast(StatusObject, data)  # checked above
 
 
 def check_info(data: Any) -> ModuleInfo:
@@ -188,7 +188,7 @@ def check_info(data: Any) -> ModuleInfo:
     info.setdefault("tasks", [])
     info.setdefault("doc", "")
     info.setdefault("component", info.get("name", ""))
-    return info  # type: ignore[return-value]
+    return cast(ModuleInfo, info)  # its top level checked above
 
 
 def base_url(address: str | None) -> str:

@@ -181,7 +181,8 @@ def fetch_info(address: str, instance: str, *, load: bool = False, token: str | 
 
     def get(path: str) -> bytes:
         with urllib.request.urlopen(urllib.request.Request(base + path, headers=headers), timeout=timeout) as r:
-            return r.read()  # type: ignore[no-any-return]
+            body: bytes = r.read()
+            return body
 
     if load:
         get(f"/load/{instance}")

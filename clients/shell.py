@@ -218,7 +218,7 @@ class ShellNamespace:
             except KeyboardInterrupt:
                 raise self._interrupted(request, kind, announced=False) from None
 
-        call.__signature__ = inspect.signature(service)  # type: ignore[attr-defined]
+        vars(call)["__signature__"] = inspect.signature(service)
         return call
 
     @staticmethod

@@ -6,10 +6,9 @@ import asyncio
 import sys
 from collections.abc import AsyncIterator, Callable
 
-import orjson
 from aiohttp import web
 
-from ..components.core import ComponentHost, ScaledClock
+from ..components.core import ComponentHost, ComponentsOffered, ScaledClock
 from . import _routes_admin, _routes_docs, _routes_modules, _routes_openapi, _routes_ports, _routes_sessions
 from ._access import AccessPolicy
 from ._auth import TokenCheck
@@ -26,7 +25,6 @@ from ._read_bodies import ReadBodies
 from ._watch_wakes import WatchWakes
 from ._sessions import SessionStore
 from ._shutdown import shut_down
-from ._sse import format_event
 from ._unloads import Unloads
 
 __all__ = ["create_app"]
@@ -84,8 +82,8 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
 def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator[None]]:
     async def lifetime(app: web.Application) -> AsyncIterator[None]:
         host, sessions = app[HOST], app[SESSIONS]
-        host.add_request_listener(sessions.route_request)
-        host.add_unload_listener(lambda name: sessions.broadcast(format_event("unload", orjson.dumps(name))))
+        # The host's events reach the sessions as objects, framed by each listen stream in its form.
+        subscription = host.events.subscribe(sessions.route, sessions_only=True)
         host.add_unload_listener(app[UNLOADS].notice)
         try:
             if app[CONFIG].zenoh:
@@ -101,6 +99,7 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
                 await host.close()
             raise
         yield  # the shutdown step (_shutdown) stops the components, within a bounded time
+        subscription.close()
 
     return lifetime
 
@@ -130,9 +129,12 @@ async def _foxglove_lifetime(app: web.Application) -> AsyncIterator[None]:
 
     host.add_load_listener(view.show)
     host.add_unload_listener(hide)
+    # (With a view, every request becomes an event object; it is framed only while a viewer subscribes.)
+    events = host.events.subscribe(view.show_event)
     try:
         yield
     finally:
+        events.close()
         await asyncio.gather(*hiding, return_exceptions=True)
         await view.stop()
 
@@ -141,14 +143,14 @@ async def _find_remote_components(app: web.Application) -> None:
     """Let ``load`` find the components other processes offer on Zenoh (imported only when asked for)."""
     from ..remote import RemoteTimeouts, ZenohDirectory, ZenohSettings
 
-    config, host, sessions = app[CONFIG], app[HOST], app[SESSIONS]
+    config, host = app[CONFIG], app[HOST]
     timeouts = RemoteTimeouts(control=config.zenoh_timeout, send=2 * config.zenoh_timeout + config.function_grace,
                               stale=config.zenoh_stale)
     settings = ZenohSettings(connect=config.zenoh_connect, listen=config.zenoh_listen,
                              config_file=config.zenoh_config, scout=config.zenoh_scout)
     directory = await ZenohDirectory.open(
         settings, timeouts, local=config.zenoh_local,
-        on_offered=lambda offer: sessions.broadcast(format_event("offered", orjson.dumps(offer))))
+        on_offered=lambda offer: host.events.publish(ComponentsOffered(offer, host.clock.wall())))
     print(f"aiogenomix gateway: Zenoh session {directory.zid}: {settings.summary(directory.config)}",
           file=sys.stderr, flush=True)
     host.finder = directory

@@ -17,6 +17,9 @@ encoded by the Foxglove SDK's message types.  What a port is, its type says (its
   shown by its upper 16 bits (exactly what a 16-bit sound card captured: our captures left-justify
   samples into 32 bits), every chunk once, read by the audio library's reader;
 * any other port: its JSON with its JSON Schema, as ``/read`` gives it.
+* and the host's events on ``/events`` (:meth:`FoxgloveView.show_event`): ``foxglove.Log``, a
+  line a request sent or ended (its id, service, input, status, output or exception), an unload,
+  a session's end, at the rig's time, as the recorder's log lines.
 
 A port is read and encoded only while a viewer subscribes to its channel, once for all of them.
 Each viewer is served at its own pace within its send budget (``_foxglove_viewer``): publishing
@@ -37,15 +40,18 @@ import orjson
 
 from ..components.audio import AudioReader
 from ..components.core import (
-    AudioStream, Clock, HeadState, Image, JointStates, LaserScan, Odometry, OutPortRuntime, OverBudget, PortKind, Pose,
-    json_schema,
+    AudioStream, Clock, Event, HeadState, Image, JointStates, LaserScan, Odometry, OutPortRuntime, OverBudget, PortKind,
+    Pose, json_schema,
 )
 from ..components.core.runtime import MIB, LoadedInstance, PortUnavailable, RemoteUnreachable
-from ..components.recording import stamp_of
+from ..components.recording import log_line, stamp_of
 from ._door import Door
 from ._foxglove_server import LiveChannel, LiveViewServer, protobuf_schema
 
-__all__ = ["FoxgloveView", "FoxgloveUnavailable"]
+__all__ = ["FoxgloveView", "FoxgloveUnavailable", "EVENTS_TOPIC"]
+
+#: The channel of the host's events.
+EVENTS_TOPIC = "/events"
 
 log = logging.getLogger(__name__)
 
@@ -95,6 +101,7 @@ class FoxgloveView:
         self._started = False
         self._followers: dict[str, list[asyncio.Task[None]]] = {}
         self._channels: dict[str, list[LiveChannel]] = {}
+        self._events: LiveChannel | None = None
 
     @property
     def port(self) -> int:
@@ -120,6 +127,9 @@ class FoxgloveView:
                                       f"{exc.strerror or exc}") from exc
         self._started = True
         log.info("Foxglove view listening on ws://%s:%d", self.address, self.port)
+        schema = foxglove.messages.Log.get_schema()
+        self._events = self._server.add_channel(EVENTS_TOPIC, "protobuf", schema.name, schema.encoding,
+                                                protobuf_schema(schema.data), latest_only=False)
         for component in instances.values():
             self.show(component)
 
@@ -129,6 +139,18 @@ class FoxgloveView:
             await self.hide(instance)
         self._started = False
         await self._server.stop()
+
+    def show_event(self, event: Event) -> None:
+        """Show one of the host's events on ``/events`` (a subscriber of ``host.events``: it never blocks)."""
+        channel = self._events
+        if channel is None or not self._started or not channel.watched:
+            return
+        record = event.record()
+        fox = self._fox
+        level = fox.messages.LogLevel.Error if record.get("status") == "error" else fox.messages.LogLevel.Info
+        message = fox.messages.Log(timestamp=_time(fox, event.time), level=level, message=log_line(record),
+                                   name=str(record.get("instance") or "aiogenomix"), file="", line=0)
+        self._server.publish(channel, int(event.time * 1e9), message.encode())
 
     # -- instances come and go ------------------------------------------------------------------
 

@@ -10,7 +10,7 @@ from aiohttp import web
 from ._errors import BadQuery
 from ._keys import CONFIG, SESSIONS
 from ._replies import SERVER_HEADER, text_reply
-from ._sse import FINAL_ID, PING, event_stream
+from ._sse import FINAL_ID, GENOMIX_FORM, PING, STANDARD_FORM, event_stream
 
 __all__ = ["routes"]
 
@@ -55,7 +55,8 @@ async def listen(request: web.Request) -> web.StreamResponse:
     transport = request.transport
     stream = event_stream(request)
     listener = sessions.attach(session, alive=lambda: transport is not None and not transport.is_closing(),
-                               standard=stream.standard, last_id=last_id if stream.standard else None)
+                               form=STANDARD_FORM if stream.standard else GENOMIX_FORM,
+                               last_id=last_id if stream.standard else None)
     ping_interval = request.app[CONFIG].ping_interval
     try:
         await stream.prepare(request)

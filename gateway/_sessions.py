@@ -1,6 +1,9 @@
-"""Sessions: named contexts whose request events reach their listeners over server-sent events.
+"""Sessions: named contexts whose events reach their listeners over server-sent events.
 
-Each listener has its own bounded buffer, so a slow or stalled reader never
+A session keeps its events as objects (the host's :class:`~aiogenomix.components.core.Event`:
+its requests' changes, the unloads and offers every session hears); each listener writes
+them in its own form (``_sse``: genomix's, or the standard one with ids), framed once per
+form and shared.  Each listener has its own bounded buffer, so a slow or stalled reader never
 delays the others: when its buffer overflows, its stream is closed (the client
 reconnects and re-reads the status of its pending requests).  A session keeps its
 latest events (a bounded number): a listener that attaches gets those nobody has
@@ -25,17 +28,12 @@ import time
 from collections import OrderedDict, deque
 from collections.abc import Callable
 
-import orjson
-
-from ..components.core import NAME_FORBIDDEN, forbidden_in_name
-from ..components.core.runtime import RequestStatus
+from ..components.core import NAME_FORBIDDEN, Event, SessionEnded, forbidden_in_name
 from ._errors import BadQuery, NoSuchSession, TooManySessions
-from ._sse import FINAL_ID, event_id, format_event
+from ._sse import GENOMIX_FORM, EventForm
 
-__all__ = ["Listener", "Event", "Session", "SessionStore", "check_session_name", "MAX_NAME_LENGTH", "NAME_FORBIDDEN",
-           "WRITE_SLICE"]
-
-_JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
+__all__ = ["Listener", "Logged", "Session", "SessionStore", "check_session_name", "MAX_NAME_LENGTH",
+           "NAME_FORBIDDEN", "WRITE_SLICE"]
 
 #: The longest session name, in characters.
 MAX_NAME_LENGTH = 128
@@ -64,93 +62,105 @@ def _shown(name: str) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-class Listener:
-    """One open listen stream: a bounded buffer of framed events.
+class Logged:
+    """An event as a session keeps it: its number in the session, and its frames once made.
 
-    The frames are the session's own (made once per event, in both forms): a listener holds
-    references, never copies, so that a storm of listens replaying the session's latest events
-    costs a pointer per event each, not the events again.
+    A form frames the event the first time a listener of that form takes it; the frame is kept
+    here, so that every listener of the form shares it (a listener holds references, never copies).
+
+    Attributes:
+        number: Its number in the session (the standard form's ``id``).
+        event: The event.
+    """
+
+    __slots__ = ("number", "event", "_frames")
+
+    def __init__(self, number: int, event: Event) -> None:
+        self.number, self.event = number, event
+        self._frames: dict[EventForm, bytes] | None = None
+
+    def framed(self, form: EventForm) -> bytes:
+        """The event's bytes in *form*, made once."""
+        frames = self._frames
+        if frames is None:
+            frames = self._frames = {}
+        frame = frames.get(form)
+        if frame is None:
+            frame = frames[form] = form.frame(self.number, self.event)
+        return frame
+
+
+class Listener:
+    """One open listen stream: a bounded buffer of its session's events, written in its form.
+
+    The buffer holds the session's own :class:`Logged` events, framed as they are taken and the
+    frames shared: a storm of listens replaying the session's latest events costs a pointer per
+    event each, not the events again.
 
     Args:
         limit: How many undelivered events it may hold before it is dropped.
         alive: Whether its connection is still open (a vanished client is only
             noticed at the next write otherwise, and its events would be lost).
-        standard: Whether the stream is in the standard form (an ``id`` on each event,
-            data on ``quit``: see ``_sse``), else genomix's.
+        form: How the stream writes events (genomix's form by default).
     """
 
-    def __init__(self, limit: int, alive: Callable[[], bool] = lambda: True, standard: bool = False) -> None:
+    def __init__(self, limit: int, alive: Callable[[], bool] = lambda: True, form: EventForm = GENOMIX_FORM) -> None:
         self.limit = limit
         self.alive = alive
-        self.standard = standard
-        self.frames: deque[bytes] = deque()
+        self.form = form
+        self.events: deque[Logged] = deque()
         self.ready = asyncio.Event()
         self.overflowed = False
         self.closed = False
 
-    def offer(self, event: Event) -> None:
-        """Queue one event of its session, in the listener's form (never blocks)."""
+    def offer(self, logged: Logged) -> None:
+        """Queue one event of its session (never blocks)."""
         if self.closed:
             return
-        if len(self.frames) >= self.limit:
+        if len(self.events) >= self.limit:
             self.overflowed = True
         else:
-            self.frames.append(event.standard if self.standard else event.frame)
+            self.events.append(logged)
         self.ready.set()
 
-    def quit(self, session: str) -> None:
-        """Queue ``quit`` (*session* stopped), then end the stream."""
-        if self.standard:
-            self.frames.append(event_id(FINAL_ID) + format_event("quit", orjson.dumps(session)))
-        else:
-            self.frames.append(format_event("quit"))
+    def quit(self, ended: SessionEnded) -> None:
+        """Queue ``quit`` (the session ended), then end the stream."""
+        self.events.append(Logged(0, ended))
         self.close()
 
     def close(self) -> None:
-        """End the stream after the frames already queued."""
+        """End the stream after the events already queued."""
         self.closed = True
         self.ready.set()
 
     @property
     def ended(self) -> bool:
         """Whether the stream is over: closed or overflowed, and nothing is left to write."""
-        return (self.closed or self.overflowed) and not self.frames
+        return (self.closed or self.overflowed) and not self.events
 
     def take(self, most: int = WRITE_SLICE) -> bytes:
-        """The next frames, joined into one write of at most *most* bytes (or one frame, if larger).
+        """The next events framed, joined into one write of at most *most* bytes (or one event, if larger).
 
         A replay of the session's latest events goes out in such slices, each written when the
         connection has taken the one before: a listen that dies in the middle held one slice.
         """
-        frames = self.frames
-        taken = [frames.popleft()] if frames else []
+        events, form = self.events, self.form
+        taken = [events.popleft().framed(form)] if events else []
         size = len(taken[0]) if taken else 0
-        while frames and size + len(frames[0]) <= most:
-            size += len(frames[0])
-            taken.append(frames.popleft())
-        if not frames:
+        while events:
+            frame = events[0].framed(form)
+            if size + len(frame) > most:
+                break
+            size += len(frame)
+            taken.append(frame)
+            events.popleft()
+        if not events:
             self.ready.clear()
         return taken[0] if len(taken) == 1 else b"".join(taken)
 
 
-class Event:
-    """An event of a session, framed once in each form.
-
-    Attributes:
-        number: Its number in the session (the standard form's ``id``).
-        frame: genomix's form.
-        standard: The standard form (``id:`` line first).
-    """
-
-    __slots__ = ("number", "frame", "standard")
-
-    def __init__(self, frame: bytes, number: int) -> None:
-        self.number, self.frame = number, frame
-        self.standard = event_id(number) + frame
-
-
 class Session:
-    """A named session and its listeners.
+    """A named session: its latest events and its listeners.
 
     Args:
         name: The session name.
@@ -162,7 +172,7 @@ class Session:
         self.name = name
         self.listeners: set[Listener] = set()
         #: The latest events (the oldest go first).
-        self.recent: deque[Event] = deque(maxlen=backlog)
+        self.recent: deque[Logged] = deque(maxlen=backlog)
         #: The number of the session's last event (a standard stream's event ids).
         self.events = 0
         #: The number of the last event offered to a listener: those after it wait for one.
@@ -171,29 +181,29 @@ class Session:
         #: When a client last used the session (its store's clock), for the expiry of unlistened sessions.
         self.used = 0.0
 
-    def deliver(self, frame: bytes) -> None:
-        """Send a framed event to every live listener, and keep it among the latest (see :meth:`attach`)."""
+    def deliver(self, event: Event) -> None:
+        """Hand *event* to every live listener, and keep it among the latest (see :meth:`attach`)."""
         self.prune()
         self.events += 1
-        event = Event(frame, self.events)
-        self.recent.append(event)
+        logged = Logged(self.events, event)
+        self.recent.append(logged)
         if self.listeners:
             self.offered = self.events
         for listener in self.listeners:
-            listener.offer(event)
+            listener.offer(logged)
 
-    def attach(self, alive: Callable[[], bool] = lambda: True, standard: bool = False,
+    def attach(self, alive: Callable[[], bool] = lambda: True, form: EventForm = GENOMIX_FORM,
                last_id: str | None = None) -> Listener:
-        """Open a listener (in the standard form or genomix's).
+        """Open a listener (in genomix's form, or another).
 
         It first receives the events kept after *last_id* (a standard stream's ``Last-Event-ID``,
         when it names one of this session's events), else those no listener was offered.
         """
-        listener = Listener(self.listener_limit, alive, standard)
+        listener = Listener(self.listener_limit, alive, form)
         after = self._resumed_after(last_id)
-        for event in self.recent:
-            if event.number > after:
-                listener.offer(event)
+        for logged in self.recent:
+            if logged.number > after:
+                listener.offer(logged)
         self.offered = self.events
         self.listeners.add(listener)
         return listener
@@ -218,16 +228,16 @@ class Session:
             self.listeners.discard(listener)
         return bool(gone)
 
-    def stop(self) -> None:
+    def stop(self, ended: SessionEnded) -> None:
         """Send ``quit`` to every listener and end their streams."""
         for listener in self.listeners:
-            listener.quit(self.name)
+            listener.quit(ended)
         self.listeners.clear()
         self.recent.clear()
 
 
 class SessionStore:
-    """Every session of the gateway, and the routing of request events to them.
+    """Every session of the gateway, and the routing of the host's events to them (:meth:`route`).
 
     Args:
         backlog: How many of its latest events each session keeps.
@@ -236,10 +246,12 @@ class SessionStore:
             any client, is forgotten.
         max_sessions: How many sessions may exist at once.
         clock: Seconds, monotonic (a parameter so that tests need not wait).
+        wall: POSIX seconds, which stamp a session's end.
     """
 
     def __init__(self, backlog: int = 1000, listener_limit: int = 10000, idle_timeout: float = 600.0,
-                 max_sessions: int = 256, clock: Callable[[], float] = time.monotonic) -> None:
+                 max_sessions: int = 256, clock: Callable[[], float] = time.monotonic,
+                 wall: Callable[[], float] = time.time) -> None:
         self._sessions: dict[str, Session] = {}
         # The sessions nobody listens to, least recently used first: expiry looks at the front only,
         # so that starting a session costs the same with 15,000 of them as with one.
@@ -250,6 +262,7 @@ class SessionStore:
         self.idle_timeout = idle_timeout
         self.max_sessions = max_sessions
         self.clock = clock
+        self.wall = wall
         self._end_listeners: list[Callable[[str], None]] = []
 
     def __len__(self) -> int:
@@ -344,10 +357,10 @@ class SessionStore:
             return None
         return session
 
-    def attach(self, session: Session, alive: Callable[[], bool] = lambda: True, standard: bool = False,
+    def attach(self, session: Session, alive: Callable[[], bool] = lambda: True, form: EventForm = GENOMIX_FORM,
                last_id: str | None = None) -> Listener:
         """Open a listener of *session* (see :meth:`Session.attach`); a session listened to never expires."""
-        listener = session.attach(alive, standard, last_id)
+        listener = session.attach(alive, form, last_id)
         self._idle.pop(session.name, None)
         return listener
 
@@ -363,26 +376,30 @@ class SessionStore:
         Raises:
             NoSuchSession: when there is none.
         """
-        self.get(name).stop()
+        self.get(name).stop(SessionEnded(name, self.wall()))
         self._forget(name)
 
-    def route_request(self, request: RequestStatus) -> None:
-        """Deliver a ``request`` event to the request's session, if it has one (and it has not expired)."""
-        if request.session is None:
-            return
-        session = self._live(request.session)
-        if session is not None:
-            session.deliver(format_event("request", orjson.dumps(request.status_object(), option=_JSON_OPTIONS)))
+    def route(self, event: Event) -> None:
+        """Deliver a host's event to the sessions that hear it: its own (if it has not expired), or every one.
 
-    def broadcast(self, frame: bytes) -> None:
-        """Deliver a framed event to every session."""
+        Subscribe it to the host's events (``host.events.subscribe(store.route, sessions_only=True)``).
+        """
+        if event.audience == "every session":
+            self.broadcast(event)
+        elif event.audience == "its session" and event.session is not None:
+            session = self._live(event.session)
+            if session is not None:
+                session.deliver(event)
+
+    def broadcast(self, event: Event) -> None:
+        """Deliver *event* to every session."""
         self.expire()
         for session in self._sessions.values():
-            session.deliver(frame)
+            session.deliver(event)
 
     def stop_all(self) -> None:
         """Stop every session (gateway shutdown)."""
-        for session in self._sessions.values():
-            session.stop()
+        for name, session in self._sessions.items():
+            session.stop(SessionEnded(name, self.wall()))
         self._sessions.clear()
         self._idle.clear()

@@ -17,16 +17,22 @@ never dispatches an event without data.  The ``id`` of the last event of a
 stream (``quit``, ``unload``) is :data:`FINAL_ID`: a client that reconnects
 with it as ``Last-Event-ID`` is answered 204, which stops an EventSource for
 good, so a stopped session is never started again by a reconnect.
+
+A session's events are objects (``aiogenomix.components.core.Event``): each form
+(:data:`GENOMIX_FORM`, :data:`STANDARD_FORM`) frames them here, at the edge.
 """
 
 from __future__ import annotations
 
+import orjson
 from aiohttp import web
 
+from ..components.core import Event, SessionEnded
 from ._access import allow_origin, other_origin
 from ._replies import SERVER_HEADER
 
-__all__ = ["format_event", "event_id", "EventStream", "event_stream", "wants_standard", "PING", "FINAL_ID"]
+__all__ = ["format_event", "event_id", "EventStream", "event_stream", "wants_standard", "PING", "FINAL_ID",
+           "EventForm", "GENOMIX_FORM", "STANDARD_FORM"]
 
 #: An SSE comment, sent on idle streams so that a vanished client is noticed.
 PING = b": ping\n\n"
@@ -54,6 +60,37 @@ def format_event(event: str, data: bytes | None = None) -> bytes:
 def event_id(identifier: int | str) -> bytes:
     """The ``id:`` line that goes before an event of the standard form."""
     return b"id: %s\n" % str(identifier).encode()
+
+
+class EventForm:
+    """How a listen stream writes a session's events: genomix's form, or (*standard*) the one with ids.
+
+    Args:
+        standard: Whether each event carries its ``id:`` (and ``quit`` its data).
+    """
+
+    def __init__(self, standard: bool) -> None:
+        self.standard = standard
+
+    def frame(self, number: int, event: Event) -> bytes:
+        """The bytes of *event*, the session's event *number*, in this form."""
+        if isinstance(event, SessionEnded):
+            # genomix's quit is a bare event line; the standard one has data (an EventSource drops an
+            # event without) and the final id, which a reconnect carrying it gets 204 for.
+            if not self.standard:
+                return format_event("quit")
+            return event_id(FINAL_ID) + format_event("quit", orjson.dumps(event.data()))
+        framed = format_event(event.name, orjson.dumps(event.data(), option=orjson.OPT_SERIALIZE_NUMPY))
+        return event_id(number) + framed if self.standard else framed
+
+    def __repr__(self) -> str:
+        return f"<EventForm {'standard' if self.standard else 'genomix'}>"
+
+
+#: genomix's form: what its Tcl, MATLAB and Python clients read.
+GENOMIX_FORM = EventForm(standard=False)
+#: The standard form, with ids: what an EventSource reads.
+STANDARD_FORM = EventForm(standard=True)
 
 
 def wants_standard(request: web.BaseRequest) -> bool:

@@ -62,8 +62,8 @@ def _export_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="aiogenomix-record export",
         description="Write a recording's audio as WAV (32-bit stereo at the capture rate, exactly the recorded "
-                    "frames) and CSV (one row per chunk: frame index, head azimuth, times), and each recorded "
-                    "head state as CSV, for MATLAB and Octave.")
+                    "frames) and CSV (one row per chunk: frame index, head azimuth, times), each recorded "
+                    "head state as CSV, and the recorded requests and events as events.csv, for MATLAB and Octave.")
     parser.add_argument("recording", metavar="FILE.mcap")
     parser.add_argument("-o", "--output", required=True, metavar="DIR", help="where to write (made if missing)")
     parser.add_argument("--overwrite", action="store_true", help="replace files of the same names in DIR")
@@ -71,11 +71,12 @@ def _export_parser() -> argparse.ArgumentParser:
 
 
 def _size(count: int) -> str:
-    for unit in ("B", "kB", "MB", "GB"):
-        if count < 1000 or unit == "GB":
-            return f"{count:.0f} {unit}" if unit == "B" else f"{count:.1f} {unit}"
-        count /= 1000  # type: ignore[assignment]
-    return str(count)
+    size = float(count)
+    for unit in ("B", "kB", "MB"):
+        if size < 1000:
+            return f"{size:.0f} {unit}" if unit == "B" else f"{size:.1f} {unit}"
+        size /= 1000
+    return f"{size:.1f} GB"
 
 
 class ProgressLine:

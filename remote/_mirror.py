@@ -22,9 +22,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..components.core import (
-    Chunk, ChunkedArray, DescribedType, GenomException, Ledger, OutPortRuntime, OverBudget, Reservation,
+    Chunk, ChunkedArray, GenomException, Ledger, OutPort, OutPortRuntime, OverBudget, Reservation,
 )
-from ..components.core.runtime import PortSpec
 from ._wire import arrays_of
 
 if TYPE_CHECKING:
@@ -72,15 +71,6 @@ def remote_exception(body: dict[str, Any]) -> GenomException:
     exc = klass(detail if isinstance(detail, dict) else None)
     exc.args = (f"{ex} {detail}" if exc.remote_detail else ex,)
     return exc
-
-
-class _MirroredSpec(PortSpec):
-    """The declaration of a remote out port, rebuilt from its ``/info`` description."""
-
-    def __init__(self, described: dict[str, Any]) -> None:
-        super().__init__(None, described.get("doc", ""), described.get("kind") == "multiple")
-        self.name = described["name"]
-        self._type = DescribedType(described.get("type", {}), "mirrored")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -235,7 +225,7 @@ class MirroredOutPort(OutPortRuntime[Any]):
     owner: RemoteInstance
 
     def __init__(self, described: dict[str, Any], owner: RemoteInstance, ledger: Ledger | None = None) -> None:
-        super().__init__(_MirroredSpec(described), owner)
+        super().__init__(OutPort.from_description(described, "mirrored"), owner)
         self._entries: tuple[_Entry, ...] = ()
         self._index = 0
         self._counts: dict[str, int] = {}

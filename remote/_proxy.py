@@ -99,6 +99,14 @@ class RemoteRequest(RequestStatus):
     output: dict[str, Any] | None = None
     exception: dict[str, Any] | None = None
     ended: asyncio.Event = dataclasses.field(default_factory=asyncio.Event)
+    sent: float = 0.0
+    #: The service this gateway sent it to, and the input it sent ("" and None: another gateway's request).
+    called: str = ""
+    given: Any = None
+
+    def command(self) -> tuple[str, Any]:
+        """The service called and its input, as this gateway sent them ("" and None when it did not)."""
+        return self.called, self.given
 
     def take(self, status: dict[str, Any]) -> bool:
         """Take a status object from the host; return whether it ended the request now (never undone)."""
@@ -212,15 +220,18 @@ class RemoteInstance:
         """Send the request to the remote instance; return its copy (its status as the host replied)."""
         self.check_heard()
         self._sent = True
+        sent = self.host.clock.wall()
         status = await self._ask("send", {"service": name, "input": raw_input, "session": session,
                                           "oneway": oneway, "via": self._via}, self.timeouts.send, f"send {name}")
         number = parse_request_id(self.remote_instance, status["id"])
         if oneway:
             # Nobody tracks a oneway request: the host forgets it when it ends.
-            request = RemoteRequest(number, self.instance, session, True, status["serial"])
+            request = RemoteRequest(number, self.instance, session, True, status["serial"], sent=sent, called=name,
+                                    given=raw_input)
             request.take(status)
             return request
         request, new = self._track(number, status["serial"], session)
+        request.sent, request.called, request.given = sent, name, raw_input
         # Each change is announced once, by whichever of the reply and the host's event comes first.
         if request.take(status) or (new and request.running):
             self.host.announce_request(request)

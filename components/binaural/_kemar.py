@@ -111,7 +111,7 @@ def _convert() -> HrirSet:
         with warnings.catch_warnings():
             # Whatever slab's imports say about their own dependencies is not our users' concern.
             warnings.simplefilter("ignore")
-            import slab  # type: ignore[import-untyped]
+            import slab
 
             hrtf = slab.HRTF.kemar()
             polar = np.asarray(hrtf.sources.vertical_polar, dtype=np.float64)

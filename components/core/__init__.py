@@ -11,6 +11,9 @@ from ._budgets import Budgets, Ledger, Ledgers, OverBudget, Reservation
 from ._chunked import Chunk, Chunked, ChunkedArray
 from ._clock import Clock, ManualClock, RealClock, ScaledClock, VirtualClock
 from ._component import Component
+from ._events import (
+    ComponentsOffered, Event, HostEvents, InstanceLoaded, InstanceUnloaded, RequestEvent, SessionEnded, Subscription,
+)
 from ._exceptions import (
     GenomException, disallowed, interrupted, no_such_activity, no_such_inport, no_such_outport, no_such_service,
     port_io, serialization, syserr, too_many_activities, unkex,
@@ -37,6 +40,9 @@ from ._types import (
 __all__ = [
     # The component and what hosts it
     "Component", "ComponentHost", "HostSettings", "LoadError",
+    # What happens on a host, as data: requests sent and ended, instances, sessions (host.events)
+    "Event", "RequestEvent", "InstanceLoaded", "InstanceUnloaded", "ComponentsOffered", "SessionEnded",
+    "HostEvents", "Subscription",
     # Bounds of what clients can make a component hold, and the log lines they can cause
     "Budgets", "OverBudget", "Ledger", "Ledgers", "Reservation", "ThrottledLog",
     # What a name a client gives may hold (session names, recording paths)

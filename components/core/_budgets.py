@@ -16,6 +16,7 @@ without progress first (a client that reads, however slowly, goes after those th
 from __future__ import annotations
 
 import dataclasses
+import typing
 from collections.abc import Callable
 from typing import Any, Literal
 
@@ -123,7 +124,7 @@ class Budgets:
     @staticmethod
     def names() -> list[BoundName]:
         """Every bound, in declaration order."""
-        return list(_FIELDS)  # type: ignore[arg-type]  # the fields are the names of BoundName
+        return list(_NAMES)
 
     def over(self, name: BoundName, what: str, asked: int) -> OverBudget:
         """The refusal of *what*, which needs *asked* against the bound *name*."""
@@ -140,6 +141,9 @@ class Budgets:
 
 
 _FIELDS = {field.name: field for field in dataclasses.fields(Budgets)}
+_NAMES: tuple[BoundName, ...] = typing.get_args(BoundName)
+if list(_NAMES) != list(_FIELDS):  # (at import: a bound added to one and not the other is a bug)
+    raise TypeError(f"BoundName names the fields of Budgets in their order: {list(_FIELDS)}, not {list(_NAMES)}")
 
 
 class OverBudget(Exception):

@@ -146,7 +146,7 @@ class Component:
         self.host = host
         self.instance = instance
         self.argv = list(argv or [])
-        self.requests = RequestTracker(instance, host.announce_request)
+        self.requests = RequestTracker(instance, host.announce_request, wall=host.clock.wall)
         self._port_runtimes: dict[str, OutPortRuntime[Any] | InPortRuntime[Any]] = {}
         self._task_runtimes: dict[str, TaskRuntime] = {}
         self._started = False
@@ -225,6 +225,28 @@ class Component:
         if name not in self._ports:
             raise NoSuchPort(f"{self.instance} has no port {name!r} (ports: {', '.join(self._ports)})")
         return self._port_runtime(name)
+
+    def out_port(self, name: str) -> OutPortRuntime[Any]:
+        """The runtime of the out port *name* (one that components publish on).
+
+        Raises:
+            NoSuchPort: when the component has no such port, or it is an in port.
+        """
+        runtime = self.port(name)
+        if not isinstance(runtime, OutPortRuntime):
+            raise NoSuchPort(f"{self.instance}/{name} is an in port, not an out port")
+        return runtime
+
+    def in_port(self, name: str) -> InPortRuntime[Any]:
+        """The runtime of the in port *name* (one the component reads another's out port through).
+
+        Raises:
+            NoSuchPort: when the component has no such port, or it is an out port.
+        """
+        runtime = self.port(name)
+        if not isinstance(runtime, InPortRuntime):
+            raise NoSuchPort(f"{self.instance}/{name} is an out port, not an in port")
+        return runtime
 
     # -- lifecycle ------------------------------------------------------------------------
 
@@ -582,7 +604,7 @@ class Component:
             hint = f"; {', '.join(fitting)} of {self.instance} reads it" if fitting else ""
             raise port_io(what=f"{self.instance}/{local} reads {spec.what_it_reads()}, {remote.strip('/')} "
                                f"publishes {target.type.name}{hint}")
-        self.port(local).connect(target, remote, parts[2] if len(parts) > 2 else None)  # type: ignore[union-attr]
+        self.in_port(local).connect(target, remote, parts[2] if len(parts) > 2 else None)
 
     @function(throws=(no_such_service,))
     def connect_service(self, local: Annotated[str, Bound(128)], remote: Annotated[str, Bound(128)]) -> None:

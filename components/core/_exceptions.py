@@ -168,6 +168,8 @@ class GenomException(ComponentError):
     scope: ClassVar[str | None] = None
     #: The component that raised it, once known (names the id of a refusal).
     component: str | None = None
+    #: The detail members of each class, found once (in its own ``__dict__``: a subclass has its own).
+    _detail_cache: ClassVar[list[tuple[str, Any]]]
 
     def __init__(self, *args: Any, **detail: Any) -> None:
         names = [name for name, _ in self.detail_members()]
@@ -198,7 +200,7 @@ class GenomException(ComponentError):
                     if typing.get_origin(own[name]) is not ClassVar:
                         hints[name] = idl_type(own[name])
             cached = list(hints.items())
-            cls._detail_cache = cached  # type: ignore[attr-defined]
+            cls._detail_cache = cached
         return cached
 
     @classmethod

@@ -20,6 +20,7 @@ from typing import Any, Protocol, TypeVar, overload
 from ._budgets import Ledgers
 from ._clock import Clock, RealClock
 from ._component import Component
+from ._events import HostEvents, InstanceLoaded, InstanceUnloaded, SessionEnded
 from ._exceptions import ComponentError, NoSuchModule, names_hint
 from ._instance import LoadedInstance
 from ._log_limits import ThrottledLog
@@ -106,6 +107,9 @@ class ComponentHost:
                  factories: dict[str, Callable[..., Component]] | None = None,
                  function_grace: float = 2.0, max_instances: int = 64) -> None:
         self.clock = clock or RealClock()
+        #: What happens on this host, as objects: requests sent and ended, instances loaded and
+        #: unloaded, sessions ended (:meth:`HostEvents.subscribe`).
+        self.events = HostEvents(self.clock.wall)
         if settings is not None and not isinstance(settings, HostSettings):
             raise TypeError(f"settings are a HostSettings, not {type(settings).__name__}: "
                             "HostSettings(can=..., audio_device=...)")
@@ -159,7 +163,11 @@ class ComponentHost:
         factory = self._factories.get(name)
         if factory is None:
             raise NoSuchModule(f"no component {name!r} {names_hint(name, self.available(), 'available')}")
-        return factory.load() if isinstance(factory, _LazyFactory) else factory  # type: ignore[return-value]
+        if isinstance(factory, _LazyFactory):
+            return factory.load()
+        if not (isinstance(factory, type) and issubclass(factory, Component)):
+            raise TypeError(f"the component {name!r} was registered as {factory!r}, not a Component class")
+        return factory
 
     def usage(self, name: str) -> list[dict[str, str]]:
         """The load options of component *name*, as ``{"option", "descr"}`` objects."""
@@ -309,6 +317,7 @@ class ComponentHost:
         self.withdraw(instance)
         for listener in list(self._unload_listeners):
             listener(instance)
+        self.events.publish(InstanceUnloaded(instance, self.clock.wall()))
 
     def unload_soon(self, instance: str) -> None:
         """Unload *instance* in the background (used by a component's own ``kill``)."""
@@ -323,7 +332,9 @@ class ComponentHost:
         (:meth:`Component.on_session_end <aiogenomix.components.core.Component.on_session_end>`:
         the recorder stops a recording of it); an instance of another process hears it through
         its proxy.  A failure is logged, never raised: the session is over whatever an instance does.
+        The subscribers of the host's events hear :class:`SessionEnded`.
         """
+        self.events.publish(SessionEnded(session, self.clock.wall()))
         task = asyncio.create_task(self._end_session(session), name=f"session {session} ended")
         self._background.add(task)
         task.add_done_callback(self._background.discard)
@@ -423,15 +434,17 @@ class ComponentHost:
     def _loaded(self, instance: LoadedInstance) -> None:
         for listener in list(self._load_listeners):
             listener(instance)
+        self.events.publish(InstanceLoaded(instance.instance, instance.genom_name, self.clock.wall()))
 
     def add_unload_listener(self, listener: Callable[[str], None]) -> None:
         """Call *listener* with the name of every unloaded instance."""
         self._unload_listeners.append(listener)
 
     def announce_request(self, request: RequestStatus) -> None:
-        """Report a request status change to the listeners."""
+        """Report a request status change to the listeners, and to the subscribers of :attr:`events`."""
         for listener in self._request_listeners:
             listener(request)
+        self.events.request_changed(request)
 
     async def close(self) -> None:
         """Unload every instance, then close the shared resources (idempotent)."""

@@ -13,11 +13,12 @@ from __future__ import annotations
 
 import asyncio
 import builtins
-from typing import Any, Generic, Protocol, Self, TypeVar, overload, runtime_checkable
+from collections.abc import Callable, Mapping
+from typing import Any, Generic, Protocol, Self, TypeVar, cast, overload, runtime_checkable
 
 from ._exceptions import GenomException, NoSuchPort, PortUnavailable, port_io
 from ._kinds import PortKind
-from ._types import IdlType, idl_type
+from ._types import DescribedType, IdlType, idl_type
 
 __all__ = ["OutPort", "ComputedOutPort", "InPort", "OutPortRuntime", "ComputedOutPortRuntime", "InPortRuntime",
            "PortSpec", "Incremental"]
@@ -107,14 +108,31 @@ class OutPort(PortSpec, Generic[T]):
     def __get__(self, instance: None, owner: type) -> Self: ...
     @overload
     def __get__(self, instance: object, owner: type) -> OutPortRuntime[T]: ...
-    def __get__(self, instance: object, owner: type) -> Self | OutPortRuntime[T]:
+    def __get__(self, instance: Any, owner: type) -> Self | OutPortRuntime[T]:
         if instance is None:
             return self
-        return instance._port_runtime(self.name)  # type: ignore[attr-defined, no-any-return]
+        runtime: OutPortRuntime[T] = instance._port_runtime(self.name)  # (a Component's: each port's made once)
+        return runtime
 
     def runtime(self, owner: Any) -> OutPortRuntime[T]:
         """Create the runtime of this port for a component instance."""
         return OutPortRuntime(self, owner)
+
+    @staticmethod
+    def from_description(described: Mapping[str, Any], origin: str = "described") -> OutPort[Any]:
+        """The declaration of an out port known only by its ``/info`` description (a recorded or remote port).
+
+        Its type is the description's (:class:`DescribedType`): data comes JSON-ready and is passed
+        on as it is; ``/info`` describes the port as it was described.
+
+        Args:
+            described: The port's description: ``name``, ``type``, and optionally ``doc`` and ``kind``.
+            origin: Where the description comes from (``recorded``, ``mirrored``): its type's ``kind``.
+        """
+        port: OutPort[Any] = OutPort(object, str(described.get("doc") or ""), described.get("kind") == "multiple")
+        port.name = str(described["name"])
+        port._type = DescribedType(dict(described.get("type") or {}), origin)
+        return port
 
 
 class ComputedOutPort(OutPort[T]):
@@ -186,10 +204,11 @@ class InPort(PortSpec, Generic[T]):
     def __get__(self, instance: None, owner: type) -> Self: ...
     @overload
     def __get__(self, instance: object, owner: type) -> InPortRuntime[T]: ...
-    def __get__(self, instance: object, owner: type) -> Self | InPortRuntime[T]:
+    def __get__(self, instance: Any, owner: type) -> Self | InPortRuntime[T]:
         if instance is None:
             return self
-        return instance._port_runtime(self.name)  # type: ignore[attr-defined, no-any-return]
+        runtime: InPortRuntime[T] = instance._port_runtime(self.name)  # (a Component's: each port's made once)
+        return runtime
 
     def runtime(self, owner: Any) -> InPortRuntime[T]:
         """Create the runtime of this port for a component instance."""
@@ -226,7 +245,8 @@ class OutPortRuntime(_PortRuntime, Generic[T]):
         super().__init__(spec, owner)
         self.version = 0
         self._elements: dict[str, T] = {}
-        self._value: T = None if spec.multiple else spec.type.zero()  # type: ignore[assignment]
+        # (A multiple port has no one value: its elements are the data.)
+        self._value: T = cast(T, None) if spec.multiple else spec.type.zero()
         self._published: asyncio.Future[None] | None = None
         #: Why the data is not current (None: it is): reads raise it until the next publication.
         self.withdrawn: GenomException | None = None
@@ -314,10 +334,14 @@ class OutPortRuntime(_PortRuntime, Generic[T]):
 class ComputedOutPortRuntime(OutPortRuntime[T]):
     """The runtime of a :class:`ComputedOutPort`: reads call the component's method."""
 
+    def __init__(self, spec: ComputedOutPort[T], owner: Any) -> None:
+        super().__init__(spec, owner)
+        self._compute = spec.compute
+
     def read(self, name: str | None = None) -> T:
         """The data, computed now."""
-        compute: str = self.spec.compute  # type: ignore[attr-defined]  # the spec is a ComputedOutPort
-        return getattr(self.owner, compute)()  # type: ignore[no-any-return]
+        compute: Callable[[], T] = getattr(self.owner, self._compute)
+        return compute()
 
 
 class InPortRuntime(_PortRuntime, Generic[T]):

@@ -16,6 +16,7 @@ from collections import OrderedDict
 from collections.abc import Callable
 from typing import Any, Literal
 
+from ._events import status_object
 from ._exceptions import NoSuchRequest, RequestRunning
 from ._services import ServiceSpec
 
@@ -71,6 +72,8 @@ class RequestStatus:
     serial: int
     #: Set when it ends.
     ended: asyncio.Event
+    #: When it was sent, in POSIX seconds of its host's clock (0: not known).
+    sent: float
 
     @property
     def id(self) -> str:
@@ -84,12 +87,11 @@ class RequestStatus:
 
     def status_object(self) -> dict[str, Any]:
         """The JSON status object (also the data of the ``request`` event)."""
-        status: dict[str, Any] = {"id": self.id, "status": self.status}
-        if self.status == "done":
-            status["output"] = self.output or {}
-        elif self.status == "error":
-            status["exception"] = self.exception
-        return status
+        return status_object(self.id, self.status, self.output, self.exception)
+
+    def command(self) -> tuple[str, Any]:
+        """The service called and its input, JSON-ready (``""`` and None where this copy does not know them)."""
+        return "", None
 
 
 @dataclasses.dataclass(eq=False)
@@ -107,6 +109,7 @@ class Request(RequestStatus):
         exception: ``{"ex": ..., "detail": ...}`` once ``error``.
         serial: How many requests the tracker made before this one: it tells apart two requests
             that held the same number one after the other (a copy kept in another process needs it).
+        sent: When it was sent, in POSIX seconds of its host's clock.
     """
 
     number: int
@@ -122,6 +125,11 @@ class Request(RequestStatus):
     interrupted_by: str | None = None
     ended: asyncio.Event = dataclasses.field(default_factory=asyncio.Event)
     serial: int = 0
+    sent: float = 0.0
+
+    def command(self) -> tuple[str, Any]:
+        """The service called and its input, JSON-ready (encoded as a client would send it)."""
+        return self.service.name, self.service.encode_inputs(self.inputs)
 
 
 class RequestTracker:
@@ -133,11 +141,14 @@ class RequestTracker:
         keep_ended: How many ended, uncleaned requests to keep; the oldest are
             dropped past that, so clients that never clean cannot exhaust memory
             (genomix 1.6 cleans untracked replies for the same reason).
+        wall: The POSIX time of the host's clock, which stamps when each request is sent (none: 0).
     """
 
-    def __init__(self, instance: str, listener: Callable[[Request], None], keep_ended: int = 1000) -> None:
+    def __init__(self, instance: str, listener: Callable[[Request], None], keep_ended: int = 1000,
+                 wall: Callable[[], float] | None = None) -> None:
         self.instance = instance
         self.listener = listener
+        self.wall = wall
         self.keep_ended = keep_ended
         self._requests: dict[int, Request] = {}
         self._running: dict[int, Request] = {}
@@ -154,7 +165,8 @@ class RequestTracker:
             number = heapq.heappop(self._free)
         else:
             number, self._next = self._next, self._next + 1
-        request = Request(number, self.instance, service, inputs, session, oneway, serial=self._made)
+        request = Request(number, self.instance, service, inputs, session, oneway, serial=self._made,
+                          sent=self.wall() if self.wall is not None else 0.0)
         self._made += 1
         self._requests[number] = request
         self._running[number] = request

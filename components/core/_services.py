@@ -154,6 +154,10 @@ class ServiceSpec:
                 decoded[param.name] = param.type.zero()
         return decoded
 
+    def encode_inputs(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        """Decoded inputs (keyword arguments of the service) as the JSON ``input`` a client would send."""
+        return {p.name: p.type.encode(inputs[p.name]) for p in self.inputs if p.name in inputs}
+
     def encode_outputs(self, result: Any) -> dict[str, Any]:
         """Turn a service's return value into the ``output`` object of its request."""
         if self.output_style == "none":
@@ -366,13 +370,18 @@ _DECORATOR_SIGNATURE = inspect.Signature([
 ], return_annotation="Any")
 
 
+def _declare(f: Callable[..., Any], declaration: _Declaration) -> None:
+    """Mark *f* as the method of a service (what :func:`service_spec` reads back)."""
+    vars(f)["__genom_service__"] = declaration
+
+
 def _decorator(kind: ServiceKind) -> ServiceDecorator:
     def decorator(func: Callable[..., Any] | None = None, /, **options: Any) -> Any:
         def attach(f: Callable[..., Any]) -> Callable[..., Any]:
             # Checked now, in the class body: a misspelled option would otherwise be ignored.
             _check_options(getattr(f, "__qualname__", repr(f)), kind, options)
             # The spec is built lazily: type hints may name classes defined after the method.
-            f.__genom_service__ = _Declaration(kind, options, f)  # type: ignore[attr-defined]
+            _declare(f, _Declaration(kind, options, f))
             return f
 
         return attach(func) if func is not None else attach
@@ -380,7 +389,7 @@ def _decorator(kind: ServiceKind) -> ServiceDecorator:
     decorator.__name__ = decorator.__qualname__ = kind
     # help() shows the options the type checker knows; the body takes **options to refuse a
     # misspelled one with a suggestion rather than Python's bare "unexpected keyword argument".
-    decorator.__signature__ = _DECORATOR_SIGNATURE  # type: ignore[attr-defined]
+    vars(decorator)["__signature__"] = _DECORATOR_SIGNATURE
     decorator.__doc__ = f"""Declare a method as a genom3 *{kind}* service.
 
     Usable bare (``@{kind}``) or with options (``@{kind}(interrupts=("Stop",))``).
@@ -448,7 +457,7 @@ def redeclare(
     def attach(f: Callable[..., Any]) -> _F:
         options = {**original.options, **changes}
         _check_options(getattr(f, "__qualname__", repr(f)), original.kind, options)
-        f.__genom_service__ = _Declaration(original.kind, options, original.signature_of)  # type: ignore[attr-defined]
+        _declare(f, _Declaration(original.kind, options, original.signature_of))
         return f  # type: ignore[return-value]  # it takes the original's inputs: checked by the class
 
     return attach
@@ -507,7 +516,8 @@ def check_redeclaration(spec: ServiceSpec, owner: str) -> None:
     Raises:
         TypeError: naming the component, the service and the parameter that does not match.
     """
-    declaration: _Declaration = spec.func.__genom_service__  # type: ignore[attr-defined]
+    declaration = getattr(spec.func, "__genom_service__", None)
+    assert isinstance(declaration, _Declaration)  # a redeclared service's method is declared
     if spec.func is not declaration.signature_of:
         _check_takes_inputs(spec.func, spec, f"{owner}, service {spec.name}: the redeclared method "
                                              f"{getattr(spec.func, '__qualname__', spec.func)!r}", spec.name)

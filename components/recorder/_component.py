@@ -33,6 +33,8 @@ LEAST_BYTES = DEFAULT_CHUNK_SIZE + (64 << 10)
 _WITHDRAWN = object()
 #: How a recording until Stop that reached ``--max-recording-seconds`` ended.
 _LONGEST = "over budget: --max-recording-seconds"
+#: Whose requests and events a recording keeps (Start's ``events``).
+EVENTS_OF = ("session", "all", "none")
 
 
 class Recorder(Component, name="recorder", version="1.0"):
@@ -52,6 +54,10 @@ class Recorder(Component, name="recorder", version="1.0"):
     (``--max-recording-bytes``) and of its directory (``--max-record-dir-bytes``).  Files are
     created readable by their owner only (``--record-mode``), and replies name them within their
     record directory, never by their path on the host.
+
+    Beside the ports, a recording keeps what was commanded when (``events``): the requests of the
+    session that sent ``Start`` (by default), or of every session, with their input, status and
+    times on the rig's clock, and the host's other events (``/events`` and ``/events/log``).
     """
 
     record = Task(doc="Follows the recorded ports and hands their data to the writer thread")
@@ -106,7 +112,8 @@ class Recorder(Component, name="recorder", version="1.0"):
         assert isinstance(runtime, OutPortRuntime)
         return runtime, described
 
-    async def _validate_start(self, path: str, ports: list[str], duration: float, outlive_session: bool) -> None:
+    async def _validate_start(self, path: str, ports: list[str], duration: float, outlive_session: bool,
+                              events: str) -> None:
         running = [r for r in self.requests.running() if r.service.name == "Start"]
         if running:
             raise ALREADY_RECORDING(path=self._path or running[0].inputs["path"])
@@ -121,6 +128,8 @@ class Recorder(Component, name="recorder", version="1.0"):
             raise OVER_BUDGET(path=path, flag=flag, bytes=0, seconds=0.0,
                               what=f"a duration of {duration:g} s is longer than the {budgets.recording_seconds} s "
                                    f"of {flag}")
+        if events not in EVENTS_OF:
+            raise BAD_RECORDING(path=path, what=f"events is one of {', '.join(EVENTS_OF)}, not {events!r}")
         for name in ports:
             await self._port(name)
 
@@ -138,20 +147,27 @@ class Recorder(Component, name="recorder", version="1.0"):
         = 0.0,
         outlive_session: Annotated[Boolean, "Go on when the session that sent Start ends (its client stopped it or "
                                             "went away); by default the recording stops with it"] = False,
+        events: Annotated[String, "Whose requests and events to record beside the ports: session (those of the "
+                                  "session that sent Start, none if it was sent in none), all (every request of the "
+                                  "host) or none"] = "session",
     ) -> Annotated[RecorderStatus, Out("status", "What was recorded, and how it ended")]:
         """Record ports into a new MCAP file until Stop, the duration, the end of its session, or a full disk.
 
         Ends done with what was recorded; a disk that fills up ends it in WRITE_FAILED, a budget of
         the host in OVER_BUDGET, and the file keeps what was written before, readable.
         """
+        # (One Start runs at a time: _validate_start refuses a second.)
+        start = next((r for r in self.requests.running() if r.service.name == "Start"), None)
+        whose = None if events == "none" else "" if events == "all" else start.session if start else None
         try:
-            return await self._record(path, ports, duration)
+            return await self._record(path, ports, duration, whose)
         finally:
             # A Stop sent at any time while this Start ran (before its file was open too) was for it.
             self._stop.clear()
             self._stop_reason = "stopped"
 
-    async def _record(self, path: str, ports: list[str], duration: float) -> RecorderStatus:
+    async def _record(self, path: str, ports: list[str], duration: float, whose: str | None) -> RecorderStatus:
+        """Record *ports*, and the host's events of the session *whose* (``""``: all; None: none)."""
         followed = [(name, *await self._port(name)) for name in dict.fromkeys(ports)]
         try:
             running = self.host.ledgers.recordings.reserve(1, self.instance, f"a recording ({path})")
@@ -164,6 +180,7 @@ class Recorder(Component, name="recorder", version="1.0"):
             recording = Recording.open(created.stream, created.path, {
                 "recorder": f"{self.instance} (aiogenomix recorder component)",
                 "ports": ",".join(n for n, *_ in followed),
+                "events": "none" if whose is None else f"session {whose}" if whose else "all",
                 "clock": f"{type(self.clock).__name__} x{self.clock.scale:g}"}, quota=created.quota)
             self._recording, self._path, self._began, self._ended = recording, created.name, self.clock.now(), ""
             log.info("%s: recording %s into %s", self.instance, ", ".join(n for n, *_ in followed), created.path)
@@ -171,6 +188,8 @@ class Recorder(Component, name="recorder", version="1.0"):
                                          name=f"{self.instance} records {name}")
                      for name, port, described in followed]
             tasks.append(asyncio.create_task(self._publish_status(), name=f"{self.instance} status"))
+            subscription = None if whose is None else self.host.events.subscribe(
+                recording.add_host_events(whose), session=whose or None)
             ended = "stopped"
             try:
                 ended = await self._until_the_end(recording, tasks, duration)
@@ -178,6 +197,8 @@ class Recorder(Component, name="recorder", version="1.0"):
                 ended = "interrupted"
                 raise
             finally:
+                if subscription is not None:
+                    subscription.close()
                 for task in tasks:
                     task.cancel()
                 await asyncio.gather(*tasks, return_exceptions=True)

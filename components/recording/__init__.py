@@ -13,12 +13,15 @@ The ``recorder`` component, the ``replay`` component, captures that replay a rec
   (:class:`~aiogenomix.components.core.PortKind`), for any component's port.
 * **Port recorders** (:class:`AudioRecorder`, :class:`ImageRecorder`, :class:`JsonRecorder`) and
   the :class:`Recording` that holds them; **paths** confined to the operator's directories.
+* **What was commanded when**: a host's requests and events (:class:`HostEventRecorder`), as JSON
+  and as log lines.
 * **Reading and exporting**: :class:`RecordingReader`, :func:`export_recording` (WAV and CSV).
 
 Decision 0031 records the formats and why.
 """
 
 from ._cdr import CdrError, Field, MessageType
+from ._commands import EVENT_COLUMNS, EVENTS_SCHEMA, EVENTS_TOPIC, LOG, HostEventRecorder, RecordedEvent, log_line
 from ._conversions import number, seconds_of, stamp_of
 from ._errors import NotARecording, PathRefused, RecordingError
 from ._export import AUDIO_COLUMNS, HEAD_COLUMNS, ExportedFile, export_recording
@@ -37,7 +40,7 @@ from ._writer import DEFAULT_QUEUE_BYTES, RecordingWriter
 __all__ = [
     # Recording
     "Recording", "RecordingCounts", "PortRecorder", "AudioRecorder", "ImageRecorder", "JsonRecorder",
-    "RecordedPort", "EventRecorder", "EVENTS_TYPE",
+    "RecordedPort", "EventRecorder", "EVENTS_TYPE", "HostEventRecorder",
     # When port data was captured, for every tool that shows it (what it is, its type's kind says)
     "stamp_of", "seconds_of", "number",
     # The file and its writer
@@ -48,8 +51,10 @@ __all__ = [
     "create_recording", "NewRecording", "open_recording", "replay_roots", "SUFFIX",
     # Reading and exporting
     "RecordingReader", "Recovered", "AudioChunk", "PortMessage", "SessionEventRecord", "export_recording",
-    "ExportedFile",
-    "AUDIO_COLUMNS", "HEAD_COLUMNS",
+    "ExportedFile", "RecordedEvent",
+    "AUDIO_COLUMNS", "HEAD_COLUMNS", "EVENT_COLUMNS",
+    # A host's events as recorded (what was commanded when)
+    "EVENTS_SCHEMA", "EVENTS_TOPIC", "LOG", "log_line",
     # Message types
     "MessageType", "Field", "CdrError", "HEADER", "AUDIO_DATA_STAMPED", "AUDIO_FRAMES", "AUDIO_INFO", "JOINT_STATE",
     "IMAGE", "LASER_SCAN", "ODOMETRY", "POSE_STAMPED",

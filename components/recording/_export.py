@@ -13,6 +13,10 @@ For each recorded audio port ``instance/port``:
 For each recorded head state (a port whose type carries :class:`~aiogenomix.components.core.HeadState`,
 such as ``kemar``'s ``currentState``): ``instance_port.csv``, :data:`HEAD_COLUMNS`, in degrees.
 
+When the ``recorder`` component kept its host's requests and events: ``events.csv``, one row an
+event (:data:`~aiogenomix.components.recording.EVENT_COLUMNS`: the rig's time, the request's id,
+service, input as JSON, status, output or exception).
+
 Each file is made new in the output directory, by name, never through a symbolic link: a link
 planted there (to ``/tmp/victim``, or to a file of another user's) is refused, or with
 ``overwrite`` replaced by the file itself, never written through.  The files are as private as
@@ -37,6 +41,7 @@ import numpy as np
 import soundfile
 
 from ..core import HeadState, carried_by
+from ._commands import write_events_csv
 from ._errors import NotARecording, RecordingError
 from ._reader import AudioChunk, RecordingReader
 
@@ -150,7 +155,7 @@ def export_recording(recording: str | os.PathLike[str], directory: str | os.Path
     chunk; *notice*, when given, is told so in a sentence first.
 
     Raises:
-        NotARecording: when the file is not a recording, or holds neither audio nor a head state.
+        NotARecording: when the file is not a recording, or holds no audio, head state or events.
         RecordingError: when an output file exists already (and *overwrite* is false), or a link or a
             directory has its name.
     """
@@ -164,8 +169,12 @@ def export_recording(recording: str | os.PathLike[str], directory: str | os.Path
             heads = {p: kind for p in reader.ports() if isinstance(kind := carried_by(reader.port_type(p)), HeadState)}
             head_times, head_positions = _head_states(reader, heads, out, written)
             audio = reader.audio_ports()
-            if not audio and not heads:
-                raise NotARecording(f"{recording} holds no audio and no head state to export")
+            events = reader.has_events()
+            if not audio and not heads and not events:
+                raise NotARecording(f"{recording} holds no audio, no head state and no events to export")
+            if events:
+                with out.text("events.csv") as (path, table):
+                    written.append(ExportedFile(path, "requests and events", write_events_csv(reader.events(), table)))
             for port in audio:
                 written += _export_audio(reader, port, out, head_times, head_positions)
     return written

@@ -23,6 +23,7 @@ from mcap.records import Channel
 from mcap.summary import Summary
 
 from ._cdr import CdrError
+from ._commands import EVENTS_TOPIC, RecordedEvent, listened_record
 from ._errors import NotARecording
 from ._messages import AUDIO_DATA_STAMPED, AUDIO_FRAMES, AUDIO_INFO, IMAGE
 from ._ports import PORT_KEY, ROLE_KEY, TYPE_KEY
@@ -230,6 +231,30 @@ class RecordingReader:
                 yield SessionEventRecord(body["event"], body["data"], message.log_time * 1e-9)
         except (McapError, orjson.JSONDecodeError, KeyError) as exc:
             raise NotARecording(f"{self.name}: {exc}") from exc
+
+    def has_events(self) -> bool:
+        """Whether requests and events were recorded here (by the ``recorder`` component, or a session's over HTTP)."""
+        return any(c.topic == EVENTS_TOPIC for c in self.channels()) or bool(self.sessions())
+
+    def events(self) -> list[RecordedEvent]:
+        """The requests and events recorded, in the order they were received.
+
+        Those the ``recorder`` component kept (its host's: a request's service and input, its times
+        on the rig's clock), and those of each session ``aiogenomix-record --session`` listened to
+        (what the listen stream said: no service or input, and the time they were received).
+        """
+        found: list[RecordedEvent] = []
+        try:
+            for _, _, message in self._reader.iter_messages(topics=[EVENTS_TOPIC]):
+                found.append(RecordedEvent(orjson.loads(message.data), message.publish_time * 1e-9,
+                                           message.log_time * 1e-9))
+        except (McapError, orjson.JSONDecodeError) as exc:
+            raise NotARecording(f"{self.name}: {exc}") from exc
+        for session in self.sessions():
+            found += (RecordedEvent(listened_record(session, told.event, told.data), told.receive_time,
+                                    told.receive_time) for told in self.session_events(session))
+        found.sort(key=lambda event: event.receive_time)
+        return found
 
     def ports(self) -> list[str]:
         """The recorded ports other than audio (JSON and picture channels), as ``instance/port``."""

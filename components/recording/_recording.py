@@ -15,6 +15,7 @@ from typing import Any, BinaryIO
 import orjson
 
 from ..core import json_schema
+from ._commands import HostEventRecorder
 from ._mcap_file import DEFAULT_CHUNK_SIZE, ByteQuota
 from ._ports import (
     ROLE_KEY, SCHEMA_KEY, AudioRecorder, ImageRecorder, JsonRecorder, PortRecorder, RecordedPort, recorder_for,
@@ -94,6 +95,8 @@ class Recording:
         self.path = path
         self.ports: dict[str, PortRecorder] = {}
         self.events: list[EventRecorder] = []
+        #: The host's events, when the recording keeps them (:meth:`add_host_events`).
+        self.host_events: HostEventRecorder | None = None
         self._last_log = 0
         writer.metadata("aiogenomix", {"started": _utc(), **description})
 
@@ -126,6 +129,12 @@ class Recording:
         recorder = EventRecorder(self, session)
         self.events.append(recorder)
         return recorder
+
+    def add_host_events(self, whose: str) -> HostEventRecorder:
+        """Record a host's events (subscribe the recorder returned to ``host.events``): a session's, or ``""``: all."""
+        if self.host_events is None:
+            self.host_events = HostEventRecorder(self.writer, whose, self.log_time)
+        return self.host_events
 
     def counts(self) -> RecordingCounts:
         """How far the recording is."""

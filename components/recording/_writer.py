@@ -13,6 +13,7 @@ import asyncio
 import collections
 import dataclasses
 import threading
+from collections.abc import Callable
 from typing import BinaryIO
 
 from ._mcap_file import DEFAULT_CHUNK_SIZE, ByteQuota, McapFile, WriteFailed
@@ -25,8 +26,10 @@ DEFAULT_QUEUE_BYTES = 32 << 20
 
 @dataclasses.dataclass(frozen=True)
 class _Op:
+    """One thing for the thread to do to the file (``finish``: end it), and the bytes of messages it holds."""
+
     kind: str
-    args: tuple[object, ...]
+    apply: Callable[[McapFile], object] | None = None
     size: int = 0
 
 
@@ -108,24 +111,27 @@ class RecordingWriter:
     def schema(self, name: str, encoding: str, data: bytes) -> int:
         """Register a schema; return the id its channels name."""
         self._schemas += 1
-        self._put(_Op("schema", (name, encoding, data), len(data)))
+        self._put(_Op("schema", lambda file: file.add_schema(name, encoding, data), len(data)))
         return self._schemas
 
     def channel(self, topic: str, message_encoding: str, schema_id: int, metadata: dict[str, str] | None = None
                 ) -> int:
         """Register a channel; return the id its messages name."""
         self._channels += 1
-        self._put(_Op("channel", (topic, message_encoding, schema_id, dict(metadata or {}))))
+        values = dict(metadata or {})
+        self._put(_Op("channel", lambda file: file.add_channel(topic, message_encoding, schema_id, values)))
         return self._channels
 
     def metadata(self, name: str, values: dict[str, str]) -> None:
         """Add a metadata record."""
-        self._put(_Op("metadata", (name, dict(values))))
+        copied = dict(values)
+        self._put(_Op("metadata", lambda file: file.add_metadata(name, copied)))
 
     def message(self, channel_id: int, log_time: int, publish_time: int, sequence: int, data: bytes) -> None:
         """Hand over one message (never blocks: check :meth:`has_room` or await :meth:`wait_room` first)."""
         self.messages_queued += 1
-        self._put(_Op("message", (channel_id, log_time, publish_time, sequence, data), len(data)))
+        self._put(_Op("message", lambda file: file.add_message(channel_id, log_time, publish_time, sequence, data),
+                      len(data)))
 
     async def close(self) -> None:
         """Write what is queued, end the file (summary, footer), and stop the thread (idempotent).
@@ -134,7 +140,7 @@ class RecordingWriter:
             WriteFailed: when the file could not be written whole; what it holds stays readable.
         """
         if not self._closing:
-            self._put(_Op("finish", ()))
+            self._put(_Op("finish"))
             self._closing = True
         await asyncio.to_thread(self._thread.join)
         failure = self.failure
@@ -168,15 +174,8 @@ class RecordingWriter:
                     pass  # the loop reads file.failure when the thread has ended
                 return
             try:
-                if file is not None and file.failure is None:
-                    if op.kind == "message":
-                        file.add_message(*op.args)  # type: ignore[arg-type]
-                    elif op.kind == "schema":
-                        file.add_schema(*op.args)  # type: ignore[arg-type]
-                    elif op.kind == "channel":
-                        file.add_channel(*op.args)  # type: ignore[arg-type]
-                    elif op.kind == "metadata":
-                        file.add_metadata(*op.args)  # type: ignore[arg-type]
+                if file is not None and file.failure is None and op.apply is not None:
+                    op.apply(file)
             except WriteFailed:
                 self._loop.call_soon_threadsafe(self.failed.set)
             except Exception as exc:  # a bug must not leave the loop waiting for room forever

@@ -9,7 +9,7 @@ from collections.abc import Iterator
 from typing import Annotated, Any
 
 from ..core import (
-    Boolean, Component, ComponentHost, DescribedType, Double, GenomException, LoadError, Out, OutPort, OutPortRuntime,
+    Boolean, Component, ComponentHost, Double, GenomException, LoadError, Out, OutPort, OutPortRuntime,
     String, ThrottledLog, ULongLong,
     activity, function, idl_struct,
 )
@@ -81,9 +81,8 @@ class Replay(Component, name="replay", version="1.0"):
         self._names = _replay_names([p for p, _ in ports])
         for recorded, (described, doc) in ports:
             name = self._names[recorded]
-            spec = OutPort(object, doc=f"{doc} (replayed from {recorded})".strip())
-            spec.name = name
-            spec._type = DescribedType(described, "recorded")
+            spec = OutPort.from_description({"name": name, "type": described,
+                                             "doc": f"{doc} (replayed from {recorded})".strip()}, "recorded")
             self._recorded[name] = OutPortRuntime(spec, self)
             self._described.append({"name": name, "dir": "out", "kind": "simple", "type": described,
                                     "doc": spec.doc})

@@ -168,10 +168,11 @@ class World(Component, name="world", version="1.0"):
                             "with MUJOCO_GL=osmesa and Debian's libosmesa6") from opened
         if isinstance(sim, Exception):  # MuJoCo missing or refusing its settings (MUJOCO_GL...)
             raise LoadError(f"the world cannot start MuJoCo ({type(sim).__name__}: {sim})") from sim
-        for outcome in (opened, sim):
-            if isinstance(outcome, BaseException):
-                raise outcome
-        self.sim = sim  # type: ignore[assignment]
+        if isinstance(opened, BaseException):
+            raise opened
+        if isinstance(sim, BaseException):
+            raise sim
+        self.sim = sim
         self._origin = self.clock.now()
         self._next_frame = 0.0
         self._seq = 0
@@ -274,7 +275,7 @@ class World(Component, name="world", version="1.0"):
         width, height = self.camera_size
         for port, camera in CAMERA_PORTS.items():
             # The frame is published as drawn, in memory shared with the render process, read-only.
-            self.port(port).publish(Image(width, height, "rgba8", width * 4, frames[camera]))  # type: ignore[union-attr]
+            self.out_port(port).publish(Image(width, height, "rgba8", width * 4, frames[camera]))
         assert ranges is not None
         self.pr2_scan.publish(LaserScan(self._header("base_laser_link"), LASER["angle_min"], LASER["angle_max"],
                                         LASER["angle_increment"], LASER["range_min"], LASER["range_max"], ranges))
@@ -283,7 +284,7 @@ class World(Component, name="world", version="1.0"):
         """The render process failed: camera and laser reads are refused until its replacement's first frame."""
         down = SENSOR_DOWN(what=f"{reason}; a new render process is starting")
         for port in (*CAMERA_PORTS, "pr2_scan"):
-            self.port(port).withdraw(down)  # type: ignore[union-attr]
+            self.out_port(port).withdraw(down)
 
     # -- wiring for the robot components -------------------------------------------------------
 

@@ -42,7 +42,8 @@ def arm_limits(side: str) -> dict[str, tuple[float | None, float | None, float]]
     limits = {}
     for joint, (lower, upper, speed) in ARM_LIMITS.items():
         if side == "r" and joint in _MIRRORED:
-            lower, upper = -upper, -lower  # type: ignore[operator]
+            assert lower is not None and upper is not None  # the mirrored joints have limits
+            lower, upper = -upper, -lower
         limits[f"{side}_{joint}"] = (lower, upper, speed)
     return limits
 

@@ -10,8 +10,8 @@ from typing import Annotated, Any
 import pytest
 
 from aiogenomix.components.core import (
-    Component, ComponentHost, Double, GenomException, HostSettings, InPort, ManualClock, Out, OutPort, Short, String,
-    Task, activity, attribute, function, idl_struct, port_io,
+    Component, ComponentHost, Double, GenomException, HostSettings, InPort, ManualClock, Out, OutPort, RequestEvent,
+    Short, String, Task, activity, attribute, function, idl_struct, port_io,
 )
 from aiogenomix.components.core.runtime import (
     InputError, NoSuchModule, NoSuchPort, NoSuchRequest, RequestRunning, describe,
@@ -113,8 +113,9 @@ async def host() -> Any:
     settings = HostSettings(extra=(GadgetSettings(default_amount=2.0),))
     async with ComponentHost(clock=ManualClock(), settings=settings,
                              factories={"gadget": Gadget}, function_grace=0.01) as host:
-        host.add_request_listener(lambda r: events.append(r.status_object()))
-        host.events = events  # type: ignore[attr-defined]
+        # What a session's listeners would hear: the request events the host publishes, as data.
+        host.events.subscribe(lambda event: events.append(event.data()) if isinstance(event, RequestEvent) else None)
+        host.statuses = events  # type: ignore[attr-defined]
         yield host
 
 
@@ -150,7 +151,7 @@ async def test_interruption_runs_the_stop_path_and_names_the_interrupter(host: C
     assert drain.status == "done"
     assert second.exception == {"ex": "::genom::interrupted", "detail": {"by": "Drain"}}
     assert gadget.stopped_paths == ["Fill", "Fill"]
-    assert [e["status"] for e in host.events if e["id"] == "gadget::0"] == ["sent", "error"]
+    assert [e["status"] for e in host.statuses if e["id"] == "gadget::0"] == ["sent", "error"]
 
 
 async def test_abort_and_ids_reused_after_clean(host: ComponentHost) -> None:
@@ -193,7 +194,7 @@ async def test_validate_refusal_ends_the_request_in_error(host: ComponentHost) -
     # As in genom3: the request exists, ends in error with the declared exception, and is reported once.
     assert refused.status_object() == {"id": "gadget::1", "status": "error",
                                         "exception": {"ex": "::gadget::TOO_BIG", "detail": {"limit": 10.0}}}
-    assert [e for e in host.events if e["id"] == "gadget::1"] == [refused.status_object()]
+    assert [e for e in host.statuses if e["id"] == "gadget::1"] == [refused.status_object()]
     # A refused request interrupts nothing: Fill goes on.
     assert filling.running and gadget.requests.running() == [filling]
     # Input that does not fit its type is refused before anything is sent: no request.
@@ -208,7 +209,7 @@ async def test_oneway_requests_leave_no_trace(host: ComponentHost) -> None:
     gadget = await host.load("gadget")
     request = await gadget.send("GetName", oneway=True)
     assert request.status == "done"
-    assert host.events == []
+    assert host.statuses == []
     with pytest.raises(NoSuchRequest):
         gadget.requests.get(request.number)
 
@@ -219,7 +220,7 @@ async def test_slow_function_replies_sent_then_ends(host: ComponentHost) -> None
     assert request.status == "sent"
     await host.clock.advance(1.0)  # type: ignore[attr-defined]
     await request.ended.wait()
-    assert [e["status"] for e in host.events] == ["sent", "done"]
+    assert [e["status"] for e in host.statuses] == ["sent", "done"]
 
 
 async def test_kill_interrupts_and_unloads(host: ComponentHost) -> None:
@@ -296,3 +297,18 @@ async def test_an_unknown_instance_is_refused_naming_the_likely_ones_not_every_l
                                   "40 loaded, listed by /)")
     with pytest.raises(NoSuchModule, match=r"^no module 'robot' is loaded \(40 loaded, listed by /\)$"):
         host.get("robot")
+
+
+def test_a_port_known_only_by_its_description_has_a_public_declaration() -> None:
+    """What the replay and the remote mirror build: a port whose type is its description's, data passed as it is."""
+    described = {"name": "Pose", "dir": "out", "kind": "simple", "doc": "Where the robot is",
+                 "type": {"name": "::far::pose", "kind": "struct", "members": [
+                     {"name": "x", "type": {"name": "double", "kind": "double"}}]}}
+    port = OutPort.from_description(described, "recorded")
+    assert port.describe() == described and port.name == "Pose"
+    assert port.type.kind == "recorded" and port.type.zero() is None   # nothing until the first publication
+    runtime = port.runtime(object())
+    runtime.publish({"x": 1.5})
+    assert runtime.read() == {"x": 1.5} and runtime.version == 1
+    several = OutPort.from_description({"name": "Poses", "kind": "multiple", "type": described["type"]}, "mirrored")
+    assert several.multiple and several.describe()["kind"] == "multiple" and several.doc == ""

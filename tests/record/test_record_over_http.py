@@ -23,6 +23,7 @@ from aiogenomix.components.core import ComponentHost, HostSettings, ManualClock,
 from aiogenomix.components.recording import RecordingCounts, RecordingReader, export_recording
 from aiogenomix.gateway import GatewayConfig, serve
 from aiogenomix.record import PortNotFound, record_over_http
+from aiogenomix.record import main as record_main
 
 from .._cut_links import cuttable
 
@@ -83,6 +84,14 @@ async def test_a_recording_over_http_has_every_frame_once_and_the_sessions_reque
     moves = [e.data for e in told if e.event == "request" and e.data["id"].startswith("kemarcapture")]
     assert [m["status"] for m in moves if m.get("output", {}).get("position") is not None] == ["done"]
     assert any(m["status"] == "sent" for m in moves)
+    # ... and in the export's events.csv, as the stream told them, at the times they came.
+    assert record_main(["export", str(output), "-o", str(tmp_path / "out")]) == 0
+    with open(tmp_path / "out" / "events.csv", newline="") as table:
+        rows = [row for row in csv.DictReader(table) if row["instance"] == "kemarcapture"]
+    assert [(row["session"], row["id"], row["status"]) for row in rows] == [
+        ("lab", m["id"], m["status"]) for m in moves]
+    assert [float(row["time_s"]) for row in rows] == pytest.approx(
+        [e.receive_time for e in told if e.event == "request" and e.data["id"].startswith("kemarcapture")], abs=1e-6)
 
 
 async def test_an_unknown_port_is_refused_before_any_file(stepped: tuple[str, ManualClock], tmp_path: Path) -> None:
