@@ -326,6 +326,7 @@ def _load(r: dict[str, Any]) -> str:
                f"(ratio {r['bare_cpu_us_per_request'] / r['gateway_cpu_us_per_request']:.2f})")
             + ("." if "baseline" not in r else f", before {r['baseline_cpu_us_per_request']:.0f} µs"
                + (f" ({r['baseline_cpu_ratio']:.2f} of bare aiohttp's)." if "baseline_cpu_ratio" in r else "."))]),
+        *([] if "note" not in r else ["", r["note"]]),
         ""])
 
 
