@@ -1,7 +1,7 @@
 """The server's request handler: what is answered ahead of the application's routes, and the connection told.
 
 aiohttp's server calls one request handler for every request it has read (its
-parser, the only reader of requests: docs/decisions/0037).  The gateway's
+parser, the only reader of requests: docs/decisions/0037).  The gateway's one
 answers plain port reads (:mod:`._fast_reads`) and plain sends
 (:mod:`._fast_sends`) there, and hands every other request to the
 application's own handler: the router, the guard, the routes.
