@@ -97,12 +97,14 @@ def _analysis(results: dict[str, Any]) -> str:
         "parser are the difference, and the ratio moves most with the machine's load.",
         f"* **Load (50 clients).** The gateway spends {cpu}. Both servers spend most of a request in aiohttp "
         "(on Python 3.11 it also starts a task per request, which both pay); both read each request once, with "
-        "aiohttp's parser. The gateway's handler first looks whether the request is a plain read, then its "
-        "guard (the door: Host and Origin, one dictionary look-up for a Host seen before; the token; the query's "
-        "parameter names; then error translation) runs as the application's one middleware, and it adds the "
-        f"component runtime's request ({runtime} a `send` "
-        "of `GetSpeed` in the runtime alone, measured in the benchmark's own process), the route's query and its "
-        "reply. The throughput ratio also depends on how the two cores are shared with wrk and the rest of the "
+        "aiohttp's parser. A plain send (a `GET` of a service with plain parameters, that the door admits as "
+        "a program's) is answered by the server's request handler ahead of the routes, as plain reads are "
+        "(`gateway/_fast_sends.py`, decision 39): the door (Host and Origin, one dictionary look-up for a Host "
+        "seen before; the token; the query's parameter names, none here), the component runtime's request "
+        f"({runtime} a `send` of `GetSpeed` in the runtime alone, measured in the benchmark's own process) and "
+        "one write of a head made from a template, without aiohttp's router (which tries the routes under "
+        "`/module` one regular expression after another), its two middleware layers and its `Response`. "
+        "The throughput ratio also depends on how the two cores are shared with wrk and the rest of the "
         "machine: the CPU ratio is the steadier figure.",
         "* **Memory.** At start the gateway imports only what serving needs (components are imported when first "
         "loaded); the figure with every component loaded is dominated by the simulators (MuJoCo for `world`, "
@@ -324,6 +326,7 @@ def _load(r: dict[str, Any]) -> str:
                f"(ratio {r['bare_cpu_us_per_request'] / r['gateway_cpu_us_per_request']:.2f})")
             + ("." if "baseline" not in r else f", before {r['baseline_cpu_us_per_request']:.0f} µs"
                + (f" ({r['baseline_cpu_ratio']:.2f} of bare aiohttp's)." if "baseline_cpu_ratio" in r else "."))]),
+        *([] if "note" not in r else ["", r["note"]]),
         ""])
 
 

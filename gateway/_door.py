@@ -25,7 +25,7 @@ requests can ask it.
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterable, Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -94,7 +94,7 @@ class Door:
         self.policy = policy
         self.token = token
 
-    def decide(self, method: str, path: str, names: Iterable[str], headers: Mapping[str, str],
+    def decide(self, method: str, path: str, names: Collection[str], headers: Mapping[str, str],
                scheme: str = "http", url_token: str | None = None, *, authority: str | None = None,
                repeated: Collection[str] = ()) -> Admission | Preflight | Refusal:
         """Decide on a request.
@@ -102,7 +102,8 @@ class Door:
         Args:
             method: Its method (the routes answer the methods they do not take).
             path: Its path, percent-decoded.
-            names: The names of its query parameters, decoded, in order, repeats included.
+            names: The names of its query parameters, decoded, in order, repeats included (a list,
+                or a dictionary's keys when none repeats).
             headers: Its header fields, looked up by lower-case name.
             scheme: How it reached the gateway (for telling the gateway's own pages apart).
             url_token: The token as the live view's URL carries it (``?token=``, decoded), for the
@@ -125,7 +126,8 @@ class Door:
         if (self.token is not None and path not in OPEN_PATHS and not self.token.admits(headers)
                 and (url_token is None or not self.token.matches(url_token))):
             return Refusal(401, unauthorized_body(), origin)
-        body = parameter_refusal(path, names, method)
-        if body is not None:
-            return Refusal(400, body, origin)
+        if names:  # (most requests carry no query: nothing to refuse there)
+            body = parameter_refusal(path, names, method)
+            if body is not None:
+                return Refusal(400, body, origin)
         return ADMITTED if origin is None else Admission(origin)

@@ -8,7 +8,7 @@ the machinery around the read itself: finding the route among the eight under
 (docs/decisions/0021).
 
 :class:`FastReads` answers the reads that need none of it, as the server's request
-handler, ahead of the application's routes (:func:`ahead_of_the_routes`): a
+handler, ahead of the application's routes (:func:`~._ahead.ahead_of_the_routes`): a
 ``GET /module/M/read/P`` over HTTP/1.1, kept alive, of a single out port of a
 loaded instance, with no parameters but ``format``, ``since``, ``s`` and ``_``
 (plain: no percent-encoding), that the door (``_door``) admits as a program's
@@ -24,13 +24,11 @@ door's alone.
 
 from __future__ import annotations
 
-from collections.abc import Awaitable, Callable
-
 from aiohttp import web
-from aiohttp.http import HttpVersion10, HttpVersion11
+from aiohttp.http import HttpVersion11
 
 from ..components.core import Incremental, OutPortRuntime
-from ._connection import UNSUPPORTED_VERSION, GatewayConnection, Written
+from ._connection import Written
 from ._door import ADMITTED, Door, repeated_fields
 from ._gather import direct_socket
 from ._keys import DOOR, HOST, READ_BODIES
@@ -38,13 +36,10 @@ from ._pieces import PiecesPayload
 from ._replies import http_date
 from ._routes_ports import READ_HEADERS, parse_since, read_body, wants_binary
 
-__all__ = ["FastReads", "ahead_of_the_routes"]
+__all__ = ["FastReads", "plain_parameters", "head_start"]
 
 #: The parameters a fast read may carry (``name=`` is for multiple ports: the routes answer it).
 _PARAMETERS = frozenset({"format", "since", "s", "_"})
-_VERSIONS = frozenset({HttpVersion10, HttpVersion11})
-
-RequestHandler = Callable[[web.BaseRequest], Awaitable[web.StreamResponse]]
 
 
 class FastReads:
@@ -58,7 +53,7 @@ class FastReads:
         self._host = app[HOST]
         self._door: Door = app[DOOR]
         self._bodies = app[READ_BODIES]
-        self._heads = {binary: _head_start(READ_HEADERS[binary]) for binary in (False, True)}
+        self._heads = {binary: head_start(READ_HEADERS[binary]) for binary in (False, True)}
 
     def reply(self, request: web.BaseRequest) -> Written | None:
         """The whole reply to *request*, or None to leave it to the routes."""
@@ -71,7 +66,7 @@ class FastReads:
         parts = path.split("/")
         if len(parts) != 5 or parts[3] != "read" or "%" in path or "#" in query:
             return None
-        parameters = _parameters(query)
+        parameters = plain_parameters(query, _PARAMETERS)
         if parameters is None or request.body_exists:
             return None
         headers = request.headers
@@ -109,42 +104,23 @@ class FastReads:
         return read_body(self._bodies, name, port, value, None, since, binary)
 
 
-def ahead_of_the_routes(fast_reads: FastReads, routes: RequestHandler) -> RequestHandler:
-    """The server's request handler: a plain read answered by *fast_reads*, anything else by *routes*.
-
-    It also tells the gateway's connection when a request's head is complete and when its
-    handler has returned (the head timeout, ``_connection``).
-    """
-    async def handle(request: web.BaseRequest) -> web.StreamResponse:
-        connection = request.protocol
-        if type(connection) is not GatewayConnection:  # served some other way
-            return fast_reads.reply(request) or await routes(request)
-        connection.request_began()
-        try:
-            if request.version not in _VERSIONS:  # HTTP/0.9: its reply would have no status line
-                return connection.refuse(505, UNSUPPORTED_VERSION)
-            return fast_reads.reply(request) or await routes(request)
-        finally:
-            connection.request_ended(request)
-
-    return handle
-
-
-def _parameters(query: str) -> dict[str, str] | None:
-    """The query's parameters when they are among those of a fast read, each once and plain; else None."""
+def plain_parameters(query: str, taken: frozenset[str]) -> dict[str, str] | None:
+    """The *query*'s parameters when they are among *taken*, each once and plain; else None (the routes')."""
     found: dict[str, str] = {}
     if not query:
         return found
+    if ";" in query:  # a separator to some readers of queries: the routes decide
+        return None
     for item in query.split("&"):
         name, _, value = item.partition("=")
         # Encoded characters (%xx, + for a space) are decoded by the routes.
-        if name not in _PARAMETERS or name in found or "%" in value or "+" in value:
+        if name not in taken or name in found or "%" in value or "+" in value:
             return None
         found[name] = value
     return found
 
 
-def _head_start(headers: dict[str, str]) -> bytes:
-    """The status line and the fixed headers of a read's reply, in aiohttp's order."""
+def head_start(headers: dict[str, str]) -> bytes:
+    """The status line and the fixed headers of a 200 reply with *headers*, in aiohttp's order."""
     lines = "".join(f"{name}: {value}\r\n" for name, value in headers.items())
     return f"HTTP/1.1 200 OK\r\n{lines}".encode()

@@ -10,7 +10,7 @@ from typing import Any
 import orjson
 from aiohttp import web
 
-__all__ = ["json_reply", "text_reply", "dumps", "http_date", "SERVER_VERSION", "SERVER_HEADER"]
+__all__ = ["json_reply", "text_reply", "dumps", "http_date", "SERVER_VERSION", "SERVER_HEADER", "JSON_HEADERS"]
 
 _OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 
@@ -20,7 +20,8 @@ SERVER_VERSION = importlib.metadata.version("aiogenomix")
 #: run as a script).  Every reply the gateway makes starts from these: set here rather than in a
 #: middleware or a response signal, which would cost every request a call more.
 SERVER_HEADER = {"Server": f"aiogenomix/{SERVER_VERSION}", "X-Content-Type-Options": "nosniff"}
-_JSON = {"Content-Type": "application/json", **SERVER_HEADER}
+#: The headers of a JSON reply.
+JSON_HEADERS = {"Content-Type": "application/json", **SERVER_HEADER}
 _TEXT = {"Content-Type": "text/plain; charset=utf-8", **SERVER_HEADER}
 
 
@@ -31,7 +32,7 @@ def dumps(obj: Any) -> bytes:
 
 def json_reply(obj: Any, status: int = 200) -> web.Response:
     """An ``application/json`` reply."""
-    return web.Response(status=status, body=dumps(obj), headers=_JSON)
+    return web.Response(status=status, body=dumps(obj), headers=JSON_HEADERS)
 
 
 def text_reply(text: str, status: int = 200) -> web.Response:

@@ -1,18 +1,22 @@
 """One verdict per request head, whichever way the gateway would answer it, and no traceback for any (issue 32).
 
-Plain port reads are answered ahead of the routes (``gateway/_fast_reads.py``);
-everything else, and every read those decline, by the routes.  Both are fed by
-one parser, aiohttp's, and judged by one door.  This test generates request
-heads the way the suite's fuzzers and the issues' reports built them (repeated
-fields, folded lines, odd versions and methods, absolute forms, bodies, hostile
-Host, Origin and token fields, parameters of every kind) and sends each twice,
-over real sockets on kept-alive connections: once naming the port as a plain
-read would (``/module/demo/read/Mobile``), once percent-encoded
-(``/module/demo/read/%4Dobile``), which only the routes decode.  Both must get
-the same status, the same error, and for an answer the same body; and the log
-must hold no line above DEBUG and no traceback.
+Plain port reads and plain sends are answered ahead of the routes
+(``gateway/_fast_reads.py``, ``gateway/_fast_sends.py``); everything else, and
+every request those decline, by the routes.  All are fed by one parser,
+aiohttp's, and judged by one door.  This test generates request heads the way the
+suite's fuzzers and the issues' reports built them (repeated fields, folded lines,
+odd versions and methods, absolute forms, bodies, hostile Host, Origin and token
+fields, parameters of every kind), each aimed at a port read or at a send, and
+sends each twice over real sockets: once naming the port or the service as a
+plain request would (``/module/demo/read/Mobile``, ``/module/demo/send/GetSpeed``),
+once percent-encoded (``.../%4Dobile``, ``.../%47etSpeed``), which only the routes
+decode.  Both must get the same status, the same error, and for an answer the same
+body (a send's request number apart); and the log must hold no line above DEBUG
+and no traceback.
 
 10,000 heads on the default Python (``AIOGENOMIX_HEAVY`` unset), 1,000 on the others.
+Each exchange is a plain non-blocking socket (no stream objects, one timeout for
+the whole exchange): opening connections is most of what the test costs.
 """
 
 from __future__ import annotations
@@ -22,6 +26,8 @@ import json
 import logging
 import os
 import random
+import re
+import socket
 from collections.abc import AsyncIterator
 
 import pytest
@@ -31,8 +37,11 @@ from tests.conftest import TEST_TIME_SCALE
 
 HEADS = 1000 if os.environ.get("AIOGENOMIX_HEAVY") == "0" else 10_000
 TOKEN = "s3cret"
-FAST = "/module/demo/read/Mobile"
-ROUTED = "/module/demo/read/%4Dobile"
+#: The targets of each kind of head: as a plain request names them, and percent-encoded (the routes' alone).
+TARGETS = {"read": ("/module/demo/read/Mobile", "/module/demo/read/%4Dobile"),
+           "send": ("/module/demo/send/GetSpeed", "/module/demo/send/%47etSpeed")}
+#: The number of a send's request, which differs between its two sendings.
+_REQUEST_NUMBER = re.compile(rb'"id":"demo::\d+"')
 pytestmark = pytest.mark.timeout(900)
 
 
@@ -44,9 +53,13 @@ async def gateway() -> AsyncIterator[str]:
         yield url.removeprefix("http://")
 
 
-def _heads(count: int, address: str, seed: int) -> list[tuple[str, bytes]]:
-    """*count* request heads, each with ``{T}`` where the target's path goes (``{A}``: an absolute form's authority)."""
+def _heads(count: int, address: str, seed: int) -> list[tuple[str, str, bytes]]:
+    """*count* request heads: a label, the kind of target (a key of :data:`TARGETS`), and the head's bytes.
+
+    Each has ``{T}`` where the target's path goes.
+    """
     pick = random.Random(seed)
+    kinds = random.Random(seed + 1)  # (apart: the heads are those the reads alone had)
     queries = ["", "?format=binary", "?format=json", "?since=3", "?format=", "?format=xml", "?name=x", "?_=1",
                "?s=a", "?s=a&s=b", "?format=binary&format=json", "?input=1", "?format=%62inary", "?format=bin+ary",
                "?since=-1", "?since=" + "9" * 25, "?since=%C2%B2", "?#frag", "?&", "?=", "?format", "?%ZZ=1",
@@ -79,8 +92,9 @@ def _heads(count: int, address: str, seed: int) -> list[tuple[str, bytes]]:
         "Expect: other", "Transfer-Encoding: chunked", "Transfer-Encoding: gzip, chunked", "Content-Length: 0",
         "Content-Length: 5", "Content-Length: 5\r\nContent-Length: 5", "Content-Length: -1", "Content-Length: x",
         "Content-Length: 99999999999999999999", "Last-Event-ID: 3", "Cache-Control: no-cache"]
+    plain = {"Accept: application/x-aiogenomix-binary", "Accept: */*", "Last-Event-ID: 3", "Cache-Control: no-cache"}
     bodies = [b""] * 6 + [b"12345", b"0\r\n\r\n", b"5\r\nhello\r\n0\r\n\r\n", b"zz\r\n", b"{}"]
-    found: list[tuple[str, bytes]] = []
+    found: list[tuple[str, str, bytes]] = []
     while len(found) < count:
         method, version = pick.choice(methods), pick.choice(versions)
         absolute = pick.random() < 0.1
@@ -90,34 +104,59 @@ def _heads(count: int, address: str, seed: int) -> list[tuple[str, bytes]]:
         fields = [field for field in (pick.choice(hosts), pick.choice(origins), pick.choice(tokens),
                                       pick.choice(extras), pick.choice(extras)) if field]
         end = "\n" if pick.random() < 0.02 else "\r\n"
+        body = pick.choice(bodies)
+        if kinds.random() < 0.25:
+            # A client's own request, its query aside: the heads a plain read or send answers must be many.
+            method, version, line = "GET", "HTTP/1.1", f"GET {target} HTTP/1.1"
+            fields, end, body = [hosts[0], tokens[0], *(field for field in fields if field in plain)], "\r\n", b""
         head = end.join([line, *fields, "", ""]).encode("latin-1", "replace")
-        found.append((f"{method} {target} {version} | {' | '.join(fields)}"[:300], head + pick.choice(bodies)))
+        found.append((f"{method} {target} {version} | {' | '.join(fields)}"[:300], kinds.choice(list(TARGETS)),
+                      head + body))
     return found
 
 
 async def _exchange(address: str, raw: bytes) -> tuple[int, str, bytes]:
-    """Send *raw* on a new connection; its first reply's status, its error (if any) and its body."""
+    """Send *raw* on a new connection; its first final reply's status, its error (if any) and its body."""
     host, port = address.rsplit(":", 1)
-    reader, writer = await asyncio.open_connection(host, int(port), limit=1 << 20)
-    try:
-        writer.write(raw)
-        status = 100
-        while status == 100:  # an interim 100 Continue: the final reply is the one compared
+    loop = asyncio.get_running_loop()
+    received = bytearray()
+
+    async def more() -> bool:
+        """Read what came; False at the end of the stream."""
+        data = await loop.sock_recv(sock, 1 << 16)
+        received.extend(data)
+        return bool(data)
+
+    with socket.socket() as sock:
+        sock.setblocking(False)
+        async with asyncio.timeout(15):
+            await loop.sock_connect(sock, (host, int(port)))
             try:
-                head = await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 15)
-            except asyncio.IncompleteReadError as exc:  # closed without a reply
-                return 0, "no reply", exc.partial[:100]
-            status_line, *lines = head.decode("latin-1").split("\r\n")
-            status = int(status_line.split()[1])
-        fields = {name.lower(): value for name, _, value in (line.partition(": ") for line in lines if line)}
-        if "content-length" not in fields or raw.startswith(b"HEAD "):  # the reply to a HEAD: its head is compared
-            return status, "", b""
-        body = await asyncio.wait_for(reader.readexactly(int(fields["content-length"])), 15)
-        json_error = status >= 400 and fields.get("content-type") == "application/json"
-        # An error's message may quote the target, which differs: its status and name are compared.
-        return status, json.loads(body)["ex"] if json_error else "", body if status < 400 else b""
-    finally:
-        writer.close()
+                await loop.sock_sendall(sock, raw)
+            except OSError:  # refused and closed while the rest was being sent: its reply is read below
+                pass
+            status = 100
+            while status == 100:  # an interim 100 Continue: the final reply is the one compared
+                while (end := received.find(b"\r\n\r\n")) < 0:
+                    try:
+                        if not await more():
+                            return 0, "no reply", bytes(received[:100])
+                    except ConnectionResetError:
+                        return 0, "no reply", bytes(received[:100])
+                head = received[:end].decode("latin-1")
+                del received[:end + 4]
+                status_line, *lines = head.split("\r\n")
+                status = int(status_line.split()[1])
+            fields = {name.lower(): value for name, _, value in (line.partition(": ") for line in lines if line)}
+            if "content-length" not in fields or raw.startswith(b"HEAD "):  # a HEAD's reply: its head is compared
+                return status, "", b""
+            length = int(fields["content-length"])
+            while len(received) < length and await more():
+                pass
+    body = bytes(received[:length])
+    json_error = status >= 400 and fields.get("content-type") == "application/json"
+    # An error's message may quote the target, which differs: its status and name are compared.
+    return status, json.loads(body)["ex"] if json_error else "", body if status < 400 else b""
 
 
 @pytest.mark.parametrize("seed", [32])
@@ -130,13 +169,15 @@ async def test_every_head_gets_one_verdict_whichever_path_would_answer_it(
 
     async def worker() -> None:
         while work:
-            index, (_, raw) = work.pop()
-            fast = await _exchange(gateway, raw.replace(b"{T}", FAST.encode()))
-            routed = await _exchange(gateway, raw.replace(b"{T}", ROUTED.encode()))
-            results[index] = (fast, routed)
+            index, (_, kind, raw) = work.pop()
+            plain, encoded = TARGETS[kind]
+            fast = await _exchange(gateway, raw.replace(b"{T}", plain.encode()))
+            routed = await _exchange(gateway, raw.replace(b"{T}", encoded.encode()))
+            results[index] = (fast[:2] + (_REQUEST_NUMBER.sub(b'"id":"demo::N"', fast[2]),),
+                              routed[:2] + (_REQUEST_NUMBER.sub(b'"id":"demo::N"', routed[2]),))
 
     await asyncio.gather(*(worker() for _ in range(8)))
-    differing = [(heads[index][0], fast[:2], routed[:2]) for index, (fast, routed) in sorted(results.items())
+    differing = [(heads[index][:2], fast[:2], routed[:2]) for index, (fast, routed) in sorted(results.items())
                  if fast != routed]
     assert differing == [], f"{len(differing)} heads got two verdicts, the first: {differing[:5]}"
     statuses = {fast[0] for fast, _ in results.values()}
