@@ -99,7 +99,7 @@ def _analysis(results: dict[str, Any]) -> str:
         "(on Python 3.11 it also starts a task per request, which both pay); both read each request once, with "
         "aiohttp's parser. A plain send (a `GET` of a service with plain parameters, that the door admits as "
         "a program's) is answered by the server's request handler ahead of the routes, as plain reads are "
-        "(`gateway/_fast_sends.py`, decision 39): the door (Host and Origin, one dictionary look-up for a Host "
+        "(`gateway/_fast_sends.py`, decision 41): the door (Host and Origin, one dictionary look-up for a Host "
         "seen before; the token; the query's parameter names, none here), the component runtime's request "
         f"({runtime} a `send` of `GetSpeed` in the runtime alone, measured in the benchmark's own process) and "
         "one write of a head made from a template, without aiohttp's router (which tries the routes under "

@@ -5,7 +5,7 @@ another (50 of them at once in the load benchmark).  Through the routes, such a
 request paid aiohttp's router (eight routes under ``/module``), two middleware
 layers (the guard, and the one aiohttp adds to any application with middleware),
 a ``Response`` and its head: most of what the gateway spent beyond bare aiohttp
-(docs/decisions/0039).
+(docs/decisions/0041).
 
 :class:`FastSends` answers the sends that need none of it, as the server's
 request handler does the plain reads (:mod:`._fast_reads`): a ``GET`` over
