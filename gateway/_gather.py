@@ -19,8 +19,8 @@ What the socket does not take is not handed to the transport all at once
 (:func:`write_draining`): asyncio's transport of Python 3.11 copies every byte
 it is given into a buffer of its own, so a client that asked for the 59 MiB
 window in JSON (150 MB of text) and never read made the gateway hold a copy of
-it, each such client its own.  The transport is given about
-:data:`QUEUED_UP_TO` bytes at a time, and the rest as the client takes them: a
+it, each such client its own.  The transport is given bytes up to its
+high-water mark (64 KiB) at a time, and the rest as the client takes them: a
 client that never reads holds references to the reply's shared pieces, not a
 copy.
 """
