@@ -17,8 +17,8 @@ import time
 from typing import Any
 
 from . import (
-    budgets, fanout, instructions, load, localisation, memory, port_read, profile, record, remote, rooms, scale,
-    service, sessions, soak, sse_clients, storm, viewers, world,
+    budgets, fanout, fuzz_memory, instructions, load, localisation, memory, port_read, profile, record, remote, rooms,
+    scale, service, sessions, soak, sse_clients, storm, viewers, world,
 )
 from ._common import ROOT
 from ._report import render
@@ -40,6 +40,8 @@ BENCHMARKS = {
     "sessions": (sessions.run, {"sessions": 15_000, "sample": 500}, {"sessions": 1_000, "sample": 100}),
     "budgets": (budgets.run, {}, {"clients": 8, "chunks": 40, "seconds": 2.0, "rounds": 1, "size": "256x256"}),
     "storm": (storm.run, {"listens": 3000, "rounds": 3, "settle": 60.0}, {"listens": 300, "rounds": 1, "settle": 2.0}),
+    "fuzz_memory": (fuzz_memory.run, {"clients": 50, "seconds": 30.0, "settle": 60.0},
+                    {"clients": 10, "seconds": 4.0, "settle": 2.0}),
     "viewers": (viewers.run, {"seconds": 20.0, "crowd": 500}, {"seconds": 3.0, "crowd": 40}),
     "localisation": (localisation.run, {"seconds": 5.0, "rounds": 7}, {"seconds": 1.0, "rounds": 2}),
     "rooms": (rooms.run, {"seconds": 4.0, "rounds": 5, "repeats": 9}, {"seconds": 1.0, "rounds": 1, "repeats": 3}),

@@ -121,6 +121,7 @@ def _ms(value: float) -> str:
 def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
     """The whole Markdown page."""
     from .budgets import render as budgets_section
+    from .fuzz_memory import render as fuzz_memory_section
     from .instructions import render as instructions_section
     from .localisation import render as localisation_section
     from .record import render as record_section
@@ -139,6 +140,7 @@ def render(machine: dict[str, Any], results: dict[str, Any]) -> str:
                 ("soak", _soak), ("memory", _memory), ("world", world_section), ("remote", remote_section),
                 ("scale", scale_section),
                 ("sse_clients", sse_section), ("sessions", sessions_section), ("storm", storm_section),
+                ("fuzz_memory", fuzz_memory_section),
                 ("budgets", budgets_section), ("viewers", viewers_section),
                 ("record", record_section), ("instructions", instructions_section),
                 ("localisation", localisation_section), ("rooms", rooms_section)]

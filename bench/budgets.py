@@ -23,6 +23,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import os
 import re
 import signal
 import socket
@@ -48,12 +49,21 @@ PER_CLIENT = 256 * 2**10 + 64 * 2**10
 
 
 @contextlib.asynccontextmanager
-async def _gateway(*args: str) -> AsyncIterator[tuple[str, int, int, asyncio.subprocess.Process]]:
-    """``python -m aiogenomix.gateway`` on free ports; yields its URL, its socket port, its pid and the process."""
+async def _gateway(*args: str, pythonpath: str | None = None,
+                   ) -> AsyncIterator[tuple[str, int, int, asyncio.subprocess.Process]]:
+    """``python -m aiogenomix.gateway`` on free ports; yields its URL, its socket port, its pid and the process.
+
+    *pythonpath* comes first on the gateway's import path (another checkout's ``aiogenomix``, to
+    measure it beside this one).
+    """
     socket_port = free_port()
+    env = None
+    if pythonpath:
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [pythonpath, os.environ.get("PYTHONPATH")])))
     process = await asyncio.create_subprocess_exec(
         sys.executable, "-m", "aiogenomix.gateway", "--port", "0", "--audio-socket-port", str(socket_port),
-        "--log-level", "warning", *args, cwd=ROOT, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.DEVNULL)
+        "--log-level", "warning", *args, cwd=ROOT, env=env, stdout=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.DEVNULL)
     try:
         assert process.stdout is not None
         line = (await asyncio.wait_for(process.stdout.readline(), 120)).decode()

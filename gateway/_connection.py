@@ -33,18 +33,20 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import logging
+from collections.abc import Awaitable, Callable
 from http import HTTPStatus
 from typing import Any
 
 from aiohttp import StreamReader, web
+from aiohttp.base_protocol import BaseProtocol
 from aiohttp.http_exceptions import BadStatusLine, HttpProcessingError, LineTooLong
 
-from ._gather import direct_socket, unsent, write_gathered
+from ._gather import write_draining
 from ._refusal_log import SERVER_LOG
 from ._replies import SERVER_HEADER, dumps, http_date
 
-__all__ = ["ConnectionLimits", "GatewayConnection", "Written", "handler_arguments", "LINGER", "MAX_FIELD_LINE",
-           "MAX_FIELDS", "UNSUPPORTED_VERSION"]
+__all__ = ["ConnectionLimits", "GatewayConnection", "Written", "drained_of", "handler_arguments", "LINGER",
+           "MAX_FIELD_LINE", "MAX_FIELDS", "UNSUPPORTED_VERSION"]
 
 log = logging.getLogger(__name__)
 
@@ -108,14 +110,11 @@ class Written(web.StreamResponse):
         return self._keeps_alive
 
     async def prepare(self, request: web.BaseRequest) -> None:
-        """Write the reply (aiohttp calls this once the handler has returned it)."""
+        """Write the reply (aiohttp calls this once the handler has returned it), as the client takes it."""
         transport = request.transport
         if transport is None or transport.is_closing():
             return
-        fd = direct_socket(transport)
-        written = write_gathered(fd, self._pieces) if fd is not None else 0
-        for piece in unsent(self._pieces, written):
-            transport.write(piece)
+        await write_draining(transport, self._pieces, drained_of(request.protocol))
 
     async def write_eof(self, data: bytes = b"") -> None:  # noqa: D102
         return None
@@ -183,6 +182,28 @@ class GatewayConnection(web.RequestHandler):
             self._unread = True  # a head after the request being answered: timed once that one is
         elif self._head_since is None:
             self._time_head()
+
+    async def drained(self) -> None:
+        """Wait until the client has taken what the transport holds, down to its low-water mark.
+
+        A reply written as its client reads (``_gather.write_draining``) holds its
+        publication as long as it waits: the chunks the port has since let go included.
+        A client that takes nothing of it for as long as an idle connection may stay open
+        (:attr:`ConnectionLimits.keep_alive`) is disconnected.
+
+        Raises:
+            ConnectionResetError: The connection was lost, or is closed here.
+        """
+        try:
+            async with asyncio.timeout(self._limits.keep_alive or None):
+                await self._drain_helper()
+        except TimeoutError:
+            transport = self.transport
+            log.debug("disconnected %s: it took nothing of its reply for %g s", _peer(transport),
+                      self._limits.keep_alive)
+            if transport is not None:
+                transport.abort()
+            raise ConnectionResetError("the client took nothing of its reply") from None
 
     # -- requests (told by the server's request handler: see ``_run``) ----------------------
 
@@ -256,8 +277,11 @@ class GatewayConnection(web.RequestHandler):
         # Closing while the client still sends would make the kernel reset the connection, and
         # the client would never read the answer: half-close, and close when it closes its side
         # (asyncio closes a transport whose protocol's eof_received answers None) or after LINGER.
-        if transport.can_write_eof():
-            transport.write_eof()
+        try:
+            if transport.can_write_eof():
+                transport.write_eof()
+        except OSError:  # the client has gone already (a reset): nobody is left to read the refusal
+            transport.abort()
         self._linger = self._event_loop.call_later(LINGER, transport.close)
         self._lingering = transport
         self.transport = None
@@ -288,6 +312,18 @@ class GatewayConnection(web.RequestHandler):
             self._head_timer = self._event_loop.call_at(deadline, self._head_timed_out)
         else:
             self._refuse(408, f"the request head took more than {self._limits.header_timeout:g} s")
+
+
+def drained_of(protocol: object) -> Callable[[], Awaitable[None]]:
+    """How a reply written on *protocol*'s connection waits for its client (:meth:`GatewayConnection.drained`).
+
+    A connection served some other way waits with aiohttp's own flow control, without a bound.
+    """
+    if isinstance(protocol, GatewayConnection):
+        return protocol.drained
+    if isinstance(protocol, BaseProtocol):
+        return protocol._drain_helper  # aiohttp's writer waits with it (StreamWriter.drain)
+    raise TypeError(f"no flow control on {type(protocol).__name__}")
 
 
 def _peer(transport: asyncio.BaseTransport | None) -> str:

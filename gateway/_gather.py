@@ -14,15 +14,24 @@ transport, which sends it as it sends everything else.
 Writing beside the transport is safe only when the transport holds no bytes
 of its own (they would go out after ours) and when it writes the socket as it
 is (not through TLS): :func:`direct_socket` checks both.
+
+What the socket does not take is not handed to the transport all at once
+(:func:`write_draining`): asyncio's transport of Python 3.11 copies every byte
+it is given into a buffer of its own, so a client that asked for the 59 MiB
+window in JSON (150 MB of text) and never read made the gateway hold a copy of
+it, each such client its own.  The transport is given bytes up to its
+high-water mark (64 KiB) at a time, and the rest as the client takes them: a
+client that never reads holds references to the reply's shared pieces, not a
+copy.
 """
 
 from __future__ import annotations
 
 import asyncio
 import os
-from collections.abc import Sequence
+from collections.abc import Awaitable, Callable, Sequence
 
-__all__ = ["Buffer", "direct_socket", "write_gathered", "unsent"]
+__all__ = ["Buffer", "direct_socket", "write_gathered", "unsent", "write_draining", "unlinked"]
 
 #: A piece of a reply: bytes, or a byte-format (``"B"``) memoryview of immutable data.
 Buffer = bytes | memoryview
@@ -84,3 +93,54 @@ def unsent(buffers: Sequence[Buffer], written: int) -> list[Buffer]:
             return rest
         written -= len(piece)
     return []
+
+
+async def write_draining(transport: asyncio.WriteTransport, pieces: Sequence[Buffer],
+                         drained: Callable[[], Awaitable[None]]) -> None:
+    """Write *pieces* in order to *transport*'s connection as fast as its client takes them, never copying them all.
+
+    While the transport holds nothing, the pieces go straight to the socket
+    (:func:`write_gathered`); the transport is handed the next ones until it holds more
+    than its high-water mark (by one piece at most), where its protocol is asked to
+    wait, and the rest waits for *drained*.
+
+    Args:
+        transport: The connection's transport (nothing else writes to it meanwhile).
+        pieces: The bytes to write, in order (immutable: they are written as the client reads).
+        drained: Waits until the transport holds little again (the protocol's flow control:
+            aiohttp's ``drain``); it may raise to give up (a client that takes nothing).
+
+    Raises:
+        ConnectionResetError: The connection closed before the last piece went out.
+    """
+    high = transport.get_write_buffer_limits()[1]
+    rest = list(pieces)
+    while rest:
+        if transport.is_closing():  # the reader went away: what aiohttp's writer raises then
+            raise ConnectionResetError("the connection closed while the reply was written")
+        fd = direct_socket(transport)
+        if fd is not None:
+            rest = unsent(rest, write_gathered(fd, rest))
+        given = 0
+        # A write may find the connection reset (the transport closes then): the next ones would
+        # each be dropped with a warning of asyncio's.
+        while given < len(rest) and transport.get_write_buffer_size() <= high and not transport.is_closing():
+            transport.write(rest[given])
+            given += 1
+        del rest[:given]
+        if rest:
+            try:
+                await drained()
+            except ConnectionError as exc:
+                raise unlinked(exc) from None
+
+
+def unlinked(exc: ConnectionError) -> ConnectionResetError:
+    """A fresh error for *exc*, a lost connection met while waiting for it to drain; *exc* let go of its frames.
+
+    The waiter that *exc* ended keeps it, and its traceback keeps the frames it went through with
+    their locals (the reply being written: a whole publication of the audio window): a cycle that
+    only a full collection frees, which a gateway holding a million long-lived objects seldom runs.
+    """
+    exc.__traceback__ = None
+    return ConnectionResetError(f"the connection closed while a reply was written ({exc})")

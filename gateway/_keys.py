@@ -58,12 +58,32 @@ class Shutdown:
 SHUTDOWN = web.AppKey("shutdown", Shutdown)
 
 
-class WatchFrames(weakref.WeakKeyDictionary[OutPortRuntime[Any], tuple[tuple[Any, ...], bytes, int | None]]):
+class WatchFrames(weakref.WeakKeyDictionary[OutPortRuntime[Any],
+                                            tuple[tuple[Any, ...], tuple[bytes | memoryview, ...], int | None]]):
     """The last ``port`` event frame of each watched port, with its key and the reader's new index.
 
     Watchers in step with each other share one encoding.  Held by the app (not
-    by a module): two gateways in one process never share frames.
+    by a module): two gateways in one process never share frames.  The frame of
+    a port is let go when its last watcher leaves (:meth:`left`): a frame of the
+    whole audio window holds 150 MB of text.
     """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._watchers: weakref.WeakKeyDictionary[OutPortRuntime[Any], int] = weakref.WeakKeyDictionary()
+
+    def joined(self, port: OutPortRuntime[Any]) -> None:
+        """A watcher of *port* began."""
+        self._watchers[port] = self._watchers.get(port, 0) + 1
+
+    def left(self, port: OutPortRuntime[Any]) -> None:
+        """A watcher of *port* ended: the last one takes the port's frame with it."""
+        remaining = self._watchers.get(port, 0) - 1
+        if remaining > 0:
+            self._watchers[port] = remaining
+            return
+        self._watchers.pop(port, None)
+        self.pop(port, None)
 
 
 WATCH_FRAMES = web.AppKey("watch_frames", WatchFrames)

@@ -18,7 +18,8 @@ from aiohttp import payload
 from aiohttp.abc import AbstractStreamWriter
 
 from ..components.core import ChunkedArray
-from ._gather import Buffer, direct_socket, unsent, write_gathered
+from ._connection import drained_of
+from ._gather import Buffer, direct_socket, write_draining
 
 __all__ = ["json_pieces", "PiecesPayload", "body_of", "JOINED_UP_TO"]
 
@@ -72,12 +73,13 @@ class PiecesPayload(payload.Payload):
     one gathered write (``_fast_reads``); this payload is the routes' form of the same
     body.  Its first piece goes through aiohttp's writer, with the HTTP head the writer
     holds until then; when the connection then has nothing queued, the other pieces
-    go straight to the socket in one gathered write (:mod:`._gather`), and what the
-    socket does not take goes to the transport, which sends it as the socket drains:
+    go straight to the socket in one gathered write, and what the socket does not
+    take goes to the transport as the client takes it (:func:`._gather.write_draining`):
     nothing is copied on the way but by the kernel (and, on Python 3.11, by the
-    transport for what it queues).  Otherwise they go through aiohttp's writer, after
-    what it holds.  The routes never compress these replies nor frame them in chunks
-    (a ``Content-Length`` is set): the pieces are the bytes of the body.
+    transport for the little it queues at a time).  Otherwise they go through
+    aiohttp's writer, after what it holds, which waits for the client likewise.  The
+    routes never compress these replies nor frame them in chunks (a ``Content-Length``
+    is set): the pieces are the bytes of the body.
 
     Args:
         pieces: The body's pieces, in order: bytes, or byte-format memoryviews of
@@ -110,19 +112,15 @@ class PiecesPayload(payload.Payload):
         fd = direct_socket(transport) if rest and not getattr(writer, "chunked", True) else None
         if fd is None or transport is None:
             # The transport has bytes queued (the head and first piece, or a reply before this
-            # one) or is not a plain socket: everything goes through aiohttp's writer.
+            # one) or is not a plain socket: everything goes through aiohttp's writer, which
+            # waits for the client past the transport's high-water mark.
             for piece in rest:
-                await writer.write(piece, drain=False)  # type: ignore[call-arg]
+                await writer.write(piece)
             return
-        written = write_gathered(fd, rest)
-        _account(writer, written)
-        # What the socket did not take goes to the transport, which sends it as the socket
-        # drains (aiohttp waits for that at the end of the reply, as for any body).
-        for piece in unsent(rest, written):
-            if transport.is_closing():  # the reader went away: what aiohttp's writer raises then
-                raise ConnectionResetError("the connection closed while the reply was written")
-            transport.write(piece)
-            _account(writer, len(piece))
+        # The rest goes out as the client takes it (aiohttp waits for the last bytes at the
+        # end of the reply, as for any body): the transport never holds a copy of it all.
+        await write_draining(transport, rest, drained_of(getattr(writer, "protocol", None)))
+        _account(writer, sum(len(piece) for piece in rest))
 
     def decode(self, encoding: str = "utf-8", errors: str = "strict") -> str:
         """The body as text (for logs and tests)."""

@@ -12,9 +12,10 @@ when the instance is unloaded or killed.
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import functools
-from typing import Any
+from typing import Any, cast
 
 import orjson
 from aiohttp import web
@@ -22,15 +23,18 @@ from aiohttp import web
 from ..components.core import Chunked, Incremental, OutPortRuntime, OverBudget
 from ..components.core.runtime import BINARY_CONTENT_TYPE, PortUnavailable, RemoteUnreachable, encode_binary
 from ._errors import BadQuery
-from ._keys import HOST, READ_BODIES, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, WatchFrames
-from ._pieces import PiecesPayload, body_of, json_pieces
+from ._keys import CONFIG, HOST, READ_BODIES, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, WatchFrames
+from ._gather import Buffer, unlinked
+from ._pieces import JOINED_UP_TO, PiecesPayload, body_of, json_pieces
 from ._read_bodies import ReadBodies
-from ._replies import SERVER_HEADER, dumps
+from ._replies import SERVER_HEADER
 from ._sse import FINAL_ID, PING, event_id, event_stream, format_event
 
 __all__ = ["routes", "read_body", "wants_binary", "parse_since", "READ_HEADERS"]
 
 routes = web.RouteTableDef()
+#: A ``port`` event of a watch, in pieces to be written in order (one ``bytes`` when small).
+Frame = tuple[Buffer, ...]
 
 
 def wants_binary(fmt: str, accept: str) -> bool:
@@ -148,7 +152,7 @@ def read_body(bodies: ReadBodies | None, name: str, port: Any, value: Any, eleme
 
 
 def _watch_frame(frames: WatchFrames, name: str, port: OutPortRuntime[Any], element: str | None, delivered: int,
-                 last_index: int | None) -> tuple[bytes, int, int | None]:
+                 last_index: int | None) -> tuple[Frame, int, int | None]:
     """The next ``port`` event for a reader, shared through *frames*; returns it with the new version and index."""
     newest = port.version
     key = (newest, element, delivered if last_index is None else last_index, last_index is None)
@@ -161,13 +165,55 @@ def _watch_frame(frames: WatchFrames, name: str, port: OutPortRuntime[Any], elem
         start = value.index - getattr(value, "items_per_publication", 1) if last_index is None else last_index
         # The reader now holds up to the newest item (whatever the struct calls it: index, lastFrameIndex).
         new_index: int | None = value.index
-        value, lost = value.since(max(start, 0))
+        # Numbered chunks as they are (their JSON texts made once, shared by every watcher and read):
+        # a watcher starting at 0 gets the whole window, 150 MB of JSON for the 59 MiB window.
+        if _is_chunked(type(value)):
+            value, lost = cast(Chunked, value).chunked(max(start, 0))
+        else:
+            value, lost = value.since(max(start, 0))
     else:
         lost = max(0, newest - delivered - 1) if delivered else 0
         new_index = last_index
-    frame = format_event("port", dumps({name: port.type.encode(value), "lost": lost}))
+    frame = _port_event(json_pieces({name: port.type.encode(value), "lost": lost}))
     frames[port] = (key, frame, new_index)
     return frame, newest, new_index
+
+
+def _port_event(pieces: list[bytes]) -> Frame:
+    """The ``port`` event of the JSON *pieces*: one ``bytes`` when small, else pieces never joined."""
+    if len(pieces) == 1 or sum(len(piece) for piece in pieces) <= JOINED_UP_TO:
+        return (format_event("port", b"".join(pieces)),)
+    return (b"event: port\ndata: " + pieces[0], *pieces[1:-1], pieces[-1] + b"\n\n")
+
+
+async def _write_event(request: web.Request, stream: web.StreamResponse, frame: Frame, stall: float | None) -> None:
+    """Write *frame* to a watcher as it takes it: a large one piece by piece, small pieces joined.
+
+    Each write waits until the connection has taken the one before (aiohttp's flow control): the
+    transport never holds a copy of a whole window.  A watcher that takes nothing for *stall*
+    seconds (an idle connection's keep-alive time) is disconnected.
+
+    Raises:
+        ConnectionResetError: The watcher left, or was disconnected.
+    """
+    small: list[Buffer] = []
+    for piece in (*frame, b""):
+        if piece and len(piece) < JOINED_UP_TO:
+            small.append(piece)
+            continue
+        for out in (b"".join(small), piece):
+            if not out:
+                continue
+            try:
+                async with asyncio.timeout(stall):
+                    await stream.write(out)
+            except TimeoutError:
+                if request.transport is not None:
+                    request.transport.abort()
+                raise ConnectionResetError("the watcher took nothing of its event") from None
+            except ConnectionError as exc:
+                raise unlinked(exc) from None
+        small = []
 
 
 @routes.get("/module/{module}/watch/{port}")
@@ -212,10 +258,12 @@ async def watch(request: web.Request) -> web.StreamResponse:
     elif since is not None and port.version:
         _require_incremental(port, port.read(element))
     shutdown = request.app[SHUTDOWN]
+    stall = request.app[CONFIG].keep_alive or None
     frames = request.app[WATCH_FRAMES]
     wakes = request.app[WATCH_WAKES]
     unloaded = request.app[UNLOADS].of(port.owner)
     stream = event_stream(request)
+    frames.joined(port)
     try:
         await stream.prepare(request)
         delivered = 0  # the port version the reader has
@@ -230,8 +278,8 @@ async def watch(request: web.Request) -> web.StreamResponse:
                     stuck = True  # not current after all (a silent component host...): as withdrawn data
                 else:
                     if stream.standard:
-                        frame = event_id(delivered if last_index is None else last_index) + frame
-                    await stream.write(frame)
+                        frame = (event_id(delivered if last_index is None else last_index) + frame[0], *frame[1:])
+                    await _write_event(request, stream, frame, stall)
                     continue
             # With every other watcher of the port: woken by a publication, the end, or a ping.
             await wakes.wait(port)
@@ -239,10 +287,12 @@ async def watch(request: web.Request) -> web.StreamResponse:
                     and not unloaded.done()):
                 await stream.write(PING)
         if unloaded.done():
-            frame = format_event("unload", orjson.dumps(port.owner.instance))
-            await stream.write(event_id(FINAL_ID) + frame if stream.standard else frame)
+            end = format_event("unload", orjson.dumps(port.owner.instance))
+            await stream.write(event_id(FINAL_ID) + end if stream.standard else end)
     except ConnectionError:
         pass  # the reader went away
+    finally:
+        frames.left(port)
     with contextlib.suppress(ConnectionError):
         await stream.write_eof()
     return stream

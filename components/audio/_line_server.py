@@ -263,6 +263,7 @@ class LineServer:
                 writer.write(encode_error("the server failed to answer this request (see the gateway's log)"))
         finally:
             self._connections.discard(task)
+            reply = b""  # see _send: this frame may outlive the call
             writer.close()
             with contextlib.suppress(ConnectionError):
                 await writer.wait_closed()
@@ -302,18 +303,28 @@ class LineServer:
                                               evict=drop)
         except OverBudget as exc:  # only a reply larger than the bound in all: the server's budgets disagree
             raise RequestError(str(exc)) from None
+        view = memoryview(reply)
         try:
-            view = memoryview(reply)
             for start in range(0, size, PIECE):
                 if writer.transport.is_closing():
                     raise ConnectionResetError("the client was dropped or went away")
                 writer.write(view[start:start + PIECE])
-                await writer.drain()
+                try:
+                    await writer.drain()
+                except ConnectionError as exc:
+                    # The waiter that *exc* ended keeps it, and its traceback this frame with the
+                    # reply (up to the whole port): a cycle only a full collection frees.
+                    exc.__traceback__ = None
+                    raise ConnectionResetError(f"the client went away: {exc}") from None
                 # Drained: this client reads.  The ledger drops those that have waited longest since
                 # they last read, never a reader of a large reply for the age of its request.
                 reservation.progressed()
         finally:
             reservation.release()
+            # This frame may outlive the call, held by a traceback in a cycle with its task (a
+            # client that went away): it must not hold the reply (up to the whole port) then.
+            view = memoryview(b"")
+            reply = b""
 
     def _admits(self, line: bytes) -> bool:
         """Check the first line of a client of a server with a token.

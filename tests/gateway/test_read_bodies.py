@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import gc
+import weakref
 from collections.abc import AsyncIterator
 from typing import Any
 
@@ -12,6 +13,7 @@ import pytest
 from aiogenomix.components.capture import PortView
 from aiogenomix.components.core import ComponentHost, ScaledClock
 from aiogenomix.components.kemarcapture import KemarPortData
+from aiogenomix.gateway._pieces import PiecesPayload
 from aiogenomix.gateway._read_bodies import IDLE_PUBLICATIONS, ReadBodies
 from aiogenomix.gateway._routes_ports import read_body
 from aiogenomix.gateway._unloads import Unloads
@@ -111,6 +113,37 @@ async def test_the_task_of_a_port_ends_with_its_instance_or_when_nobody_reads(
     assert task is not None and not task.done()
     await host.unload("windowed")
     await asyncio.wait_for(task, 5)
+
+
+async def test_a_port_nobody_reads_any_more_lets_go_of_its_bodies(
+        parts: tuple[Windowed, ReadBodies, asyncio.Future[None]]) -> None:
+    # A JSON body of the audio window holds its publication's chunks and their texts (150 MB for
+    # a 59 MiB window): kept after nobody reads, it would outlive the port's moving on.
+    component, bodies, _ = parts
+    publish(component, 3)
+
+    made: list[weakref.ref[PiecesPayload]] = []
+
+    def make(port: Any, value: Any) -> PiecesPayload:
+        body = PiecesPayload([b"%d" % value.data.index], "application/json")
+        made.append(weakref.ref(body))
+        return body
+
+    body = bodies.body(component.Port, component.Port.read(), (False, None), make)
+    assert bodies.body(component.Port, component.Port.read(), (False, None), make) is body  # kept while read
+    task = bodies._ports[component.Port].task
+    assert task is not None
+    del body
+    for chunks in range(4, 4 + 10 * IDLE_PUBLICATIONS):  # publications nobody reads, a loop turn apart
+        publish(component, chunks)
+        await asyncio.sleep(0)
+        if task.done():
+            break
+    assert task.done()
+    gc.collect()
+    assert len(made) >= 2 and not [ref for ref in made if ref() is not None]  # nor those made ahead
+    again = bodies.body(component.Port, component.Port.read(), (False, None), make)
+    assert again.decode() == str(chunks)  # the next read makes the body of the port as it is now
 
 
 async def test_the_tasks_end_when_the_gateway_stops(parts: tuple[Windowed, ReadBodies, asyncio.Future[None]]) -> None:
