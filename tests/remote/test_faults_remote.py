@@ -55,7 +55,13 @@ async def test_a_killed_host_ends_its_requests_once_and_is_loaded_again_when_it_
             assert await _next_event(events) == ("unload", '"demo"')  # once: no second end of demo::0
             noticed = time.monotonic() - killed
             assert noticed < 10, f"the death was noticed after {noticed:.1f} s"
-            assert await waiting == (200, ended)
+            # The wait gets the request's end; or, when it reached the gateway only after the host was known
+            # gone (a busy machine), the refusal that names the host: never a wait that hangs.
+            status, waited = await waiting
+            if status == 200:
+                assert waited == ended
+            else:
+                assert (status, waited["ex"], waited["detail"]["host"]) == (503, "::genom::remote_io", "robot"), waited
             # Not an unknown name: its host is gone, and may come back.
             status, error = await _get(http, "/module/demo/info")
             assert (status, error["ex"], error["detail"]["host"]) == (503, "::genom::remote_io", "robot"), error
