@@ -33,13 +33,13 @@ def interrupt_each_wait() -> None:
     while True:
         waiting.wait()
         os.kill(os.getpid(), signal.SIGINT)
-        time.sleep(0.0005)
+        time.sleep(0.0005)             # pacing, not waiting: a Ctrl-C each half millisecond of a wait
 
 
 def watch() -> None:
     last, since, began = -1, time.monotonic(), time.monotonic()
     while True:
-        time.sleep(0.05)
+        time.sleep(0.05)               # the watchdog's period: it measures progress, it awaits nothing
         if sets != last:
             last, since = sets, time.monotonic()
         elif time.monotonic() - since > 2:
