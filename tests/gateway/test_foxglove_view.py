@@ -144,14 +144,15 @@ async def test_a_viewer_gets_the_head_and_a_camera_while_a_stalled_one_delays_no
                   if np.array_equal(captured[k:k + len(shown)], shown)]
         assert len(starts) == 1  # those very chunks of the capture
 
-        # The gateway's clients meanwhile: the listen stream is as prompt as before (the median within
-        # 20 ms). Its 90th percentile is judged against the same measure without the stalled viewer, with
-        # 250 ms to spare: a machine whose cores are shared six times over delays some events by itself
-        # (seen: 0.19 s against 0.02 s a minute earlier), while a viewer that held the gateway up would
-        # hold it for as long as it does not read, seconds.
+        # The gateway's clients meanwhile: the listen stream is about as prompt as before, judged against
+        # the same measure taken a moment earlier without the stalled viewer (on a quiet machine: medians
+        # of a few ms). A machine whose cores are shared many times over delays events by itself (a flake
+        # hunt with three CPU hogs beside four developers: medians of 0.22 s unhindered, 0.40 s hindered;
+        # serving the stalled viewer's subscriptions costs a starved process some CPU), hence the factor;
+        # a viewer that held the gateway up would hold it for as long as it does not read: seconds.
         hindered = await listen_delays(url, 30)
-        assert statistics.median(hindered) < 0.02, hindered
-        assert percentile(hindered, 0.9) <= percentile(unhindered, 0.9) + 0.25, (unhindered, hindered)
+        assert statistics.median(hindered) <= 2 * statistics.median(unhindered) + 0.02, (unhindered, hindered)
+        assert percentile(hindered, 0.9) <= 2 * percentile(unhindered, 0.9) + 0.25, (unhindered, hindered)
         # (the viewer is still served)
         await asyncio.wait_for(viewer.recv(), 30)
 
