@@ -447,6 +447,17 @@ def render(r: dict[str, Any]) -> str:
                 f"{calls['spread']['p99']:.2f} | {calls['one']['median']:.2f} / {calls['one']['p99']:.2f} | "
                 f"{calls['median_ratio']:.2f} / {calls['p99_ratio']:.2f} | {rss['gateway']:.0f} / "
                 f"{rss['router']:.0f} / {rss['host_mean']:.0f} | {f['load_seconds']:.2f} |")
+    rows += [
+        "",
+        "What the after code does (decisions 38 and 46): a host hears the beats only of the hosts it reads from, and "
+        "beats as often as those who hear it ask (every 0.5 s for the gateway's default stale bound of 2 s, where "
+        "every host beat every 0.25 s), so the router forwards N beats per half-second to the gateway and none to "
+        "the hosts (d5f1c87 sent every host every other host's beats); the gateway imports the audio library "
+        "only when the live view shows an audio port (it had doubled its resident memory). Calls interleaved "
+        "over the hosts reach a host that slept since its last "
+        "call: at most half of that extra time is the hand-off to its event loop and its code run cold, the rest "
+        "is Zenoh's threads and the machine (decision 46 measures each part).",
+    ]
     rows.append("")
     for code in codes:
         v = r[code]

@@ -67,7 +67,7 @@ class GatewayConfig:
             ``function_grace``), and to offer again a name it offered, before the gateway answers
             ``::genom::remote_io``.
         zenoh_stale: Seconds without news of a component host after which reads of its ports answer
-            ``::genom::remote_io`` and sends to it are refused (it beats every 0.25 s).
+            ``::genom::remote_io`` and sends to it are refused (hosts beat four times within it).
     """
 
     host: str = "127.0.0.1"

@@ -4,10 +4,12 @@ A :class:`ZenohDirectory` is a host's :class:`~aiogenomix.components.core.runtim
 asks it first, and it decides where a name runs.  A gateway's follows every offer (liveliness tokens)
 and every host's heartbeat; a component host's only the offers of the names it looks for and the
 heartbeats of the hosts it reads from, so that what a host hears does not grow with the number of
-hosts (decision 38).  A token that disappears (the process died, or the network was cut longer than
-Zenoh's lease) makes the proxy of that instance end its requests and unload; until the same host
-offers the instance again, its name is refused as gone (503), then the gateway loads it again under
-the same name and tells every session (an ``offered`` event).
+hosts (decision 38).  Either says in its hear token how often it needs a beat, four times within its
+stale bound, and hosts beat that often (every 0.5 s for the default bound of 2 s; decision 46).  A token
+that disappears (the process died, or the network was cut longer than Zenoh's lease) makes the proxy of
+that instance end its requests and unload; until the same host offers the instance again, its name is
+refused as gone (503), then the gateway loads it again under the same name and tells every session (an
+``offered`` event).
 """
 
 from __future__ import annotations
@@ -29,7 +31,8 @@ from ._offers import OfferBook, OfferedBefore, split_name
 from ._proxy import RemoteInstance, RemoteLink, RemoteTimeouts, describe_remote, heard_text, utc_text
 from ._session import Unanswered, ZenohSettings, alive, ask, connect_endpoints, on_zenoh_thread, open_session
 from ._wire import (
-    BEATS, LEGACY_OFFERS, OFFERS, OfferKey, beat_key, facts_key, gateway_token, legacy_offer, offers_of, parse_offer,
+    BEATS, LEGACY_OFFERS, OFFERS, OfferKey, beat_key, facts_key, gateway_token, hear_token, legacy_offer, offers_of,
+    parse_offer,
 )
 
 __all__ = ["ZenohDirectory"]
@@ -85,11 +88,13 @@ class ZenohDirectory:
         #: looked for, and the heartbeat of each host run it holds a proxy of.
         self._names: dict[str, list[Any]] = {}
         self._beats: dict[str, Any] = {}
+        self._hear_token: Any = None
         if gateway:
             # A gateway hears every host (``/`` says when each was heard) and every offer; a host hears only
             # the hosts it reads from (see _follow_name and _follow_beats): with N hosts, N beats reach each
             # gateway, and none reach a host that reads no other host's port, not N - 1.
             self._declared.append(session.declare_subscriber(BEATS, on_zenoh_thread(self._on_beat)))
+            self._declare_hear_token()
             for key in (OFFERS, LEGACY_OFFERS):
                 self._declared.append(self._offers_subscriber(key))
             # Declared before any request is sent: a host that runs our motions sees us vanish.
@@ -305,7 +310,14 @@ class ZenohDirectory:
         """Hear the heartbeat of the host run *zid* (a gateway hears every host's already)."""
         if self._gateway or zid in self._beats:
             return
+        self._declare_hear_token()
         self._beats[zid] = self.session.declare_subscriber(beat_key(zid), on_zenoh_thread(self._on_beat))
+
+    def _declare_hear_token(self) -> None:
+        """Tell hosts how often this process needs their beat (once; it stands until the session closes)."""
+        if self._hear_token is None:
+            self._hear_token = self.session.liveliness().declare_token(hear_token(self.zid, self.timeouts.stale))
+            self._declared.append(self._hear_token)
 
     def _run_over(self, zid: str) -> None:
         """The host run *zid* offers nothing any more: stop hearing it."""

@@ -2,6 +2,8 @@
 
 Gateways read the facts (``/`` shows where each instance runs), hear the heartbeat (a port of a
 host not heard from within the gateway's bound is not served as current), and follow the offers.
+The heartbeat is as frequent as the processes that hear it ask in their hear tokens (four beats within
+the shortest stale bound), not more: its cost in the router and the gateway grows with the hosts.
 The host follows the gateways' liveliness tokens: when a gateway vanishes (its process died, or
 its link stayed cut past Zenoh's lease), the motions it started stop, as with a dead-man switch.
 """
@@ -20,7 +22,9 @@ import zenoh
 from ..components.core import Component, ComponentHost
 from ._exporter import ComponentExporter
 from ._session import alive, on_zenoh_thread
-from ._wire import BEAT_PERIOD, GATEWAYS, PROTOCOL, beat_key, facts_key, gateway_token, ok_reply
+from ._wire import (
+    BEAT_PERIOD, GATEWAYS, HEARERS, PROTOCOL, beat_key, facts_key, gateway_token, ok_reply, parse_hear,
+)
 
 __all__ = ["HostNode"]
 
@@ -46,6 +50,10 @@ class HostNode:
         self.loop = asyncio.get_running_loop()
         self.exporters: dict[str, ComponentExporter] = {}
         self._gateways: set[str] = set()
+        #: The seconds between two beats each process that hears them asked (by session id).
+        self._hearers: dict[str, float] = {}
+        #: Set when the beat period may have shortened: the beat that waits is sent at once.
+        self._hurry = asyncio.Event()
         self._checking: set[str] = set()
         self._tasks: set[asyncio.Task[Any]] = set()
         self._facts = ok_reply(self.facts())
@@ -57,6 +65,8 @@ class HostNode:
         # With history: the gateways already there come first, then every change.
         self._watch = session.liveliness().declare_subscriber(GATEWAYS, on_zenoh_thread(self._on_gateway),
                                                               history=True)
+        self._hear_watch = session.liveliness().declare_subscriber(HEARERS, on_zenoh_thread(self._on_hearer),
+                                                                   history=True)
 
     # -- offers ------------------------------------------------------------------------------
 
@@ -92,13 +102,39 @@ class HostNode:
             query.reply(query.key_expr, self._facts, express=True)
         query.drop()  # type: ignore[no-untyped-call]
 
+    def beat_period(self) -> float:
+        """Seconds between two heartbeats: the shortest any process that hears them asks.
+
+        A gateway of before the hear tokens asks nothing and gets :data:`BEAT_PERIOD`, as does
+        everyone when nobody asks (a process that reads this host and says nothing may be listening).
+        """
+        asked = [*self._hearers.values(), *(BEAT_PERIOD for gateway in self._gateways if gateway not in self._hearers)]
+        return min(asked, default=BEAT_PERIOD)
+
     async def _beating(self) -> None:
         beat = 0
         while True:
             beat += 1
             with contextlib.suppress(zenoh.ZError):
                 self._beat.put(orjson.dumps(beat))
-            await asyncio.sleep(BEAT_PERIOD)
+            self._hurry.clear()
+            # A hearer that asks for more frequent beats gets the next one at once, not after the old period.
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._hurry.wait(), self.beat_period())
+
+    def _on_hearer(self, sample: zenoh.Sample) -> None:
+        hearer = parse_hear(str(sample.key_expr))
+        if hearer is not None:
+            self.loop.call_soon_threadsafe(self._hearer_changed, *hearer, sample.kind != zenoh.SampleKind.DELETE)
+
+    def _hearer_changed(self, hearer: str, period: float, present: bool) -> None:
+        before = self.beat_period()
+        if present:
+            self._hearers[hearer] = period
+        elif self._hearers.get(hearer) == period:
+            del self._hearers[hearer]
+        if self.beat_period() < before:
+            self._hurry.set()
 
     # -- the dead-man switch -----------------------------------------------------------------
 
@@ -108,7 +144,10 @@ class HostNode:
 
     def _gateway_changed(self, gateway: str, present: bool) -> None:
         if present:
+            before = self.beat_period()
             self._gateways.add(gateway)
+            if self.beat_period() < before:
+                self._hurry.set()
             return
         self._gateways.discard(gateway)
         log.info("gateway %s is gone", gateway)
@@ -161,6 +200,6 @@ class HostNode:
         for task in list(self._tasks):
             task.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
-        for declared in (self._watch, self._beat, self._facts_queryable):
+        for declared in (self._watch, self._hear_watch, self._beat, self._facts_queryable):
             with contextlib.suppress(zenoh.ZError):
                 declared.undeclare()  # type: ignore[no-untyped-call]

@@ -60,7 +60,7 @@ class RemoteTimeouts:
         control: Seconds for a description, status, abort or clean; and for a name a host offered
             to be offered again (a host that restarts) before its load is refused.
         send: Seconds for a send (a function may take up to the host's function grace to end).
-        stale: Seconds without news of a host (it beats every 0.25 s) after which its ports are not
+        stale: Seconds without news of a host (it beats four times within them) after which its ports are not
             served as current and its sends are refused: the network is cut, or the host froze.
     """
 

@@ -5,8 +5,12 @@ its host id ``H`` (``aiogenomix-component --host-id``); a gateway by its session
 
     aiogenomix/offer/2/H/Z/M          liveliness token: host H (session Z) offers instance M
     aiogenomix/gateway/2/G            liveliness token: gateway G may have requests running (dead-man)
+    aiogenomix/hear/2/L/MS            liveliness token: process L (a gateway, or a host that reads another
+                                      host's ports) hears heartbeats, and needs one every MS milliseconds
     aiogenomix/2/Z/host               query: the host's facts (id, endpoints, versions, instances)
-    aiogenomix/2/Z/beat               publication every BEAT seconds: the host is heard from
+    aiogenomix/2/Z/beat               publication: the host is heard from, every MS milliseconds of the
+                                      shortest hear token (BEAT_PERIOD while a gateway without one is there,
+                                      or no process says how often it needs a beat)
     aiogenomix/2/Z/M/info             query: the /info description (JSON)
     aiogenomix/2/Z/M/rq/send          query: {"service", "input", "session", "oneway", "gateway", "via"}
                                       -> status object ("via": the proxy of the gateway that sends it)
@@ -61,8 +65,9 @@ from ..components.core import ChunkedArray
 from ..components.core.runtime import BINARY_MAGIC, encode_binary
 
 __all__ = [
-    "PROTOCOL", "OFFERS", "LEGACY_OFFERS", "GATEWAYS", "BEATS", "BEAT_PERIOD", "OfferKey", "offer_token",
-    "parse_offer", "offers_of", "legacy_offer", "gateway_token", "host_id_error", "facts_key", "beat_key",
+    "PROTOCOL", "OFFERS", "LEGACY_OFFERS", "GATEWAYS", "BEATS", "BEAT_PERIOD", "HEARERS", "OfferKey", "offer_token",
+    "parse_offer", "offers_of", "legacy_offer", "gateway_token", "hear_token", "parse_hear", "beat_period",
+    "host_id_error", "facts_key", "beat_key",
     "info_key", "request_key", "events_key", "cleaned_key", "port_key", "snapshot_key", "ok_reply", "error_reply",
     "encode_message", "decode_message", "strip_arrays", "arrays_of",
 ]
@@ -78,8 +83,13 @@ LEGACY_OFFERS = f"{_ROOT}/alive/*"
 GATEWAYS = f"{_ROOT}/gateway/{PROTOCOL}/*"
 #: Every host's heartbeat.
 BEATS = f"{_ROOT}/{PROTOCOL}/*/beat"
-#: Seconds between two heartbeats of a host.
+#: Seconds between two heartbeats of a host when no process that hears them said how often it needs one
+#: (a gateway of before the hear tokens has a bound of 0.5 s at the least: two beats within it).
 BEAT_PERIOD = 0.25
+#: Every hear token: the processes that hear heartbeats, and how often each needs one.
+HEARERS = f"{_ROOT}/hear/{PROTOCOL}/*/*"
+#: Heartbeats a hearer asks within its stale bound: three may be late or lost before its hosts are stale.
+BEATS_PER_BOUND = 4
 
 #: What a host id may be: one key chunk, no wildcard or separator Zenoh or a load name gives a meaning to.
 _HOST_ID = re.compile(r"[A-Za-z0-9_.-]{1,64}")
@@ -162,6 +172,28 @@ def legacy_offer(instance: str) -> str:
 def gateway_token(zid: str) -> str:
     """The liveliness token of the gateway whose session is *zid*."""
     return f"{_ROOT}/gateway/{PROTOCOL}/{zid}"
+
+
+def hear_token(zid: str, stale: float) -> str:
+    """The liveliness token of process *zid*, which takes a host not heard from for *stale* seconds as stale."""
+    return f"{_ROOT}/hear/{PROTOCOL}/{zid}/{beat_period(stale) * 1000:.0f}"
+
+
+def beat_period(stale: float) -> float:
+    """Seconds between two heartbeats a process whose stale bound is *stale* seconds needs (ms rounded)."""
+    return max(round(stale * 1000 / BEATS_PER_BOUND), 1) / 1000
+
+
+def parse_hear(key: str) -> tuple[str, float] | None:
+    """The process and the seconds between two beats it needs, from a hear token's *key* (None: no such token)."""
+    chunks = key.split("/")
+    if len(chunks) != 5 or chunks[:3] != [_ROOT, "hear", str(PROTOCOL)] or not _ZID.fullmatch(chunks[3]):
+        return None
+    try:
+        period = int(chunks[4])
+    except ValueError:
+        return None
+    return (chunks[3], period / 1000) if period > 0 else None
 
 
 def facts_key(zid: str) -> str:
