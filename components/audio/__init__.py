@@ -4,7 +4,9 @@
 
 * **Backends** chosen by device string (``sim``, ``sim:SCENE.json``, ``file:PATH.wav``,
   ``pa:NAME``, an ALSA name), from a table imported lazily (:data:`BACKENDS`), as
-  python-can keeps its interfaces: a capture loads the sound library it uses, no other.
+  python-can keeps its interfaces: a capture loads the sound library it uses, no other.  Other
+  packages add backends by device prefix (``aiogenomix.capture_backends`` entry points); a prefix
+  no backend has is refused, naming those there are (:class:`UnknownDevicePrefix`).
 * **Simulated scenes**: sources rendered at a head that turns with the :class:`HeadAzimuth` some
   component provides: through the measured KEMAR HRIRs by default (:class:`KemarSceneRenderer`, on
   :mod:`aiogenomix.components.binaural`), another head's (``snowman``, a SOFA file), or a spherical
@@ -18,13 +20,14 @@
 """
 
 from ._backend import (
-    BACKENDS, Azimuth, CaptureBackend, Chunk, ListenerPosition, PacedBackend, SourceAzimuths, SourceOptions,
-    backend_class, open_backend, split_device,
+    BACKENDS, CAPTURE_BACKENDS, Azimuth, CaptureBackend, Chunk, ListenerPosition, PacedBackend, SourceAzimuths,
+    SourceOptions, backend_class, known_prefixes, open_backend, split_device,
 )
 from ._capabilities import HeadAzimuth, SoundScene, open_for_host, prepare_for_host
 from ._devices import list_capture_devices
 from ._errors import (
     AudioError, BackendUnavailable, DeviceError, DeviceNotFound, FormatRefused, RequestError, SceneError,
+    UnknownDevicePrefix,
 )
 from ._head_model import SphericalHeadRenderer, woodworth_itd
 from ._limits import MAX_FRAMES_PER_CHUNK, RATE_RANGE
@@ -41,7 +44,7 @@ from ._window import ChunkWindow, WindowRead, WindowState
 __all__ = [
     # Backends
     "CaptureBackend", "PacedBackend", "Chunk", "SourceOptions", "Azimuth", "SourceAzimuths", "ListenerPosition",
-    "BACKENDS",
+    "BACKENDS", "CAPTURE_BACKENDS", "known_prefixes", "UnknownDevicePrefix",
     "backend_class",
     "open_backend", "open_for_host", "prepare_for_host", "split_device", "list_capture_devices",
     # What a simulated scene takes from the components around it, by type
