@@ -25,12 +25,15 @@ def parse_args(argv: list[str] | None = None) -> GatewayConfig:
     The options are made from the settings groups the configuration holds, and from those other
     packages declare (``aiogenomix.settings`` entry points), each in its section of ``--help``.
     """
-    extra = tuple(group() for group in installed_settings_groups())
-    defaults = GatewayConfig.of(extra=extra)
     parser = argparse.ArgumentParser(
         prog="aiogenomix-gateway",
         description="A genomix-compatible HTTP/JSON gateway hosting the Two!Ears components.",
     )
+    try:
+        extra = tuple(group() for group in installed_settings_groups())
+    except TypeError as exc:  # a package installed here that is broken: say which, no traceback
+        parser.error(str(exc))
+    defaults = GatewayConfig.of(extra=extra)
     parser.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error"])
     add_settings_arguments(parser, defaults.groups())
     args = parser.parse_args(argv)

@@ -59,7 +59,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--host-id", default=None, metavar="NAME",
                         help="the name gateways know this host by, as in demo@NAME (default: this machine's name)")
     parser.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error"])
-    extra = tuple(group() for group in installed_settings_groups())
+    try:
+        extra = tuple(group() for group in installed_settings_groups())
+    except TypeError as exc:  # a package installed here that is broken: say which, no traceback
+        parser.error(str(exc))
     # The rig's files are the operator's choice here too: none unless named.
     rig, zenoh = HostSettings(audio_files=(), record_dirs=(), extra=extra), ZenohSettings()
     add_settings_arguments(parser, [zenoh, rig, ClockSettings(), rig.budgets, *extra])

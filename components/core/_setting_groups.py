@@ -97,8 +97,8 @@ class SettingsGroup:
     Subclasses name the ``--help`` section of their flags (``section=``, and ``about=`` says what the
     section is); groups that name the same section share it.  Values given in code are refused as
     on the command line: ``__post_init__`` raises :class:`ValueError` naming the flag (a subclass
-    that checks more calls ``super().__post_init__()``).  A list given for a repeatable setting is
-    kept as a tuple (any list given), so that the group stays frozen all the way down.
+    that checks more calls ``super().__post_init__()``).  A list given for a setting is kept as a
+    tuple, so that the group stays frozen all the way down.
     """
 
     section: ClassVar[str] = "settings"
@@ -221,20 +221,22 @@ def _article(parse: Callable[[str], Any]) -> str:
     return "a number" if parse is float else "a value it takes"
 
 
-def _help(field: dataclasses.Field[Any], declared: Setting, default: Any) -> str:
+def _help(declared: Setting, default: Any) -> str:
+    """The help of a setting's option: its words, and its default (the placeholder names the unit)."""
     if declared.shown is not None:
-        return f"{declared.help} (default {declared.shown})"
-    if default is None or default is False or default == () or "(default" in declared.help:
-        return declared.help
-    # (The placeholder names the unit: --max-recording-seconds SECONDS ... (default 14400).)
-    shown = amount_text(default, declared.unit) if isinstance(default, int) else str(default)
-    return f"{declared.help} (default {shown})".replace("%", "%%")
+        text = f"{declared.help} (default {declared.shown})"
+    elif default is None or default is False or default == () or "(default" in declared.help:
+        text = declared.help
+    else:
+        shown = amount_text(default, declared.unit) if isinstance(default, int) else str(default)
+        text = f"{declared.help} (default {shown})"
+    return text.replace("%", "%%")   # (argparse formats help with %)
 
 
 def _add_one(section: argparse._ArgumentGroup, group: type[SettingsGroup], field: dataclasses.Field[Any],
              declared: Setting, default: Any) -> None:
     dest = _dest(group, field.name)
-    text = _help(field, declared, default)
+    text = _help(declared, default)
     if isinstance(field.default, bool):
         section.add_argument(declared.flag, dest=dest, action="store_true", default=default, help=text)
         return
@@ -291,11 +293,15 @@ def installed_settings_groups() -> list[type[SettingsGroup]]:
     """The settings groups other packages declare through the ``aiogenomix.settings`` entry points.
 
     Raises:
-        TypeError: for an entry point that names something other than a settings group.
+        TypeError: for an entry point that cannot be loaded, or names something other than a settings group.
     """
     groups: list[type[SettingsGroup]] = []
     for entry in importlib.metadata.entry_points(group=SETTINGS_ENTRY_POINTS):
-        found = entry.load()
+        try:
+            found = entry.load()
+        except (ImportError, AttributeError) as exc:
+            raise TypeError(f"the {SETTINGS_ENTRY_POINTS} entry point {entry.name} ({entry.value}) cannot be "
+                            f"loaded: {exc}") from exc
         if not (isinstance(found, type) and issubclass(found, SettingsGroup) and dataclasses.is_dataclass(found)):
             raise TypeError(f"the {SETTINGS_ENTRY_POINTS} entry point {entry.name} ({entry.value}) is not a "
                             "settings group: a frozen dataclass deriving from SettingsGroup")

@@ -166,3 +166,17 @@ def test_pyright_finds_no_error_in_the_outside_package(site: Path, pyright_tool:
     checked = subprocess.run([str(pyright_tool), "--pythonpath", sys.executable, "outside_ears"], cwd=site,
                              capture_output=True, text=True, timeout=600)
     assert checked.returncode == 0 and "0 errors" in checked.stdout, checked.stdout
+
+
+def test_a_broken_settings_entry_point_is_named_without_a_traceback(site: Path, tmp_path: Path) -> None:
+    broken = tmp_path / "broken-1.0.dist-info"
+    broken.mkdir()
+    (broken / "METADATA").write_text("Metadata-Version: 2.1\nName: broken\nVersion: 1.0\n")
+    (broken / "entry_points.txt").write_text("[aiogenomix.settings]\nlamp = outside_ears:NoSuchGroup\n")
+    env = environment(site)
+    env["PYTHONPATH"] = os.pathsep.join([str(tmp_path), env["PYTHONPATH"]])
+    refused = subprocess.run([sys.executable, "-m", "aiogenomix.gateway", "--port", "0"], env=env,
+                             capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr, refused.stderr
+    assert ("aiogenomix-gateway: error: the aiogenomix.settings entry point lamp (outside_ears:NoSuchGroup) cannot "
+            "be loaded") in refused.stderr
