@@ -120,3 +120,13 @@ def test_the_component_host_takes_the_same_flags_with_the_same_words() -> None:
               "--time-scale", "--max-port-bytes", "--max-recordings", "--max-recording-seconds"]
     for flag in shared:
         assert gateway[flag] == host[flag], flag
+
+
+def test_the_configuration_holds_zenohs_settings_without_importing_zenoh() -> None:
+    # A gateway that asks for no remote component never loads Zenoh (a robot without it still serves).
+    code = ("import sys\nfrom aiogenomix.gateway.__main__ import parse_args\n"
+            "config = parse_args(['--zenoh-timeout', '3'])\n"
+            "print(config.remote_timeouts.control, config.uses_zenoh, 'zenoh' in sys.modules)\n"
+            "from aiogenomix.remote import ZenohDirectory\nprint('zenoh' in sys.modules)")
+    shown = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert shown.stdout.split() == ["3.0", "False", "False", "True"], shown.stderr
