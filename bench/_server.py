@@ -57,7 +57,7 @@ async def _gateway(args: argparse.Namespace) -> None:
     # Served as the gateway's command serves it (its HTTP layer included), with a probe component.
     # record_dirs only when asked: a baseline checkout's GatewayConfig may predate it.
     recording = {"record_dirs": args.record_dir} if args.record_dir else {}
-    config = GatewayConfig(host="127.0.0.1", port=0, audio_socket_port=0, time_scale=1.0,
+    config = GatewayConfig.of(host="127.0.0.1", port=0, audio_socket_port=0, time_scale=1.0,
                            max_sessions=args.max_sessions, **recording)
     host = ComponentHost(clock=ScaledClock(1.0), settings=config.host_settings())
     host.register("probe", Probe)

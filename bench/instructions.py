@@ -36,7 +36,7 @@ _SERVER = """
 import asyncio, sys
 from aiogenomix.gateway import GatewayConfig, serve
 async def main():
-    async with serve(GatewayConfig(port=int(sys.argv[1]), audio_socket_port=0, preload=["demo"])):
+    async with serve(GatewayConfig.of(port=int(sys.argv[1]), audio_socket_port=0, preload=["demo"])):
         print("ready", flush=True)
         await asyncio.Event().wait()
 asyncio.run(main())

@@ -26,7 +26,7 @@ def local_gateway(time_scale: float = 1.0, audio_files: Sequence[str] = ()) -> I
         time_scale: At most this many robot seconds per real second (above 1, the robot moves faster).
         audio_files: Directories from which clients may name scene and WAV files (``--audio-files``).
     """
-    config = GatewayConfig(port=0, time_scale=time_scale, audio_socket_port=0, audio_files=list(audio_files))
+    config = GatewayConfig.of(port=0, time_scale=time_scale, audio_socket_port=0, audio_files=list(audio_files))
     started: concurrent.futures.Future[tuple[str, asyncio.Event]] = concurrent.futures.Future()
 
     async def main() -> None:

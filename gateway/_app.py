@@ -20,7 +20,7 @@ from ._keys import (
     CONFIG, DOOR, FOXGLOVE, HOST, READ_BODIES, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, Shutdown,
     WatchFrames,
 )
-from ._connection import ConnectionLimits, handler_arguments
+from ._connection import handler_arguments
 from ._read_bodies import ReadBodies
 from ._watch_wakes import WatchWakes
 from ._sessions import SessionStore
@@ -42,27 +42,27 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
         An aiohttp application; run it with ``web.run_app`` or an ``AppRunner``.
     """
     config = config or GatewayConfig()
-    config.check()
-    door = Door(AccessPolicy(config.allowed_hosts, config.allowed_origins),
-                TokenCheck(config.token) if config.token else None)
+    access = config.access
+    door = Door(AccessPolicy(list(access.allowed_hosts), list(access.allowed_origins)),
+                TokenCheck(access.token) if access.token else None)
     # One middleware: the door, then errors as JSON.  The limits of a connection are aiohttp's
     # handler's, so that whatever runner serves the app applies them (``serve`` adds the
     # refusals in JSON, the head timeout and the plain reads ahead of the routes).
-    limits = ConnectionLimits(config.max_url_bytes, config.header_timeout, config.keep_alive)
-    app = web.Application(middlewares=[guard_middleware(door)], handler_args=handler_arguments(limits),
+    app = web.Application(middlewares=[guard_middleware(door)], handler_args=handler_arguments(config.connections),
                           client_max_size=MAX_BODY_BYTES)
     app[CONFIG] = config
     app[DOOR] = door
-    app[SESSIONS] = SessionStore(idle_timeout=config.session_idle, max_sessions=config.max_sessions)
+    sessions = config.sessions
+    app[SESSIONS] = SessionStore(idle_timeout=sessions.session_idle, max_sessions=sessions.max_sessions)
     app[SHUTDOWN] = Shutdown()
     app[WATCH_FRAMES] = WatchFrames()
     owns_host = host is None
-    app[HOST] = host or ComponentHost(clock=ScaledClock(config.time_scale), settings=config.host_settings(),
-                                      function_grace=config.function_grace, max_instances=config.max_instances)
+    app[HOST] = host or ComponentHost(clock=ScaledClock(config.clock.time_scale), settings=config.host_settings(),
+                                      function_grace=sessions.function_grace, max_instances=sessions.max_instances)
     app[UNLOADS] = Unloads(app[HOST])
     shutdown = app[SHUTDOWN]
     app[READ_BODIES] = ReadBodies(app[UNLOADS], lambda: shutdown.future)
-    app[WATCH_WAKES] = WatchWakes(app[UNLOADS], lambda: shutdown.future, config.ping_interval)
+    app[WATCH_WAKES] = WatchWakes(app[UNLOADS], lambda: shutdown.future, sessions.ping_interval)
     app.add_routes(_routes_sessions.routes)
     app.add_routes(_routes_admin.routes)
     app.add_routes(_routes_modules.routes)
@@ -71,9 +71,10 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app.add_routes(_routes_docs.routes)
     app.cleanup_ctx.append(_host_lifetime(owns_host))
     app.cleanup_ctx.append(_session_ends)
-    if config.foxglove_port is not None:
-        app[FOXGLOVE] = FoxgloveView(config.foxglove_host, config.foxglove_port, door, clock=app[HOST].clock,
-                                     max_viewers=config.max_viewers, viewer_bytes=config.viewer_bytes)
+    view = config.view
+    if view.foxglove_port is not None:
+        app[FOXGLOVE] = FoxgloveView(view.foxglove_host, view.foxglove_port, door, clock=app[HOST].clock,
+                                     max_viewers=view.max_viewers, viewer_bytes=view.viewer_bytes)
         app.cleanup_ctx.append(_foxglove_lifetime)
     app.on_shutdown.append(shut_down(owns_host))
     return app
@@ -86,9 +87,9 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
         subscription = host.events.subscribe(sessions.route, sessions_only=True)
         host.add_unload_listener(app[UNLOADS].notice)
         try:
-            if app[CONFIG].zenoh:
+            if app[CONFIG].uses_zenoh:
                 await _find_remote_components(app)
-            for item in app[CONFIG].preload:
+            for item in app[CONFIG].server.preload:
                 name, _, args = item.partition(":")
                 await host.load(name, args.split())
                 # A stop signal while starting is handled between loads, not after the last one.
@@ -141,15 +142,12 @@ async def _foxglove_lifetime(app: web.Application) -> AsyncIterator[None]:
 
 async def _find_remote_components(app: web.Application) -> None:
     """Let ``load`` find the components other processes offer on Zenoh (imported only when asked for)."""
-    from ..remote import RemoteTimeouts, ZenohDirectory, ZenohSettings
+    from ..remote import ZenohDirectory
 
     config, host = app[CONFIG], app[HOST]
-    timeouts = RemoteTimeouts(control=config.zenoh_timeout, send=2 * config.zenoh_timeout + config.function_grace,
-                              stale=config.zenoh_stale)
-    settings = ZenohSettings(connect=config.zenoh_connect, listen=config.zenoh_listen,
-                             config_file=config.zenoh_config, scout=config.zenoh_scout)
+    settings = config.zenoh
     directory = await ZenohDirectory.open(
-        settings, timeouts, local=config.zenoh_local,
+        settings, config.remote_timeouts.with_grace(host.function_grace), local=list(config.remote.local),
         on_offered=lambda offer: host.events.publish(ComponentsOffered(offer, host.clock.wall())))
     print(f"aiogenomix gateway: Zenoh session {directory.zid}: {settings.summary(directory.config)}",
           file=sys.stderr, flush=True)

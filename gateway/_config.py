@@ -1,135 +1,121 @@
-"""The gateway's configuration, from the command line or from code."""
+"""The gateway's configuration: the settings groups it composes, from the command line or from code."""
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterator
+from typing import Any
 
-from ..components.core import Budgets, HostSettings
-from ..components.core.runtime import MIB, rig_settings
+from ..components.core import ClockSettings, HostSettings, SettingsGroup
+from ..remote import RemoteTimeouts, ZenohSettings
+from ._connection import ConnectionLimits
+from ._settings import AccessSettings, LiveViewSettings, RemoteComponents, ServerSettings, SessionLimits
 
 __all__ = ["GatewayConfig"]
 
-#: The rig's defaults: each setting has one, in HostSettings.
-_RIG = HostSettings()
+
+def _rig() -> HostSettings:
+    # From the gateway, a client names no file unless the operator allowed its directory.
+    return HostSettings(audio_files=(), record_dirs=())
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(frozen=True)
 class GatewayConfig:
-    """Everything that shapes one gateway.
+    """Everything that shapes one gateway: its settings groups, each declared once where it is used.
+
+    Each group declares its settings' defaults, flags, units, help and refusals
+    (``aiogenomix.components.core.SettingsGroup``); ``aiogenomix-gateway`` makes its options from
+    them, and code builds one with :meth:`of` (``GatewayConfig.of(port=0, token="s3cret")``) or
+    from groups (``GatewayConfig(server=ServerSettings(port=0))``).
 
     Attributes:
-        host: Address to bind (``127.0.0.1``: reachable from this machine only).
-        port: HTTP port (0 picks a free one).
-        time_scale: Runtime seconds per real second (1 on a rig; more to run a simulation faster).
-        can: The CAN bus of the KEMAR head: ``virtual`` (a simulated drive in-process) or
-            ``<interface>:<channel>`` such as ``socketcan:can0``.
-        can_timeout: Seconds of real time the drive has to answer a request on the bus.
-        audio_device: Default capture device shown by ``StartCapture`` (``sim``, ``hw:1,0``...).
-        audio_socket_port: TCP port of the dedicated audio socket (0 picks a free one).
-        audio_files: Directories from which clients may name WAV files (``file:PATH``) and scene
-            files (``sim:PATH``); none by default, so a client cannot make the gateway read its disk.
-            The file of ``audio_device`` itself is always allowed: the operator chose it.
-        record_dirs: Directories a ``recorder`` may write recordings into, and captures may replay
-            them from (``mcap:PATH``); none by default, so a client cannot make the gateway write its disk.
-        record_mode: The permissions of new recordings (``0o600``: their owner's only).
-        token: When set, every request must carry ``Authorization: Bearer <token>``.
-        allowed_hosts: Host names browsers may use for the gateway besides IP addresses,
-            ``localhost`` and this machine's names (DNS-rebinding protection; ``*``: any).
-        allowed_origins: Web origins whose pages may use the gateway (cross-site protection).
-        components: When set, only these components can be loaded.
-        preload: Components loaded at start, as ``name`` or ``name:-i instance``.
-        ping_interval: Seconds between keep-alive comments on idle event streams.
-        function_grace: How long a ``send`` waits for a function to end before replying ``sent``.
-        header_timeout: Seconds a client has to send a request's line and headers (408 after).
-        max_url_bytes: The longest request line accepted, in bytes (414 beyond; at least 8192).
-        keep_alive: Seconds an idle kept-alive HTTP connection stays open.
-        session_idle: Seconds after which a session that nobody listens to is forgotten.
-        max_sessions: How many sessions may exist at once (429 for a new one beyond).
-        max_instances: How many component instances may be loaded at once (429 beyond).
-        budgets: The bounds of what clients can make the components hold: audio ports, dedicated-socket
-            clients and their unsent replies, ``basc`` blocks, worlds' render memory (``--max-port-bytes``...).
-        zenoh: Load components that other processes offer on Zenoh (``aiogenomix-component``); every
-            name then runs where a component host offers it, except the ``zenoh_local`` ones.
-        zenoh_connect: Zenoh endpoints to connect to (``tcp/HOST:PORT``): the gateway talks to these
-            and to nobody else (no scouting, no gossip).
-        zenoh_listen: Zenoh endpoints to listen on (none by default: hosts do not connect to a gateway).
-        zenoh_config: Zenoh's own configuration file (JSON5: TLS, user/password, access control, a
-            router); ``zenoh_connect`` and ``zenoh_listen`` replace its endpoints.
-        zenoh_scout: Find hosts by multicast scouting and gossip, listening on every interface.
-        zenoh_local: Component names that run in the gateway even with ``zenoh`` (an explicit choice:
-            a host that restarts can never be replaced by a copy in the gateway).
-        foxglove_port: Serve the live view in Foxglove and Lichtblick on this TCP port (None: no view; 0: a free
-            port).  It admits viewers as the gateway admits requests: Host, Origin and token (decision 0036).
-        foxglove_host: The address the live view binds (the loopback address unless the operator says so).
-        max_viewers: How many viewers of the live view may be connected at once (429 for one more).
-        viewer_bytes: The most bytes one viewer may hold unsent; a viewer past it is dropped.
-        zenoh_timeout: Seconds a component host has to answer a query (a send gets twice that plus
-            ``function_grace``), and to offer again a name it offered, before the gateway answers
-            ``::genom::remote_io``.
-        zenoh_stale: Seconds without news of a component host after which reads of its ports answer
-            ``::genom::remote_io`` and sends to it are refused (hosts beat four times within it).
+        server: Where it listens and what it loads (``--host``, ``--port``, ``--load``, ``--components``).
+        access: Who may use it (``--token``, ``--allowed-host``, ``--allow-origin``).
+        rig: What the components are told of the rig (``--can``, ``--audio-device``, ``--record-dir``...),
+            with the budgets of what clients can make them hold (``--max-port-bytes``...) and the
+            settings groups of other packages (``extra``).
+        clock: Runtime seconds per real second (``--time-scale``).
+        connections: What one connection allows (``--header-timeout``, ``--max-url-bytes``).
+        sessions: How many sessions and instances (``--session-idle``, ``--max-sessions``, ``--max-instances``).
+        remote: Whether components other processes offer on Zenoh are loaded (``--zenoh``, ``--local``).
+        zenoh: Whom the Zenoh session talks to (``--zenoh-connect``, ``--zenoh-listen``...).
+        remote_timeouts: How long a component host has to answer (``--zenoh-timeout``, ``--zenoh-stale``).
+        view: The live view in Foxglove and Lichtblick (``--foxglove``, ``--max-viewers``...).
     """
 
-    host: str = "127.0.0.1"
-    port: int = 8080
-    time_scale: float = 1.0
-    can: str = _RIG.can
-    can_timeout: float = _RIG.can_timeout
-    audio_device: str = _RIG.audio_device
-    audio_socket_port: int = _RIG.audio_socket_port
-    audio_files: list[str] = dataclasses.field(default_factory=list)
-    record_dirs: list[str] = dataclasses.field(default_factory=list)
-    record_mode: int = _RIG.record_mode
-    token: str | None = None
-    allowed_hosts: list[str] = dataclasses.field(default_factory=list)
-    allowed_origins: list[str] = dataclasses.field(default_factory=list)
-    components: list[str] | None = None
-    preload: list[str] = dataclasses.field(default_factory=list)
-    ping_interval: float = 15.0
-    function_grace: float = 2.0
-    header_timeout: float = 10.0
-    max_url_bytes: int = 65536
-    keep_alive: float = 75.0
-    session_idle: float = 600.0
-    max_sessions: int = 256
-    max_instances: int = 64
-    budgets: Budgets = dataclasses.field(default_factory=Budgets)
-    zenoh: bool = False
-    zenoh_connect: list[str] = dataclasses.field(default_factory=list)
-    zenoh_listen: list[str] = dataclasses.field(default_factory=list)
-    zenoh_config: str | None = None
-    zenoh_scout: bool = False
-    zenoh_local: list[str] = dataclasses.field(default_factory=list)
-    zenoh_timeout: float = 5.0
-    zenoh_stale: float = 2.0
-    foxglove_port: int | None = None
-    foxglove_host: str = "127.0.0.1"
-    max_viewers: int = 8
-    viewer_bytes: int = 32 * MIB
+    server: ServerSettings = dataclasses.field(default_factory=ServerSettings)
+    access: AccessSettings = dataclasses.field(default_factory=AccessSettings)
+    rig: HostSettings = dataclasses.field(default_factory=_rig)
+    clock: ClockSettings = dataclasses.field(default_factory=ClockSettings)
+    connections: ConnectionLimits = dataclasses.field(default_factory=ConnectionLimits)
+    sessions: SessionLimits = dataclasses.field(default_factory=SessionLimits)
+    remote: RemoteComponents = dataclasses.field(default_factory=RemoteComponents)
+    zenoh: ZenohSettings = dataclasses.field(default_factory=ZenohSettings)
+    remote_timeouts: RemoteTimeouts = dataclasses.field(default_factory=RemoteTimeouts)
+    view: LiveViewSettings = dataclasses.field(default_factory=LiveViewSettings)
 
-    def check(self) -> None:
-        """Refuse settings that contradict each other.
+    @classmethod
+    def of(cls, **settings: Any) -> GatewayConfig:
+        """The defaults but for *settings*, each named as in its group: ``of(port=0, token="s3cret", budgets=...)``.
 
         Raises:
-            ValueError: saying which flag to add or change.
+            TypeError: for a name that no group has.
+            ValueError: for a value its group refuses (naming the flag).
         """
-        if self.foxglove_port is not None and not 0 <= self.foxglove_port <= 65535:
-            raise ValueError(f"--foxglove takes a TCP port (0 to 65535), not {self.foxglove_port}")
-        if self.max_viewers < 1 or self.viewer_bytes < 1:
-            raise ValueError("--max-viewers and --max-viewer-bytes take a whole number, 1 or more")
+        config = cls()
+        changes: dict[str, dict[str, Any]] = {}
+        for name, value in settings.items():
+            owner = _OWNERS.get(name)
+            if owner is None:
+                raise TypeError(f"no settings group of the gateway has {name!r}: the settings are "
+                                f"{', '.join(sorted(_OWNERS))}")
+            changes.setdefault(owner, {})[name] = value
+        return dataclasses.replace(config, **{owner: dataclasses.replace(getattr(config, owner), **values)
+                                              for owner, values in changes.items()})
+
+    def groups(self) -> Iterator[SettingsGroup]:
+        """Every settings group, in the order of ``--help``: the rig's budgets and other packages' groups included."""
+        for field in dataclasses.fields(self):
+            group = getattr(self, field.name)
+            yield group
+            if group is self.rig:
+                yield self.rig.budgets
+                yield from (extra for extra in self.rig.extra if isinstance(extra, SettingsGroup))
+
+    @property
+    def uses_zenoh(self) -> bool:
+        """Whether components other processes offer are loaded (``--zenoh``, or any Zenoh setting given)."""
+        return self.remote.zenoh or self.zenoh.given()
 
     def host_settings(self) -> HostSettings:
-        """The settings handed to the components: the rig, and the dedicated socket beside the HTTP port."""
-        return rig_settings(can=self.can, can_timeout=self.can_timeout, audio_device=self.audio_device,
-                            audio_socket_port=self.audio_socket_port, audio_socket_host=self.host,
-                            audio_socket_token=self.token, audio_files=self.audio_files, budgets=self.budgets,
-                            record_dirs=self.record_dirs, record_mode=self.record_mode)
+        """The settings handed to the components: the rig, and the dedicated socket beside the HTTP port.
+
+        The socket binds the gateway's address and asks for its token; the file of ``--audio-device``
+        is readable (the operator chose it).
+        """
+        return dataclasses.replace(self.rig.for_operator(), audio_socket_host=self.server.host,
+                                   audio_socket_token=self.access.token)
 
     def simulated_parts(self) -> list[str]:
         """Plain words for the parts of the rig that are simulated."""
         parts = []
-        if self.can == _RIG.can:
+        if self.rig.can == HostSettings().can:
             parts.append("KEMAR drive on a virtual CAN bus")
-        if self.audio_device.startswith("sim"):
-            parts.append(f"binaural audio scene ({self.audio_device})")
+        if self.rig.audio_device.startswith("sim"):
+            parts.append(f"binaural audio scene ({self.rig.audio_device})")
         return parts
+
+
+def _owners() -> dict[str, str]:
+    """Which group of :class:`GatewayConfig` holds each setting's name (each name is in one group)."""
+    owners: dict[str, str] = {}
+    defaults = GatewayConfig()
+    for group in dataclasses.fields(defaults):
+        for field in dataclasses.fields(getattr(defaults, group.name)):
+            if field.name in owners:  # (at import: a name in two groups is a bug)
+                raise TypeError(f"{field.name} is a setting of {owners[field.name]} and of {group.name}")
+            owners[field.name] = group.name
+    return owners
+
+
+_OWNERS = _owners()

@@ -41,6 +41,7 @@ from aiohttp import StreamReader, web
 from aiohttp.base_protocol import BaseProtocol
 from aiohttp.http_exceptions import BadStatusLine, HttpProcessingError, LineTooLong
 
+from ..components.core import SettingsGroup, at_least, setting, whole_at_least
 from ._gather import write_draining
 from ._refusal_log import SERVER_LOG
 from ._replies import SERVER_HEADER, dumps, http_date
@@ -63,18 +64,20 @@ _REFUSAL_HEADERS = "".join(f"{name}: {value}\r\n" for name, value in
 
 
 @dataclasses.dataclass(frozen=True)
-class ConnectionLimits:
-    """What a connection allows a client.
+class ConnectionLimits(SettingsGroup, section="limits", about="what one client can hold or send"):
+    """What a connection allows a client (a settings group: ``--header-timeout``, ``--max-url-bytes``).
 
     Attributes:
-        max_url_bytes: The longest request line, in bytes (414 beyond).
+        max_url_bytes: The longest request line, in bytes (414 beyond; at least 8192).
         header_timeout: Seconds to send a request head, from the connection's start or the
-            head's first byte (408 after; 0: no limit).
-        keep_alive: Seconds an idle kept-alive connection stays open.
+            head's first byte (408 after).
+        keep_alive: Seconds an idle kept-alive HTTP connection stays open.
     """
 
-    max_url_bytes: int = 65536
-    header_timeout: float = 10.0
+    header_timeout: float = setting(10.0, flag="--header-timeout", unit="seconds", refuse=at_least(0.001),
+                                    help="time a client has to send a request's line and headers, else 408")
+    max_url_bytes: int = setting(65536, flag="--max-url-bytes", metavar="N", refuse=whole_at_least(8192),
+                                 help="longest request line (URL with input=), else 414")
     keep_alive: float = 75.0
 
 

@@ -135,7 +135,7 @@ async def version(request: web.Request) -> web.Response:
 
 
 def _allowed(request: web.Request) -> list[str]:
-    allow = request.app[CONFIG].components
+    allow = request.app[CONFIG].server.components
     return [n for n in request.app[HOST].available() if allow is None or n in allow]
 
 
@@ -172,7 +172,7 @@ async def load(request: web.Request) -> web.Response:
         raise LoadForbidden(
             f"cannot load {name!r}: only registered components load, by name ({', '.join(_allowed(request))})"
         )
-    allow = request.app[CONFIG].components
+    allow = request.app[CONFIG].server.components
     if allow is not None and name.partition("@")[0] not in allow:
         raise NoSuchModule(f"no component {name!r} {names_hint(name, _allowed(request), 'available')}")
     component = await request.app[HOST].load(name, _argv(request))

@@ -258,7 +258,7 @@ async def watch(request: web.Request) -> web.StreamResponse:
     elif since is not None and port.version:
         _require_incremental(port, port.read(element))
     shutdown = request.app[SHUTDOWN]
-    stall = request.app[CONFIG].keep_alive or None
+    stall = request.app[CONFIG].connections.keep_alive or None
     frames = request.app[WATCH_FRAMES]
     wakes = request.app[WATCH_WAKES]
     unloaded = request.app[UNLOADS].of(port.owner)

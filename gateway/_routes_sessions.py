@@ -57,7 +57,7 @@ async def listen(request: web.Request) -> web.StreamResponse:
     listener = sessions.attach(session, alive=lambda: transport is not None and not transport.is_closing(),
                                form=STANDARD_FORM if stream.standard else GENOMIX_FORM,
                                last_id=last_id if stream.standard else None)
-    ping_interval = request.app[CONFIG].ping_interval
+    ping_interval = request.app[CONFIG].sessions.ping_interval
     try:
         await stream.prepare(request)
         while True:

@@ -17,7 +17,7 @@ from ..components.core import ComponentHost
 from ._app import create_app
 from ._config import GatewayConfig
 from ._errors import GatewayError
-from ._connection import ConnectionLimits, GatewayConnection
+from ._connection import GatewayConnection
 from ._ahead import ahead_of_the_routes
 from ._fast_reads import FastReads
 from ._fast_sends import FastSends
@@ -68,12 +68,12 @@ async def serve(config: GatewayConfig, host: ComponentHost | None = None) -> Asy
         server = runner.server
         assert server is not None
         server.request_handler = ahead_of_the_routes(FastReads(app), FastSends(app), server.request_handler)
-        limits = ConnectionLimits(config.max_url_bytes, config.header_timeout, config.keep_alive)
+        limits, address, port = config.connections, config.server.host, config.server.port
         try:
             listener = await asyncio.get_running_loop().create_server(
-                lambda: GatewayConnection(server, limits, access_log=None), config.host, config.port)
+                lambda: GatewayConnection(server, limits, access_log=None), address, port)
         except OSError as exc:
-            raise ListenError(config.host, config.port, exc) from exc
+            raise ListenError(address, port, exc) from exc
         bound_host, bound_port = listener.sockets[0].getsockname()[:2]
         shown = f"[{bound_host}]" if ":" in bound_host else bound_host
         yield f"http://{shown}:{bound_port}"
@@ -143,16 +143,17 @@ async def _serve_until_signalled(config: GatewayConfig) -> None:
             print(f"aiogenomix gateway listening on {url}{note}", flush=True)
             # What a new user opens next, and where the audio components serve their sockets.
             print(f"  console {url}/console · OpenAPI {url}/openapi.json · "
-                  f"dedicated audio sockets on port {config.audio_socket_port} (DedicatedSocket)", flush=True)
-            if config.foxglove_port is not None:
-                host = f"[{config.foxglove_host}]" if ":" in config.foxglove_host else config.foxglove_host
-                shown_port = config.foxglove_port or "<free port, in the log>"
-                token = "/?token=<the token>" if config.token else ""
+                  f"dedicated audio sockets on port {config.rig.audio_socket_port} (DedicatedSocket)", flush=True)
+            view = config.view
+            if view.foxglove_port is not None:
+                host = f"[{view.foxglove_host}]" if ":" in view.foxglove_host else view.foxglove_host
+                shown_port = view.foxglove_port or "<free port, in the log>"
+                token = "/?token=<the token>" if config.access.token else ""
                 print(f"  Foxglove view ws://{host}:{shown_port}{token} (in Foxglove or Lichtblick: open a "
                       "connection, Foxglove WebSocket)", flush=True)
-            taken = _port_taken(config.host, config.audio_socket_port)
+            taken = _port_taken(config.server.host, config.rig.audio_socket_port)
             if taken:
-                print(f"aiogenomix gateway: warning: the audio socket port {config.audio_socket_port} is taken "
+                print(f"aiogenomix gateway: warning: the audio socket port {config.rig.audio_socket_port} is taken "
                       f"({taken}): DedicatedSocket will fail until it is free; choose another with "
                       "--audio-socket-port", file=sys.stderr, flush=True)
             await stop.wait()

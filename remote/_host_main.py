@@ -20,11 +20,12 @@ import signal
 import socket
 import sys
 
-from ..components.core import Budgets, Component, ComponentHost, ScaledClock
+from ..components.core import ClockSettings, Component, ComponentHost, HostSettings, ScaledClock
 from ..components.core.runtime import (
-    ComponentError, add_budget_arguments, add_rig_arguments, budgets_from, rig_settings,
+    ComponentError, add_settings_arguments, installed_settings_groups, settings_from,
 )
-from ._session import ZenohSessionError, ZenohSettings
+from ._session import ZenohSessionError
+from ._settings import ZenohSettings
 from ._wire import host_id_error
 
 __all__ = ["main", "parse_args", "token_warning"]
@@ -42,7 +43,12 @@ authentication and access control; see the README's section on remote components
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    """The command line of ``aiogenomix-component``."""
+    """The command line of ``aiogenomix-component``.
+
+    Its options are made from the settings groups (Zenoh's, the rig's, its clock's, the budgets, and
+    those of other packages' ``aiogenomix.settings`` entry points); the namespace holds them as
+    ``zenoh``, ``rig`` (the budgets and other groups within) and ``clock``.
+    """
     parser = argparse.ArgumentParser(
         prog="aiogenomix-component", epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Run components in this process and offer them on Zenoh to aiogenomix gateways "
@@ -52,29 +58,26 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         help="a component to run, with its load options after a colon (e.g. demo, 'demo:-i demo2')")
     parser.add_argument("--host-id", default=None, metavar="NAME",
                         help="the name gateways know this host by, as in demo@NAME (default: this machine's name)")
-    zenoh = parser.add_argument_group("Zenoh", "whom this host talks to: nobody but the endpoints given")
-    zenoh.add_argument("--zenoh-connect", action="append", default=[], metavar="ENDPOINT",
-                       help="a Zenoh endpoint to connect to, e.g. tcp/192.168.1.2:7447 (repeatable)")
-    zenoh.add_argument("--zenoh-listen", action="append", default=[], metavar="ENDPOINT",
-                       help="a Zenoh endpoint to listen on, e.g. tcp/192.168.1.10:7447 (repeatable; an address of "
-                            "this machine: tcp/0.0.0.0:7447 listens on every interface)")
-    zenoh.add_argument("--zenoh-config", default=None, metavar="FILE",
-                       help="Zenoh's own configuration file (JSON5): TLS, user/password, access control, a router; "
-                            "--zenoh-connect and --zenoh-listen replace its endpoints")
-    zenoh.add_argument("--zenoh-scout", action="store_true",
-                       help="find peers by multicast scouting and gossip and listen on every interface (Zenoh's "
-                            "defaults): only on a network where every machine is trusted")
-    add_rig_arguments(parser)
+    parser.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error"])
+    try:
+        extra = tuple(group() for group in installed_settings_groups())
+    except TypeError as exc:  # a package installed here that is broken: say which, no traceback
+        parser.error(str(exc))
+    # The rig's files are the operator's choice here too: none unless named.
+    rig, zenoh = HostSettings(audio_files=(), record_dirs=(), extra=extra), ZenohSettings()
+    add_settings_arguments(parser, [zenoh, rig, ClockSettings(), rig.budgets, *extra])
     parser.add_argument("--audio-socket-host", default="127.0.0.1", metavar="ADDRESS",
                         help="address the dedicated audio sockets listen on (default %(default)s: only this machine "
                              "can connect; give an address of this machine to reach them from the gateway's)")
     parser.add_argument("--token", default=os.environ.get("AIOGENOMIX_TOKEN"),
                         help="token of the dedicated audio sockets (the gateway checks its own HTTP token); better "
                              "given as $AIOGENOMIX_TOKEN, which other users cannot read in the process list")
-    add_budget_arguments(parser.add_argument_group("budgets of what clients can make the components hold"),
-                         Budgets())
     args = parser.parse_args(argv)
-    args.budgets = budgets_from(parser, args)
+    args.zenoh = settings_from(parser, args, zenoh)
+    args.clock = settings_from(parser, args, ClockSettings())
+    args.rig = settings_from(parser, args, rig, budgets=settings_from(parser, args, rig.budgets),
+                             audio_socket_host=args.audio_socket_host, audio_socket_token=args.token or None,
+                             extra=tuple(settings_from(parser, args, group) for group in extra)).for_operator()
     if args.host_id is None:
         args.host_id = socket.gethostname().split(".", 1)[0]
     problem = host_id_error(args.host_id)
@@ -102,14 +105,10 @@ async def serve(args: argparse.Namespace, stop: asyncio.Event) -> None:
     from ._host_node import HostNode
     from ._session import connect_endpoints, listen_endpoints
 
-    zenoh_settings = ZenohSettings(connect=args.zenoh_connect, listen=args.zenoh_listen,
-                                   config_file=args.zenoh_config, scout=args.zenoh_scout)
+    zenoh_settings: ZenohSettings = args.zenoh
     zenoh_settings.config()  # refused now, before any hardware is opened, when it cannot work
-    settings = rig_settings(can=args.can, can_timeout=args.can_timeout, audio_device=args.audio_device,
-                            audio_socket_port=args.audio_socket_port, audio_socket_host=args.audio_socket_host,
-                            audio_socket_token=args.token, audio_files=args.audio_files,
-                            record_dirs=args.record_dir, record_mode=args.record_mode, budgets=args.budgets)
-    host = ComponentHost(clock=ScaledClock(args.time_scale), settings=settings)
+    settings: HostSettings = args.rig
+    host = ComponentHost(clock=ScaledClock(args.clock.time_scale), settings=settings)
     node: HostNode | None = None
     closing: set[asyncio.Task[None]] = set()
     try:
@@ -166,6 +165,13 @@ def main(argv: list[str] | None = None) -> int:
     if warning:
         _say(warning)
     logging.basicConfig(level=args.log_level.upper(), format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    from ..components.audio import UnknownDevicePrefix, split_device
+
+    try:
+        split_device(args.rig.audio_device)  # refused before any component opens its hardware
+    except UnknownDevicePrefix as exc:
+        print(f"aiogenomix-component: error: argument --audio-device: {exc}", file=sys.stderr, flush=True)
+        return 2
 
     async def run() -> None:
         stop = asyncio.Event()

@@ -33,6 +33,7 @@ from ..components.core.runtime import (
     RequestStatus, parse_request_id,
 )
 from ._mirror import MirroredOutPort
+from ._settings import RemoteTimeouts
 from ._session import GONE, Answer, Unanswered, ask, ask_all, on_zenoh_thread
 from ._wire import (
     PROTOCOL, OfferKey, cleaned_key, decode_message, events_key, info_key, port_key, request_key, snapshot_key,
@@ -50,23 +51,6 @@ log = logging.getLogger(__name__)
 
 #: Seconds a clean answered by the gateway waits for a query to carry it before it is published.
 CLEAN_DELAY = 0.05
-
-
-@dataclasses.dataclass
-class RemoteTimeouts:
-    """How long the gateway waits for a component host before answering ``::genom::remote_io``.
-
-    Attributes:
-        control: Seconds for a description, status, abort or clean; and for a name a host offered
-            to be offered again (a host that restarts) before its load is refused.
-        send: Seconds for a send (a function may take up to the host's function grace to end).
-        stale: Seconds without news of a host (it beats four times within them) after which its ports are not
-            served as current and its sends are refused: the network is cut, or the host froze.
-    """
-
-    control: float = 5.0
-    send: float = 10.0
-    stale: float = 2.0
 
 
 @dataclasses.dataclass(frozen=True)

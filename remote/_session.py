@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import dataclasses
 import json
 import pathlib
 import time
@@ -20,11 +19,13 @@ import orjson
 import zenoh
 
 from ..components.core.runtime import RemoteRefusal, RemoteUnreachable
+from ._settings import ZenohSettings
 from ._shm import SETTINGS as SHARED_MEMORY
 from ._shm import remove_orphaned_segments
 
 __all__ = [
-    "ZenohSettings", "ZenohSessionError", "open_session", "on_zenoh_thread", "ask", "ask_all", "alive",
+    "ZenohSettings", "zenoh_config", "session_summary", "ZenohSessionError", "open_session", "on_zenoh_thread",
+    "ask", "ask_all", "alive",
     "listen_endpoints", "connect_endpoints", "GONE", "Answer", "Unanswered",
 ]
 
@@ -39,93 +40,66 @@ class ZenohSessionError(Exception):
 _ISOLATION = ("mode", "scouting/multicast/enabled", "scouting/gossip/enabled", "listen/endpoints")
 
 
-@dataclasses.dataclass
-class ZenohSettings:
-    """Whom a Zenoh session talks to: endpoints, Zenoh's own configuration file, discovery.
+def zenoh_config(settings: ZenohSettings) -> zenoh.Config:
+    """The Zenoh configuration of a session with *settings*' settings (:meth:`ZenohSettings.config`).
 
-    Isolated by default: a session connects to the ``connect`` endpoints and listens on the
-    ``listen`` ones, and on nothing else.  No multicast scouting, no gossip (a session would
-    otherwise connect to every locator it hears of, the machine's other addresses included), and
-    no listener unless asked (Zenoh's own default listens on every interface).  Shared memory
-    between processes of one machine carries only messages of 64 KiB or more, from a pool of 4 MiB
-    (see ``_shm``).
-
-    Attributes:
-        connect: Endpoints to connect to, such as ``tcp/192.168.1.10:7447``.
-        listen: Endpoints to listen on, such as ``tcp/192.168.1.10:7447``.
-        config_file: A Zenoh configuration file (JSON5, Zenoh's own format: TLS, user/password
-            authentication, access control, a router to connect to...).  Its settings are kept,
-            even those it sets to Zenoh's default; ``connect`` and ``listen`` replace its endpoints
-            when given.  A setting it leaves out (scouting, gossip, listeners, the mode, the shared
-            memory's threshold and pool) is as above.
-        scout: Find peers by multicast scouting and gossip, and listen on every interface
-            (Zenoh's defaults): for a lab network where every machine is trusted.
+    Raises:
+        ZenohSessionError: for a configuration file that cannot be read, or settings whose
+            session would talk to nobody.
     """
+    _check_endpoints([*settings.connect, *settings.listen])
+    if settings.config_file is not None:
+        try:
+            config = zenoh.Config.from_file(settings.config_file)
+        except (zenoh.ZError, OSError, ValueError) as exc:
+            raise ZenohSessionError(f"cannot read the Zenoh configuration {settings.config_file}: "
+                                    f"{_reason(exc)}") from None
+    else:
+        config = zenoh.Config()
+    default = zenoh.Config()
+    path = settings.config_file
+    written = _written(path, (*_ISOLATION, *SHARED_MEMORY)) if path is not None else set()
+    unset = {key for key in _ISOLATION if key not in written and config.get_json(key) == default.get_json(key)}
+    for key, value in SHARED_MEMORY.items():
+        # For large messages only, from a smaller pool than Zenoh's (see _shm).
+        if key not in written and config.get_json(key) == default.get_json(key):
+            config.insert_json5(key, value)
+    if "mode" in unset:
+        config.insert_json5("mode", '"peer"')
+    for key in ("scouting/multicast/enabled", "scouting/gossip/enabled"):
+        if settings.scout:
+            config.insert_json5(key, "true")
+        elif key in unset:
+            config.insert_json5(key, "false")
+    if settings.listen:
+        config.insert_json5("listen/endpoints", json.dumps(settings.listen))
+    elif "listen/endpoints" in unset and not settings.scout:
+        config.insert_json5("listen/endpoints", "[]")
+    if settings.connect:
+        config.insert_json5("connect/endpoints", json.dumps(settings.connect))
+    if config.get_json("connect/endpoints") not in ("[]", "null"):
+        # Start without waiting for a peer that is not up yet (the gateway may start before the robot),
+        # and keep trying it in the background.
+        if config.get_json("connect/timeout_ms") == default.get_json("connect/timeout_ms"):
+            config.insert_json5("connect/timeout_ms", "1000")
+        if config.get_json("connect/exit_on_failure") == default.get_json("connect/exit_on_failure"):
+            config.insert_json5("connect/exit_on_failure", "false")
+    elif not (settings.scout or listen_endpoints(config)):
+        raise ZenohSessionError("this Zenoh session would talk to nobody: give --zenoh-connect ENDPOINT, "
+                                "--zenoh-listen ENDPOINT, a --zenoh-config file with endpoints, or "
+                                "--zenoh-scout to find peers on the local network")
+    return config
 
-    connect: list[str] = dataclasses.field(default_factory=list)
-    listen: list[str] = dataclasses.field(default_factory=list)
-    config_file: str | None = None
-    scout: bool = False
-
-    def config(self) -> zenoh.Config:
-        """The Zenoh configuration of a session with these settings.
-
-        Raises:
-            ZenohSessionError: for a configuration file that cannot be read, or settings whose
-                session would talk to nobody.
-        """
-        _check_endpoints([*self.connect, *self.listen])
-        if self.config_file is not None:
-            try:
-                config = zenoh.Config.from_file(self.config_file)
-            except (zenoh.ZError, OSError, ValueError) as exc:
-                raise ZenohSessionError(f"cannot read the Zenoh configuration {self.config_file}: "
-                                        f"{_reason(exc)}") from None
-        else:
-            config = zenoh.Config()
-        default = zenoh.Config()
-        written = _written(self.config_file, (*_ISOLATION, *SHARED_MEMORY)) if self.config_file is not None else set()
-        unset = {key for key in _ISOLATION if key not in written and config.get_json(key) == default.get_json(key)}
-        for key, value in SHARED_MEMORY.items():
-            # For large messages only, from a smaller pool than Zenoh's (see _shm).
-            if key not in written and config.get_json(key) == default.get_json(key):
-                config.insert_json5(key, value)
-        if "mode" in unset:
-            config.insert_json5("mode", '"peer"')
-        for key in ("scouting/multicast/enabled", "scouting/gossip/enabled"):
-            if self.scout:
-                config.insert_json5(key, "true")
-            elif key in unset:
-                config.insert_json5(key, "false")
-        if self.listen:
-            config.insert_json5("listen/endpoints", json.dumps(self.listen))
-        elif "listen/endpoints" in unset and not self.scout:
-            config.insert_json5("listen/endpoints", "[]")
-        if self.connect:
-            config.insert_json5("connect/endpoints", json.dumps(self.connect))
-        if config.get_json("connect/endpoints") not in ("[]", "null"):
-            # Start without waiting for a peer that is not up yet (the gateway may start before the robot),
-            # and keep trying it in the background.
-            if config.get_json("connect/timeout_ms") == default.get_json("connect/timeout_ms"):
-                config.insert_json5("connect/timeout_ms", "1000")
-            if config.get_json("connect/exit_on_failure") == default.get_json("connect/exit_on_failure"):
-                config.insert_json5("connect/exit_on_failure", "false")
-        elif not (self.scout or listen_endpoints(config)):
-            raise ZenohSessionError("this Zenoh session would talk to nobody: give --zenoh-connect ENDPOINT, "
-                                    "--zenoh-listen ENDPOINT, a --zenoh-config file with endpoints, or "
-                                    "--zenoh-scout to find peers on the local network")
-        return config
-
-    def summary(self, config: zenoh.Config) -> str:
-        """What a session of *config* does, in one line for its start-up message."""
-        listen = listen_endpoints(config)
-        connect = connect_endpoints(config)
-        scouting = [what for what, key in (("multicast", "scouting/multicast/enabled"),
-                                           ("gossip", "scouting/gossip/enabled"))
-                    if config.get_json(key) != "false"]
-        return (f"listening on {', '.join(listen) or 'nothing'}; connecting to {', '.join(connect) or 'nobody'}; "
-                f"scouting {'by ' + ' and '.join(scouting) if scouting else 'off'}"
-                + (f"; configuration {self.config_file}" if self.config_file else ""))
+def session_summary(settings: ZenohSettings, config: zenoh.Config) -> str:
+    """What a session of *config* does, in one line for its start-up message (:meth:`ZenohSettings.summary`)."""
+    listen = listen_endpoints(config)
+    connect = connect_endpoints(config)
+    scouting = [what for what, key in (("multicast", "scouting/multicast/enabled"),
+                                       ("gossip", "scouting/gossip/enabled"))
+                if config.get_json(key) != "false"]
+    return (f"listening on {', '.join(listen) or 'nothing'}; connecting to {', '.join(connect) or 'nobody'}; "
+            f"scouting {'by ' + ' and '.join(scouting) if scouting else 'off'}"
+            + (f"; configuration {settings.config_file}" if settings.config_file else ""))
 
 
 def _written(path: str, keys: tuple[str, ...]) -> set[str]:

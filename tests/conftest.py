@@ -35,7 +35,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 @pytest.fixture
 def gateway_config() -> GatewayConfig:
     """The configuration of the test gateway (override in a module to change it)."""
-    return GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, can_timeout=TEST_CAN_TIMEOUT)
+    return GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, can_timeout=TEST_CAN_TIMEOUT)
 
 
 @pytest.fixture
@@ -50,7 +50,7 @@ async def stepped() -> AsyncIterator[tuple[str, ManualClock]]:
     """A gateway whose rig runs on a clock the test steps; yields its base URL and the clock."""
     clock = ManualClock()
     async with ComponentHost(clock=clock, settings=HostSettings(can_timeout=10.0, audio_socket_port=0)) as host, \
-            serve(GatewayConfig(port=0), host) as url:
+            serve(GatewayConfig.of(port=0), host) as url:
         yield url, clock
 
 

@@ -8,6 +8,9 @@ Device strings::
     mcap:<path.mcap>     a recording's audio played again at its rate (``#instance/port`` picks one)
     pa | pa:<name|index> a PortAudio input device (``portaudio:`` works too)
     alsa:<name> | <name> an ALSA PCM: hw:1,0, plughw:1,0, default, null, ...
+    <prefix>:<argument>  a backend of another package (an ``aiogenomix.capture_backends`` entry point)
+
+Any other ``PREFIX:`` is refused (:class:`UnknownDevicePrefix`, naming the prefixes there are).
 
 Every backend hands out :class:`Chunk` objects of exactly ``frames_per_chunk``
 int32 stereo frames with the time of their first frame, and says in each
@@ -19,6 +22,7 @@ from __future__ import annotations
 import abc
 import dataclasses
 import importlib
+import importlib.metadata
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, ClassVar, Self
 
@@ -26,13 +30,15 @@ import numpy as np
 import numpy.typing as npt
 
 from ..core import Clock
+from ._errors import UnknownDevicePrefix
 
 if TYPE_CHECKING:
     from ._scene import Scene
 
 __all__ = [
     "Chunk", "CaptureBackend", "PacedBackend", "SourceOptions", "BACKENDS", "backend_class", "open_backend",
-    "split_device", "Azimuth", "SourceAzimuths", "ListenerPosition",
+    "split_device", "known_prefixes", "UnknownDevicePrefix", "CAPTURE_BACKENDS", "ALSA_PCM_PREFIXES",
+    "Azimuth", "SourceAzimuths", "ListenerPosition",
 ]
 
 #: A callable giving the current head azimuth in degrees (positive to the left).
@@ -234,9 +240,30 @@ BACKENDS: dict[str, str] = {
     "alsa": "._alsa:AlsaBackend",
 }
 
-#: Device string prefixes and the kind of backend they name (a string with none is an ALSA name).
+#: Device string prefixes and the kind of backend they name.
 _PREFIXES = {"sim": "sim", "file": "file", "mcap": "mcap", "alsa": "alsa", "pa": "portaudio",
              "portaudio": "portaudio"}
+#: ALSA's own PCM names that take arguments after a colon (``hw:1,0``, ``plughw:CARD=USB``): ALSA
+#: opens these.  Any other ``PREFIX:`` names no backend; a name without a colon is ALSA's (``default``).
+ALSA_PCM_PREFIXES = frozenset({
+    "hw", "plughw", "default", "sysdefault", "front", "rear", "center_lfe", "side", "surround21", "surround40",
+    "surround41", "surround50", "surround51", "surround71", "iec958", "spdif", "hdmi", "dmix", "dsnoop", "dshare",
+    "plug", "asym", "null", "pulse", "pipewire", "jack", "usbstream", "shm",
+})
+#: The entry point group through which other packages add capture backends: each entry point's name is
+#: its device prefix, its value the backend class (``my_rig.capture:MyBackend``), imported on first use.
+CAPTURE_BACKENDS = "aiogenomix.capture_backends"
+
+
+def _installed() -> dict[str, importlib.metadata.EntryPoint]:
+    """The capture backends of other packages by device prefix (the built-in prefixes are kept for ours)."""
+    return {entry.name: entry for entry in importlib.metadata.entry_points(group=CAPTURE_BACKENDS)
+            if entry.name not in _PREFIXES}
+
+
+def known_prefixes() -> list[str]:
+    """Every device prefix a capture opens: the built-in ones and those of other packages' backends."""
+    return sorted({*_PREFIXES, *_installed()})
 
 
 def split_device(device: str) -> tuple[str, str]:
@@ -244,20 +271,36 @@ def split_device(device: str) -> tuple[str, str]:
 
     >>> split_device("hw:1,0"), split_device("sim"), split_device("pa:2")
     (('alsa', 'hw:1,0'), ('sim', ''), ('portaudio', '2'))
+
+    Raises:
+        UnknownDevicePrefix: for a ``PREFIX:`` that names no backend, naming those that do.
     """
-    head, _, tail = device.partition(":")
+    head, colon, tail = device.partition(":")
     kind = _PREFIXES.get(head)
-    return (kind, tail) if kind is not None else ("alsa", device)
+    if kind is not None:
+        return kind, tail
+    if head in _installed():  # (another package's prefix is taken before ALSA's names)
+        return head, tail
+    if not colon or head in ALSA_PCM_PREFIXES:
+        return "alsa", device
+    raise UnknownDevicePrefix(device, head, known_prefixes())
 
 
 def backend_class(kind: str) -> type[CaptureBackend]:
-    """The backend class of *kind* (a key of :data:`BACKENDS`), imported now if it was not yet.
+    """The backend class of *kind* (a key of :data:`BACKENDS`, or another package's prefix), imported now.
 
     Raises:
-        KeyError: for a kind the table does not have.
+        KeyError: for a kind that no table has.
+        TypeError: for another package's entry point that names no :class:`CaptureBackend`.
     """
-    module, _, name = BACKENDS[kind].partition(":")
-    cls = getattr(importlib.import_module(module, __package__), name)
+    if kind in BACKENDS:
+        module, _, name = BACKENDS[kind].partition(":")
+        cls = getattr(importlib.import_module(module, __package__), name)
+    else:
+        entry = _installed()[kind]
+        cls = entry.load()
+        if not (isinstance(cls, type) and issubclass(cls, CaptureBackend)):
+            raise TypeError(f"the {CAPTURE_BACKENDS} entry point {kind} ({entry.value}) is not a CaptureBackend")
     assert isinstance(cls, type) and issubclass(cls, CaptureBackend)
     return cls
 

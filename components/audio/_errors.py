@@ -4,6 +4,7 @@
 
     AudioError                                 anything the audio library refuses or fails at
     ├── DeviceNotFound (LookupError)           no such sound device; says what exists
+    ├── UnknownDevicePrefix (ValueError)       a device PREFIX: that no backend has; says which do
     ├── BackendUnavailable (ImportError)       the backend's library is not installed
     ├── DeviceError (OSError)                  the device failed while open or opening
     │   └── FormatRefused                      it opened but refuses the rate, channels or format
@@ -19,7 +20,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 __all__ = [
-    "AudioError", "DeviceNotFound", "BackendUnavailable", "DeviceError", "FormatRefused", "SceneError",
+    "AudioError", "DeviceNotFound", "UnknownDevicePrefix", "BackendUnavailable",
+    "DeviceError", "FormatRefused", "SceneError",
     "RequestError",
 ]
 
@@ -63,3 +65,18 @@ class SceneError(AudioError, ValueError):
 
 class RequestError(AudioError, ValueError):
     """A dedicated-socket request that does not follow ``Read Port - Index <k>``."""
+
+
+class UnknownDevicePrefix(AudioError, ValueError):
+    """A device string whose ``PREFIX:`` names no capture backend (and no ALSA device).
+
+    Attributes:
+        device: The device string as given.
+        prefix: The part before the colon.
+        known: The prefixes that name a backend.
+    """
+
+    def __init__(self, device: str, prefix: str, known: list[str]) -> None:
+        self.device, self.prefix, self.known = device, prefix, known
+        super().__init__(f"no capture backend has the device prefix {prefix!r} (in {device!r}): the prefixes are "
+                         f"{', '.join(known)}, and ALSA's own names (hw:1,0, plughw:1,0, default...)")

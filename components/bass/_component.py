@@ -45,8 +45,8 @@ class Bass(Component, name="bass", version="1.0"):
     capture = Task(doc="Reads chunks from the sound device and publishes them on Audio")
     socket = Task(doc="Serves the dedicated TCP socket")
     # Published as snapshots of the chunk history (read piece by piece); encoded as AudioPortData.
-    Audio: OutPort[AudioSnapshot] = OutPort(AudioPortData,
-                                            doc="The newest nChunksOnPort chunks of binaural audio, indexed by frame")
+    Audio = OutPort(AudioPortData, view=AudioSnapshot,
+                    doc="The newest nChunksOnPort chunks of binaural audio, indexed by frame")
 
     def __init__(self, host: ComponentHost, instance: str, argv: list[str] | None = None) -> None:
         super().__init__(host, instance, argv)

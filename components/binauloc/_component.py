@@ -74,8 +74,8 @@ class Binauloc(Component, name="binauloc", version="1.0"):
         "Connect to an audio port (bass/Audio, capture/Port, kemarcapture/Port, any component's): read by index "
         "without loss, with the head azimuths it carries"))
     Azimuths = OutPort(AzimuthsData, doc="The newest estimate: its sources, the strongest first")
-    Estimates: OutPort[EstimateWindow] = OutPort(
-        EstimatesData, doc="The last 1024 estimates, numbered: read with since=K for those after K")
+    Estimates = OutPort(EstimatesData, view=EstimateWindow,
+                        doc="The last 1024 estimates, numbered: read with since=K for those after K")
     Source = OutPort(SourceData, doc="What FaceSource found: every frame heard combined in the room, after each look")
 
     async def on_start(self) -> None:

@@ -79,7 +79,7 @@ class Capture(Component, name="capture", version="1.1"):
     retrieve_data = Task(doc="Reads chunks from the sound device and publishes them on Port")
     socket = Task(doc="Serves the dedicated TCP socket")
     # Published as views of the chunk window (incremental reads); encoded as PortData.
-    Port: OutPort[PortView] = OutPort(PortData, doc="The last Port_chunks chunks of binaural audio, oldest first")
+    Port = OutPort(PortData, view=PortView, doc="The last Port_chunks chunks of binaural audio, oldest first")
 
     #: The struct published on Port.
     port_data: ClassVar[type[PortData]] = PortData

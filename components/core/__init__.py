@@ -26,7 +26,8 @@ from ._kinds import (
     HeadReading, HeadState, Image, ImageReading, JointReading, JointStates, LaserScan, MemberNeed, Odometry,
     PlanarOdometry, PortKind, Pose, PoseReading, ScanReading, carried_by, member_at, seconds_of,
 )
-from ._settings import HostSettings
+from ._setting_groups import SettingsGroup, at_least, positive, setting, tcp_port, whole_at_least
+from ._settings import ClockSettings, HostSettings
 from ._ports import ComputedOutPort, Incremental, InPort, InPortRuntime, OutPort, OutPortRuntime
 from ._public import show_as_public as _show_as_public
 from ._services import Out, activity, attribute, function, redeclare
@@ -39,7 +40,9 @@ from ._types import (
 
 __all__ = [
     # The component and what hosts it
-    "Component", "ComponentHost", "HostSettings", "LoadError",
+    "Component", "ComponentHost", "HostSettings", "ClockSettings", "LoadError",
+    # Settings groups: each setting's default, flag, unit, help and refusal declared once
+    "SettingsGroup", "setting", "at_least", "positive", "whole_at_least", "tcp_port",
     # What happens on a host, as data: requests sent and ended, instances, sessions (host.events)
     "Event", "RequestEvent", "InstanceLoaded", "InstanceUnloaded", "ComponentsOffered", "SessionEnded",
     "HostEvents", "Subscription",

@@ -18,7 +18,9 @@ from __future__ import annotations
 import dataclasses
 import typing
 from collections.abc import Callable
-from typing import Any, Literal
+from typing import Literal
+
+from ._setting_groups import SettingsGroup, declared_settings, parse_amount, setting, whole_at_least
 
 __all__ = ["Budgets", "BoundName", "OverBudget", "Ledger", "Reservation", "Ledgers", "MIB", "GIB", "size_text"]
 
@@ -31,8 +33,14 @@ BoundName = Literal["port_bytes", "audio_bytes", "socket_clients", "socket_clien
                     "recordings", "recording_seconds"]
 
 
-def _bound(default: int, flag: str, unit: str, doc: str) -> Any:
-    return dataclasses.field(default=default, metadata={"flag": flag, "unit": unit, "doc": doc})
+def _bound(default: int, flag: str, unit: str, doc: str) -> int:
+    """A bound: a setting of the limits section, a whole number (bytes also as ``64M``, ``1G``), 1 or more."""
+
+    def amount(text: str) -> int:
+        return parse_amount(text, unit)
+
+    return setting(default, flag=flag, unit=unit, help=doc, parse=amount, refuse=whole_at_least(1),
+                   metavar="BYTES" if unit == "bytes" else unit.upper())
 
 
 def size_text(amount: int, unit: str = "bytes") -> str:
@@ -47,7 +55,7 @@ def size_text(amount: int, unit: str = "bytes") -> str:
 
 
 @dataclasses.dataclass(frozen=True)
-class Budgets:
+class Budgets(SettingsGroup, section="limits", about="what one client can hold or send"):
     """The bound of every resource a client can make the components of a host hold.
 
     Each has a default here and a flag of the gateway (``aiogenomix-gateway --help``, group *limits*).
@@ -99,27 +107,20 @@ class Budgets:
     recording_seconds: int = _bound(4 * 3600, "--max-recording-seconds", "seconds",
                                     "one recording's runtime seconds (a recording until Stop ends there)")
 
-    def __post_init__(self) -> None:
-        for field in dataclasses.fields(self):
-            value = getattr(self, field.name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"{field.name} ({field.metadata['flag']}) is a whole number, 1 or more, "
-                                 f"not {value!r}")
-
     @staticmethod
     def flag(name: str) -> str:
         """The gateway flag that sets the bound *name*."""
-        return str(_FIELDS[name].metadata["flag"])
+        return _FIELDS[name].flag
 
     @staticmethod
     def unit(name: str) -> str:
         """What the bound *name* counts (``bytes``, ``frames``, ``clients``)."""
-        return str(_FIELDS[name].metadata["unit"])
+        return _FIELDS[name].unit
 
     @staticmethod
     def doc(name: str) -> str:
         """What the bound *name* bounds, in a few words."""
-        return str(_FIELDS[name].metadata["doc"])
+        return _FIELDS[name].help
 
     @staticmethod
     def names() -> list[BoundName]:
@@ -140,7 +141,7 @@ class Budgets:
             raise self.over(name, what, asked)
 
 
-_FIELDS = {field.name: field for field in dataclasses.fields(Budgets)}
+_FIELDS = {field.name: declared for field, declared in declared_settings(Budgets)}
 _NAMES: tuple[BoundName, ...] = typing.get_args(BoundName)
 if list(_NAMES) != list(_FIELDS):  # (at import: a bound added to one and not the other is a bug)
     raise TypeError(f"BoundName names the fields of Budgets in their order: {list(_FIELDS)}, not {list(_NAMES)}")

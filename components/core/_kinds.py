@@ -12,12 +12,16 @@ Numbers are converted by the units their members declare (``Unit("deg")`` on ``p
 to radians); a member that declares none is taken in SI units, as ROS takes them.  ``/info`` gives
 the kind as the type's ``carries`` (:meth:`PortKind.describe`), so a port known only by its
 description (another process's, a recorded one) carries it too (:func:`carried_by`).  The kinds of
-other packages are subclasses of :class:`PortKind` with a ``kind=`` name of their own.
+other packages are subclasses of :class:`PortKind` with a ``kind=`` name of their own; a package
+names each in an ``aiogenomix.port_kinds`` entry point, so that a process that has not imported it
+(an export of a recording) finds it by name (:meth:`PortKind.named`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import importlib.metadata
+import logging
 import math
 from collections.abc import Mapping
 from typing import Any, ClassVar, NamedTuple, Self
@@ -26,12 +30,17 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
-    "PortKind", "MemberNeed", "carried_by", "member_at", "seconds_of", "HeadState", "HeadReading", "Image",
-    "ImageReading", "LaserScan", "ScanReading", "Pose", "PoseReading", "Odometry", "PlanarOdometry", "JointStates",
-    "JointReading",
+    "PORT_KINDS", "PortKind", "MemberNeed", "carried_by", "member_at", "seconds_of", "HeadState", "HeadReading",
+    "Image", "ImageReading", "LaserScan", "ScanReading", "Pose", "PoseReading", "Odometry", "PlanarOdometry",
+    "JointStates", "JointReading",
 ]
 
 Json = Mapping[str, Any]
+
+log = logging.getLogger(__name__)
+
+#: The entry point group through which other packages name their port kinds (name: the kind's name).
+PORT_KINDS = "aiogenomix.port_kinds"
 
 #: The factor from each unit a member may declare to the SI unit of its quantity.
 UNITS: dict[str, dict[str, float]] = {
@@ -131,6 +140,7 @@ class PortKind:
     #: What each field's member must be (fields not here are options, not members).
     needs: ClassVar[dict[str, MemberNeed]] = {}
     _kinds: ClassVar[dict[str, type[PortKind]]] = {}
+    _not_installed: ClassVar[set[str]] = set()
     #: The factor from each field's unit to SI, learnt by bind().
     _scales: dict[str, float] = dataclasses.field(default_factory=dict, init=False, repr=False, compare=False)
 
@@ -148,6 +158,26 @@ class PortKind:
         """The kinds of this process by name (those of the packages imported so far)."""
         return dict(PortKind._kinds)
 
+    @classmethod
+    def named(cls, kind: str) -> type[PortKind] | None:
+        """The kind called *kind*: one imported, else another package's ``aiogenomix.port_kinds`` entry point.
+
+        A recording or another process's port may carry the kind of a package that this process
+        has not imported (``aiogenomix-record export`` of an outside component's recording): the
+        package names the kind's class in an entry point of that name, imported here on first use.
+        """
+        known = PortKind._kinds.get(kind)
+        if known is not None or not kind or kind in PortKind._not_installed:
+            return known
+        PortKind._not_installed.add(kind)  # looked for once: a kind no package names stays plain data
+        for entry in importlib.metadata.entry_points(group=PORT_KINDS, name=kind):
+            found = entry.load()
+            if isinstance(found, type) and issubclass(found, PortKind) and found.kind == kind:
+                return found
+            log.warning("the %s entry point %s (%s) is not the PortKind %r: its ports are shown as plain data",
+                        PORT_KINDS, entry.name, entry.value, kind)
+        return None
+
     def describe(self) -> dict[str, Any]:
         """The ``carries`` object of ``/info``: ``{"kind": ..., field: member, ...}`` (None fields left out)."""
         fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.init}
@@ -158,7 +188,7 @@ class PortKind:
     @classmethod
     def from_description(cls, carries: Json) -> PortKind | None:
         """The kind a ``carries`` object describes; None for a kind unknown here or a malformed one."""
-        known = PortKind._kinds.get(str(carries.get("kind", "")))
+        known = PortKind.named(str(carries.get("kind", "")))
         if known is None or not dataclasses.is_dataclass(known):
             return None
         fields = {f.name: str(f.type) for f in dataclasses.fields(known) if f.init}

@@ -93,6 +93,9 @@ class OutPort(PortSpec, Generic[T]):
         annotation: The type of the data (an @idl_struct, Double, ...).
         doc: What the port publishes.
         multiple: A multiple port holds named elements (read with ``?name=``).
+        view: The class of what is published when it is not *annotation* itself but a view that
+            encodes as it (a window of audio chunks published as the struct of its chunks):
+            ``OutPort(PortData, view=PortView)`` is an ``OutPort[PortView]`` for every type checker.
     """
 
     direction = "out"
@@ -100,9 +103,15 @@ class OutPort(PortSpec, Generic[T]):
     @overload
     def __init__(self: OutPort[T], annotation: type[T], doc: str = "", multiple: bool = False) -> None: ...
     @overload
+    def __init__(self: OutPort[T], annotation: object, doc: str = "", multiple: bool = False, *,
+                 view: type[T]) -> None: ...
+    @overload
     def __init__(self: OutPort[Any], annotation: object, doc: str = "", multiple: bool = False) -> None: ...
-    def __init__(self, annotation: object, doc: str = "", multiple: bool = False) -> None:
+    def __init__(self, annotation: object, doc: str = "", multiple: bool = False, *,
+                 view: type | None = None) -> None:
         super().__init__(annotation, doc, multiple)
+        #: The class of what is published, when it is a view of the annotation's type (None: that type).
+        self.view = view
 
     @overload
     def __get__(self, instance: None, owner: type) -> Self: ...

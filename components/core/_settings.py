@@ -1,19 +1,50 @@
-"""The settings of a component host: the rig its components drive, one typed value and one default each."""
+"""The settings of a component host: the rig its components drive, and its clock; each declared once.
+
+Both are settings groups (:mod:`._setting_groups`): each setting's default, flag, unit, help and
+refusal are declared here, and the gateway and a component host make their options from them.
+"""
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 from typing import TypeVar
 
 from ._budgets import Budgets
+from ._setting_groups import SettingsGroup, positive, setting, tcp_port
 
-__all__ = ["HostSettings"]
+__all__ = ["HostSettings", "ClockSettings"]
 
 T = TypeVar("T")
 
+_RIG = "rig"
+_RIG_ABOUT = "the hardware the components drive, simulated or real, wherever they run"
+
+
+def _record_mode(text: str) -> int:
+    """An octal mode of recordings: ``600``, ``0640``, ``0o644``."""
+    digits = text.strip().lower().removeprefix("0o")
+    mode = int(digits, 8) if digits.isascii() and digits.isdigit() and set(digits) <= set("01234567") else -1
+    if mode < 0 or mode & ~0o666 or mode & 0o600 != 0o600:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a recording's mode: octal read and write bits, the "
+                                         "owner's both among them (600, 640, 644)")
+    return mode
+
 
 @dataclasses.dataclass(frozen=True)
-class HostSettings:
+class ClockSettings(SettingsGroup, section=_RIG, about=_RIG_ABOUT):
+    """How the runtime's time runs against real time.
+
+    Attributes:
+        time_scale: Runtime seconds per real second (1 on a rig; more to run a simulation faster).
+    """
+
+    time_scale: float = setting(1.0, flag="--time-scale", metavar="FACTOR", refuse=positive,
+                                help="runtime seconds per real second, for faster simulations")
+
+
+@dataclasses.dataclass(frozen=True)
+class HostSettings(SettingsGroup, section=_RIG, about=_RIG_ABOUT):
     """What the components of one host are told about the rig: its CAN bus, its sound card, its audio socket.
 
     Each setting has one default, here; the gateway and a component host fill them from their
@@ -42,18 +73,31 @@ class HostSettings:
         audio_socket_token: When set, a client of the dedicated socket must first send ``Token <token>``.
         budgets: The bound of every resource a client can make the components hold (ports,
             socket backlogs, blocks, render memory), each with its default and gateway flag.
-        extra: The settings of components of other packages, one object per class (a frozen
-            dataclass with a default for each setting); :meth:`of` finds them by class.
+        extra: The settings of components of other packages, one group per class (a
+            :class:`SettingsGroup`, whose flags the gateway and a component host take when the
+            package declares it as an ``aiogenomix.settings`` entry point); :meth:`of` finds them by class.
     """
 
-    can: str = "virtual"
-    can_timeout: float = 0.5
-    audio_device: str = "sim"
-    audio_files: tuple[str, ...] | None = None
-    record_dirs: tuple[str, ...] | None = None
-    record_mode: int = 0o600
+    can: str = setting("virtual", flag="--can", metavar="BUS",
+                       help="KEMAR bus: 'virtual' (simulated drive) or INTERFACE:CHANNEL, e.g. socketcan:can0")
+    can_timeout: float = setting(0.5, flag="--can-timeout", unit="seconds", refuse=positive,
+                                 help="real time the KEMAR drive has to answer a request on the bus")
+    audio_device: str = setting("sim", flag="--audio-device", metavar="DEVICE",
+                                help="default capture device: sim, sim:SCENE.json, hw:1,0, file:PATH.wav, pa:NAME")
+    audio_files: tuple[str, ...] | None = setting(
+        None, flag="--audio-files", metavar="DIR", repeatable=True,
+        help="a directory clients may name WAV (file:PATH) and scene (sim:PATH) files from (repeatable; "
+             "default: none, files are refused)")
+    record_dirs: tuple[str, ...] | None = setting(
+        None, flag="--record-dir", metavar="DIR", repeatable=True,
+        help="a directory the recorder component may write recordings into, and captures may replay them from "
+             "(mcap:PATH) (repeatable; default: none, recordings are refused)")
+    record_mode: int = setting(0o600, flag="--record-mode", metavar="MODE", parse=_record_mode,
+                               help="permissions of new recordings, in octal (default 600: their owner's only, as "
+                                    "they hold microphones and cameras; 640 lets the files' group read them)")
     audio_socket_host: str = "127.0.0.1"
-    audio_socket_port: int = 8081
+    audio_socket_port: int = setting(8081, flag="--audio-socket-port", metavar="PORT", refuse=tcp_port,
+                                     help="port of the dedicated audio socket, 0 for a free one")
     audio_socket_token: str | None = None
     budgets: Budgets = Budgets()
     extra: tuple[object, ...] = ()
@@ -66,10 +110,7 @@ class HostSettings:
         return kind()
 
     def __post_init__(self) -> None:
-        if not self.can_timeout > 0:  # NaN fails this too
-            raise ValueError(f"can_timeout must be a positive number of seconds, not {self.can_timeout!r}")
-        if not 0 <= self.audio_socket_port <= 65535:
-            raise ValueError(f"audio_socket_port must be a TCP port (0 to 65535), not {self.audio_socket_port!r}")
+        super().__post_init__()
         mode = self.record_mode
         if isinstance(mode, bool) or not isinstance(mode, int) or mode & ~0o666 or mode & 0o600 != 0o600:
             shown = f"{mode:o}" if isinstance(mode, int) else repr(mode)
@@ -77,7 +118,15 @@ class HostSettings:
                              f"them (600, 640, 644), not {shown}")
         if not isinstance(self.budgets, Budgets):
             raise TypeError(f"budgets are a Budgets, not {type(self.budgets).__name__}")
-        # A list given by a caller is kept as a tuple: the settings stay frozen all the way down.
-        for name in ("audio_files", "record_dirs"):
-            if getattr(self, name) is not None:
-                object.__setattr__(self, name, tuple(getattr(self, name)))
+        if isinstance(self.extra, list):
+            object.__setattr__(self, "extra", tuple(self.extra))
+
+    def for_operator(self) -> HostSettings:
+        """These settings as a command line gives them: the file of ``audio_device`` is readable.
+
+        The operator chose that file, so it is readable even when ``--audio-files`` names no directory.
+        """
+        kind, _, path = self.audio_device.partition(":")
+        if kind not in ("file", "sim") or not path:
+            return self
+        return dataclasses.replace(self, audio_files=(*(self.audio_files or ()), path))

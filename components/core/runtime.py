@@ -5,7 +5,6 @@ a host of components (the gateway, a remote component host, a test) does.
 """
 
 from ._binary import BINARY_CONTENT_TYPE, BINARY_MAGIC, encode_binary
-from ._budget_arguments import add_budget_arguments, budgets_from, parse_amount
 from ._budgets import MIB, size_text
 from ._describe import describe
 from ._error_bodies import REMOTE_IO, error_body, message_of
@@ -18,7 +17,10 @@ from ._instance import LoadedInstance, Placement
 from ._ports import ComputedOutPortRuntime, PortSpec
 from ._public import show_as_public as _show_as_public
 from ._requests import SENDER_SCOPE, Request, RequestStatus, RequestTracker, parse_request_id
-from ._rig_arguments import add_rig_arguments, rig_settings
+from ._setting_groups import (
+    SETTINGS_ENTRY_POINTS, Setting, add_settings_arguments, amount_text, declared_settings, installed_settings_groups,
+    parse_amount, settings_from,
+)
 from ._services import NO_DEFAULT, ParamSpec, ServiceDecorator, ServiceSpec
 from ._tasks import TaskRuntime
 from ._types import (
@@ -40,8 +42,9 @@ __all__ = [
     "ComponentError", "InputError", "NoSuchModule", "NoSuchService", "NoSuchPort", "NoSuchRequest",
     "RequestRunning", "NoCapability", "PortUnavailable", "AmbiguousModule", "RemoteUnreachable", "RemoteHostGone",
     "RemoteRefusal", "error_body", "message_of", "REMOTE_IO", "names_hint",
-    # The command line of a rig (the gateway's and a component host's)
-    "add_rig_arguments", "rig_settings", "add_budget_arguments", "budgets_from", "parse_amount",
+    # Command lines made from settings groups (the gateway's and a component host's), other packages' groups
+    "Setting", "declared_settings", "add_settings_arguments", "settings_from", "parse_amount", "amount_text",
+    "installed_settings_groups", "SETTINGS_ENTRY_POINTS",
     # Amounts of bytes, as the budgets count and say them
     "MIB", "size_text",
 ]

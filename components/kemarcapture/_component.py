@@ -29,8 +29,8 @@ class KemarCapture(Capture, Kemar, name="kemarcapture", version="1.0"):
     with the simulated head.
     """
 
-    Port: OutPort[PortView] = OutPort(KemarPortData, doc="The last Port_chunks chunks of binaural audio and the "
-                                                         "head azimuth at the end of each, oldest first")
+    Port = OutPort(KemarPortData, view=PortView, doc="The last Port_chunks chunks of binaural audio and the head "
+                                                     "azimuth at the end of each, oldest first")
     Indexes = OutPort(MoveIndexes, doc="Chunk index and head azimuth at the start and the end of the last "
                                        "MoveAbsolutePosition")
 

@@ -13,7 +13,7 @@ TIME_SCALE = 20.0
 
 def config() -> GatewayConfig:
     """A gateway on free ports, with a fast clock."""
-    return GatewayConfig(port=0, time_scale=TIME_SCALE, audio_socket_port=0)
+    return GatewayConfig.of(port=0, time_scale=TIME_SCALE, audio_socket_port=0)
 
 
 @pytest.fixture

@@ -15,7 +15,7 @@ TIME_SCALE = 20.0  # as tests/clients/conftest.py serves its gateways
 async def test_a_simulated_clock_is_told_as_it_stands() -> None:
     clock = ManualClock(start=100.0)
     async with ComponentHost(clock=clock, settings=HostSettings(audio_socket_port=0)) as host, \
-            serve(GatewayConfig(port=0), host) as url, aconnect(url) as client:
+            serve(GatewayConfig.of(port=0), host) as url, aconnect(url) as client:
         told = await client.clock()
         await clock.advance(2.5)
         later = await client.clock()

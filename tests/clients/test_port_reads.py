@@ -35,7 +35,7 @@ async def capturing() -> AsyncIterator[tuple[Capture, str]]:
         assert isinstance(capture, Capture)
         await capture.send("StartCapture", {"device": "sim", "Port_chunks": 8})
         await capture_until(capture, 8)
-        async with serve(GatewayConfig(port=0), host=host) as url:
+        async with serve(GatewayConfig.of(port=0), host=host) as url:
             yield capture, url
 
 

@@ -59,7 +59,7 @@ def gateway_in_thread() -> Iterator[str]:
         concurrent.futures.Future())
 
     async def main() -> None:
-        config = GatewayConfig(port=0, time_scale=20.0, audio_socket_port=0, preload=["demo", "slow"])
+        config = GatewayConfig.of(port=0, time_scale=20.0, audio_socket_port=0, preload=["demo", "slow"])
         # A short grace: Settle's send is answered "sent" (and announced) 0.1 s after it starts.
         host = ComponentHost(clock=ScaledClock(20.0), settings=config.host_settings(),
                              factories={"demo": Demo, "slow": Slow}, function_grace=0.1)

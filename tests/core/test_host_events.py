@@ -100,7 +100,7 @@ async def test_a_failing_subscriber_costs_neither_the_request_nor_the_others(cap
 async def test_a_second_delivery_writes_the_sessions_events_in_its_own_form() -> None:
     """Another way to deliver events (here JSON lines) subscribes to the host: the same events as a listen stream."""
     async with ComponentHost(factories={"lamp": Lamp}, function_grace=0.01) as host, \
-            serve(GatewayConfig(port=0, audio_socket_port=0), host) as url, aiohttp.ClientSession(url) as http:
+            serve(GatewayConfig.of(port=0, audio_socket_port=0), host) as url, aiohttp.ClientSession(url) as http:
         lines: list[str] = []
         host.events.subscribe(lambda event: lines.append(json.dumps({"event": event.name, "data": event.data()})),
                               session="s")

@@ -10,7 +10,7 @@ from aiogenomix.gateway import GatewayConfig, serve
 
 
 async def test_a_token_is_required_when_configured() -> None:
-    async with serve(GatewayConfig(port=0, token="s3cret", audio_socket_port=0)) as url:
+    async with serve(GatewayConfig.of(port=0, token="s3cret", audio_socket_port=0)) as url:
         async with aiohttp.ClientSession() as http:
             async with http.get(f"{url}/version") as reply:
                 assert reply.status == 401
@@ -25,7 +25,7 @@ async def test_a_token_is_required_when_configured() -> None:
 
 
 async def test_only_allowed_components_load() -> None:
-    async with serve(GatewayConfig(port=0, components=["demo"], audio_socket_port=0)) as url:
+    async with serve(GatewayConfig.of(port=0, components=["demo"], audio_socket_port=0)) as url:
         async with aiohttp.ClientSession() as http:
             async with http.get(f"{url}/") as reply:
                 index = await reply.json()

@@ -58,7 +58,7 @@ def _world() -> Any:
 
 @pytest.fixture
 async def url(host: ComponentHost) -> AsyncIterator[str]:
-    async with serve(GatewayConfig(port=0), host=host) as base:
+    async with serve(GatewayConfig.of(port=0), host=host) as base:
         yield base
 
 

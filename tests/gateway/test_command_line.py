@@ -17,9 +17,10 @@ def test_flags_make_the_configuration() -> None:
     config = parse_args(["--host", "0.0.0.0", "--port", "0", "--can", "socketcan:can0", "--audio-device", "hw:1,0",
                          "--audio-socket-port", "9000", "--time-scale", "4", "--load", "demo", "--load",
                          "demo:-i demo2", "--components", "demo,kemar"])
-    assert (config.host, config.port, config.can, config.audio_device) == ("0.0.0.0", 0, "socketcan:can0", "hw:1,0")
-    assert (config.audio_socket_port, config.time_scale) == (9000, 4.0)
-    assert config.preload == ["demo", "demo:-i demo2"] and config.components == ["demo", "kemar"]
+    assert (config.server.host, config.server.port) == ("0.0.0.0", 0)
+    assert (config.rig.can, config.rig.audio_device) == ("socketcan:can0", "hw:1,0")
+    assert (config.rig.audio_socket_port, config.clock.time_scale) == (9000, 4.0)
+    assert config.server.preload == ("demo", "demo:-i demo2") and config.server.components == ("demo", "kemar")
     assert config.host_settings().audio_socket_host == "0.0.0.0"
     assert config.simulated_parts() == []  # a real bus and a real sound card
 

@@ -57,4 +57,4 @@ async def test_the_gateway_serves_them_without_the_token(http: aiohttp.ClientSes
 
 @pytest.fixture
 def gateway_config() -> GatewayConfig:
-    return GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, token="s3cret")
+    return GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, token="s3cret")

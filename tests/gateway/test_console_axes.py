@@ -35,7 +35,7 @@ TIME_SCALE = 1.0
 
 @pytest.fixture
 async def gateway_with_camera() -> AsyncIterator[str]:
-    config = GatewayConfig(port=0, time_scale=TIME_SCALE, audio_socket_port=0, can_timeout=TEST_CAN_TIMEOUT)
+    config = GatewayConfig.of(port=0, time_scale=TIME_SCALE, audio_socket_port=0, can_timeout=TEST_CAN_TIMEOUT)
     async with ComponentHost(clock=ScaledClock(TIME_SCALE), settings=config.host_settings()) as host:
         host.register("camera", Camera)
         async with serve(config, host) as url:

@@ -24,7 +24,7 @@ TOKEN = "s3cret-console"
 
 @pytest.fixture
 def gateway_config() -> GatewayConfig:
-    return GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, token=TOKEN)
+    return GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, token=TOKEN)
 
 
 @pytest.fixture

@@ -30,7 +30,7 @@ WAIT = 20_000
 
 @pytest.fixture
 async def gateway_with_camera() -> AsyncIterator[str]:
-    config = GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, can_timeout=TEST_CAN_TIMEOUT)
+    config = GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, can_timeout=TEST_CAN_TIMEOUT)
     async with ComponentHost(clock=ScaledClock(TEST_TIME_SCALE), settings=config.host_settings()) as host:
         host.register("camera", Camera)
         async with serve(config, host) as url:

@@ -14,7 +14,7 @@ TOKEN = "s3cret"
 
 @pytest.fixture
 def gateway_config() -> GatewayConfig:
-    return GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, token=TOKEN)
+    return GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, token=TOKEN)
 
 
 async def test_the_token_buys_a_cookie_and_nothing_else_does(gateway: str) -> None:

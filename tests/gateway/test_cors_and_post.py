@@ -21,7 +21,7 @@ AUTH = {"Authorization": f"Bearer {TOKEN}"}
 
 @pytest.fixture
 def gateway_config() -> GatewayConfig:
-    return GatewayConfig(port=0, audio_socket_port=0, token=TOKEN, allowed_origins=[APP])
+    return GatewayConfig.of(port=0, audio_socket_port=0, token=TOKEN, allowed_origins=[APP])
 
 
 async def test_a_preflight_is_answered_before_the_token(http: aiohttp.ClientSession) -> None:

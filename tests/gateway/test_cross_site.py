@@ -65,7 +65,7 @@ async def test_programs_and_the_gateways_own_pages_are_served(demo: aiohttp.Clie
 class TestAllowedByTheOperator:
     @pytest.fixture
     def gateway_config(self) -> GatewayConfig:
-        return GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, token="s3cret",
+        return GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, token="s3cret",
                              allowed_hosts=["robot.lab"], allowed_origins=["https://notebooks.lab"])
 
     async def test_named_hosts_and_origins_pass_and_the_rest_learns_nothing(self, http: aiohttp.ClientSession) -> None:

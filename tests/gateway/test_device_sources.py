@@ -13,6 +13,7 @@ import aiohttp
 import numpy as np
 import pytest
 
+from aiogenomix.clients import aconnect
 from aiogenomix.components.core import HostSettings
 from aiogenomix.gateway import GatewayConfig
 
@@ -63,7 +64,7 @@ class TestConfinedToAudioFiles:
     @pytest.fixture
     def gateway_config(self, tmp_path: Path) -> GatewayConfig:
         (tmp_path / "sounds").mkdir()
-        return GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0,
+        return GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0,
                              audio_files=[str(tmp_path / "sounds")])
 
     async def test_files_inside_open_and_nothing_outside_does(self, http: aiohttp.ClientSession,
@@ -129,6 +130,24 @@ def test_the_flags_reach_the_components() -> None:
     settings = config.host_settings()
     assert settings.audio_files == ("/srv/sounds", "/srv/scenes", "/srv/rig/take1.wav")   # and the default file
     assert settings.can_timeout == 2.5
-    assert config.allowed_hosts == ["robot.lab"] and config.allowed_origins == ["https://nb.lab"]
+    assert config.access.allowed_hosts == ("robot.lab",) and config.access.allowed_origins == ("https://nb.lab",)
     assert parse_args([]).host_settings().audio_files == ()
     assert parse_args([]).host_settings().can_timeout == HostSettings().can_timeout
+
+
+async def test_an_unknown_device_prefix_is_the_requests_error_naming_the_known_ones(
+        http: aiohttp.ClientSession, gateway: str, caplog: pytest.LogCaptureFixture) -> None:
+    # Once an unknown prefix meant ALSA: 'fiel:take.wav' was "no such ALSA capture device".
+    status = await start_capture(http, "fiel:take.wav")
+    assert status["status"] == "error" and status["exception"]["ex"] == "::capture::DEVICE_ERROR"
+    what = status["exception"]["detail"]["what"]
+    assert what.startswith("no capture backend has the device prefix 'fiel' (in 'fiel:take.wav'): the prefixes are "
+                           "alsa, file, mcap, pa, portaudio, sim"), what
+    assert "ALSA" not in what.split(":")[0] and not [r for r in caplog.records if r.exc_info]
+    # The gateway goes on: the same capture opens a known device and publishes its chunks.
+    async with aconnect(gateway) as rig:
+        capture = await rig.load("capture")
+        await capture.StartCapture(device="sim", ack=True)
+        while (await capture.Port()).index < 2:
+            pass
+        await capture.StopCapture()

@@ -79,7 +79,7 @@ def fast_answers(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
 
 @pytest.fixture
 def gateway_config() -> GatewayConfig:
-    return GatewayConfig(port=0)
+    return GatewayConfig.of(port=0)
 
 
 @pytest.fixture
@@ -171,7 +171,7 @@ async def test_reads_that_close_the_connection_are_the_routes(
 class TestWithAToken:
     @pytest.fixture
     def gateway_config(self) -> GatewayConfig:
-        return GatewayConfig(port=0, token=TOKEN)
+        return GatewayConfig.of(port=0, token=TOKEN)
 
     async def test_only_a_read_with_the_token_is_answered(
             self, served: tuple[Windowed, Connection], fast_answers: list[bool]) -> None:

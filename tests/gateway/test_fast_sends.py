@@ -43,7 +43,7 @@ def fast_answers(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
 async def connection() -> AsyncIterator[Connection]:
     async with ComponentHost(clock=ScaledClock(1)) as host:
         await host.load("demo")
-        async with serve(GatewayConfig(port=0), host=host) as url:
+        async with serve(GatewayConfig.of(port=0), host=host) as url:
             opened = await Connection.open(url)
             try:
                 yield opened

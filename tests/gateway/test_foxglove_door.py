@@ -46,7 +46,7 @@ def free_port() -> int:
 async def view(load: tuple[str, ...] = ("demo",), **settings: Any) -> AsyncIterator[tuple[str, int]]:
     """A gateway with the live view on a free port and *load* loaded; yields its URL and the view's port."""
     port = free_port()
-    config = GatewayConfig(port=0, audio_socket_port=0, foxglove_port=port, preload=list(load), **settings)
+    config = GatewayConfig.of(port=0, audio_socket_port=0, foxglove_port=port, preload=list(load), **settings)
     async with serve(config) as url:
         yield url, port
         # Unloaded one by one, each to its end: the gateway's own shutdown gives them a second in all,
@@ -319,9 +319,9 @@ def test_the_view_s_settings_are_checked_on_the_command_line(
 
 
 def test_the_view_binds_loopback_unless_asked_and_takes_its_budgets() -> None:
-    assert parse_args(["--foxglove", "8765"]).foxglove_host == "127.0.0.1"
+    assert parse_args(["--foxglove", "8765"]).view.foxglove_host == "127.0.0.1"
     # Beyond this machine with a token: the view checks it, as the HTTP door does.
     config = parse_args(["--foxglove", "8765", "--foxglove-host", "0.0.0.0", "--token", TOKEN,
                          "--max-viewers", "3", "--max-viewer-bytes", "8M"])
-    assert (config.foxglove_host, config.max_viewers, config.viewer_bytes) == ("0.0.0.0", 3, 8 << 20)
+    assert (config.view.foxglove_host, config.view.max_viewers, config.view.viewer_bytes) == ("0.0.0.0", 3, 8 << 20)
 

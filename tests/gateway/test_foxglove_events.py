@@ -42,7 +42,7 @@ async def test_a_viewer_sees_each_request_sent_and_ended_as_a_log_line() -> None
 
     port = free_port()
     async with ComponentHost(factories={"lamp": Lamp}, function_grace=0.01) as host, \
-            serve(GatewayConfig(port=0, audio_socket_port=0, foxglove_port=port), host) as url, \
+            serve(GatewayConfig.of(port=0, audio_socket_port=0, foxglove_port=port), host) as url, \
             aiohttp.ClientSession(base_url=url) as http, \
             websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.websocket.v1"],
                                close_timeout=1) as viewer:

@@ -56,7 +56,7 @@ INSTANCES = ("kemar", "world", "demo", "kemarcapture")
 @pytest.fixture
 async def gateway() -> AsyncIterator[tuple[str, int]]:
     port = free_port()
-    async with serve(GatewayConfig(port=0, audio_socket_port=0, foxglove_port=port)) as url:
+    async with serve(GatewayConfig.of(port=0, audio_socket_port=0, foxglove_port=port)) as url:
         async with aiohttp.ClientSession(base_url=url) as http:
             for name in INSTANCES:
                 async with http.get(f"/load/{name}") as loaded:

@@ -166,7 +166,7 @@ def no_leaks() -> Iterator[None]:
 
 @pytest.fixture(scope="module")
 def fuzzed() -> Iterator[tuple[Gateway, dict[str, Any], Witness]]:
-    config = GatewayConfig(port=0, time_scale=1.0, audio_socket_port=0)
+    config = GatewayConfig.of(port=0, time_scale=1.0, audio_socket_port=0)
     threads_before = set(threading.enumerate())
     with serve_in_thread(config) as url:
         gateway = Gateway(url)

@@ -88,7 +88,7 @@ def surfaces() -> Iterator[Surfaces]:
     root.setLevel(logging.DEBUG)
     threads_before = set(threading.enumerate())
     try:
-        with serve_in_thread(GatewayConfig(port=0, time_scale=1.0, audio_socket_port=0)) as url:
+        with serve_in_thread(GatewayConfig.of(port=0, time_scale=1.0, audio_socket_port=0)) as url:
             gateway = Gateway(url)
             for name in ("demo", "capture", "bass", "basc"):
                 assert gateway.get(f"/load/{name}")[0] == 200

@@ -66,7 +66,7 @@ def node_tools() -> Path:
 @pytest.fixture
 def gateway_with_token() -> Iterator[str]:
     """A gateway with a token and a fresh demo and kemar (each client moves them from where they start)."""
-    config = GatewayConfig(port=0, time_scale=20, audio_socket_port=0, token=TOKEN, preload=["demo", "kemar"])
+    config = GatewayConfig.of(port=0, time_scale=20, audio_socket_port=0, token=TOKEN, preload=["demo", "kemar"])
     with serve_in_thread(config) as url:
         yield url
 
@@ -160,7 +160,7 @@ async def second_origin() -> AsyncIterator[tuple[str, list[str]]]:
 async def test_swagger_ui_of_another_origin_drives_a_gateway_with_a_token(
         second_origin: tuple[str, list[str]]) -> None:
     origin, gateways = second_origin
-    config = GatewayConfig(port=0, time_scale=20, audio_socket_port=0, token=TOKEN, allowed_origins=[origin],
+    config = GatewayConfig.of(port=0, time_scale=20, audio_socket_port=0, token=TOKEN, allowed_origins=[origin],
                            preload=["demo"])
     async with serve(config) as gateway, browser_page() as page:
         gateways.append(gateway)

@@ -21,7 +21,7 @@ TOKEN = "s3cret"
 
 @pytest.fixture(params=["gateway runner", "aiohttp runner"])
 async def url(request: pytest.FixtureRequest) -> AsyncIterator[str]:
-    config = GatewayConfig(port=0, audio_socket_port=0, token=TOKEN)
+    config = GatewayConfig.of(port=0, audio_socket_port=0, token=TOKEN)
     if request.param == "gateway runner":
         async with serve(config) as served:
             yield served

@@ -23,7 +23,7 @@ SEND = "/module/demo/send/GetSpeed"
 
 @pytest.fixture
 async def gateway() -> AsyncIterator[str]:
-    config = GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, preload=["demo"])
+    config = GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, preload=["demo"])
     async with serve(config) as url:
         yield url.removeprefix("http://")
 

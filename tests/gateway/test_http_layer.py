@@ -6,6 +6,7 @@ Raw sockets throughout: these requests are the ones no HTTP client library would
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import json
 import logging
 from collections.abc import AsyncIterator
@@ -20,7 +21,7 @@ from tests.conftest import TEST_TIME_SCALE
 @pytest.fixture
 def gateway_config() -> GatewayConfig:
     # A short head timeout, so that the timeout test waits half a second, not ten.
-    return GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, header_timeout=0.5)
+    return GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, header_timeout=0.5)
 
 
 @pytest.fixture
@@ -87,8 +88,9 @@ async def test_parser_refusals_are_documented_json_without_a_traceback(
 
 
 async def test_a_20_mb_input_gets_414_rather_than_a_reset(gateway_config: GatewayConfig) -> None:
-    gateway_config.header_timeout = 10  # the refusal, not the timeout, however long a busy machine takes
-    async with serve(gateway_config) as gateway:
+    # The refusal, not the timeout, however long a busy machine takes.
+    limits = dataclasses.replace(gateway_config.connections, header_timeout=10)
+    async with serve(dataclasses.replace(gateway_config, connections=limits)) as gateway:
         await _send_20_mb(gateway)
 
 
@@ -110,8 +112,8 @@ async def _send_20_mb(gateway: str) -> None:
 
 
 async def test_the_url_limit_is_a_flag_and_input_below_it_is_read(gateway_config: GatewayConfig) -> None:
-    gateway_config.max_url_bytes = 200_000
-    async with serve(gateway_config) as url:
+    limits = dataclasses.replace(gateway_config.connections, max_url_bytes=200_000)
+    async with serve(dataclasses.replace(gateway_config, connections=limits)) as url:
         # 100 kB of JSON: past aiohttp's 8190 bytes, within the limit given.
         members = ",".join(['"x":1'] * 20_000)
         query = f"/module/demo/send/GotoPosition?input={{{members}}}".encode()
@@ -156,11 +158,13 @@ async def test_a_keep_alive_connection_serves_several_requests(gateway: str) -> 
 def test_the_limits_are_flags(capsys: pytest.CaptureFixture[str]) -> None:
     config = parse_args(["--header-timeout", "2.5", "--max-url-bytes", "100000", "--session-idle", "30",
                          "--max-sessions", "10", "--max-instances", "3"])
-    assert (config.header_timeout, config.max_url_bytes, config.session_idle) == (2.5, 100_000, 30.0)
-    assert (config.max_sessions, config.max_instances) == (10, 3)
+    connections, sessions = config.connections, config.sessions
+    assert (connections.header_timeout, connections.max_url_bytes, sessions.session_idle) == (2.5, 100_000, 30.0)
+    assert (sessions.max_sessions, sessions.max_instances) == (10, 3)
     defaults = parse_args([])
-    assert (defaults.header_timeout, defaults.max_url_bytes, defaults.session_idle) == (10.0, 65536, 600.0)
-    assert (defaults.max_sessions, defaults.max_instances) == (256, 64)
+    connections, sessions = defaults.connections, defaults.sessions
+    assert (connections.header_timeout, connections.max_url_bytes, sessions.session_idle) == (10.0, 65536, 600.0)
+    assert (sessions.max_sessions, sessions.max_instances) == (256, 64)
     for bad in (["--max-url-bytes", "8190"], ["--header-timeout", "nan"], ["--max-sessions", "0"]):
         with pytest.raises(SystemExit):
             parse_args(bad)

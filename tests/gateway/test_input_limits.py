@@ -82,7 +82,7 @@ async def test_large_numbers_in_range_still_decode(http: aiohttp.ClientSession) 
 
 async def test_a_non_utf8_authorization_header_is_refused_quietly(caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO)
-    config = GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, token="s3cret")
+    config = GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, token="s3cret")
     async with serve(config) as url:
         host, port = url.removeprefix("http://").rsplit(":", 1)
         reader, writer = await asyncio.open_connection(host, int(port))
@@ -99,7 +99,7 @@ async def test_a_non_utf8_authorization_header_is_refused_quietly(caplog: pytest
 
 
 async def test_instances_have_a_cap() -> None:
-    config = GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, max_instances=2)
+    config = GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, max_instances=2)
     async with serve(config) as url, aiohttp.ClientSession(base_url=url) as http:
         for argv in ("", "-i demo2"):
             async with http.get("/load/demo", params={"argv": argv}) as reply:

@@ -47,7 +47,7 @@ pytestmark = pytest.mark.timeout(900)
 
 @pytest.fixture
 async def gateway() -> AsyncIterator[str]:
-    config = GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, preload=["demo"], token=TOKEN,
+    config = GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, preload=["demo"], token=TOKEN,
                            allowed_origins=["http://app.example:3000"], header_timeout=5)
     async with serve(config) as url:
         yield url.removeprefix("http://")

@@ -24,7 +24,7 @@ async def rig() -> AsyncIterator[tuple[ComponentHost, str]]:
     """
     settings = HostSettings(can="virtual", can_timeout=10.0, audio_socket_port=0)
     async with ComponentHost(clock=VirtualClock(50), settings=settings) as host:
-        async with serve(GatewayConfig(port=0), host=host) as url:
+        async with serve(GatewayConfig.of(port=0), host=host) as url:
             yield host, url
 
 

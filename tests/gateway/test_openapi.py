@@ -70,7 +70,7 @@ async def test_the_document_is_valid_openapi_with_one_path_per_service(http: aio
 
 
 async def test_with_a_token_every_operation_but_the_consoles_needs_it() -> None:
-    config = GatewayConfig(port=0, audio_socket_port=0, token="s3cret")
+    config = GatewayConfig.of(port=0, audio_socket_port=0, token="s3cret")
     async with serve(config) as url, aiohttp.ClientSession() as http:
         async with http.get(f"{url}/openapi.json", headers={"Authorization": "Bearer s3cret"}) as reply:
             document = await reply.json()
@@ -83,7 +83,7 @@ async def test_with_a_token_every_operation_but_the_consoles_needs_it() -> None:
 
 @pytest.fixture
 def threaded_gateway() -> Iterator[str]:
-    config = GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, preload=["demo", "countserver"])
+    config = GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, preload=["demo", "countserver"])
     with serve_in_thread(config) as url:
         yield url
 

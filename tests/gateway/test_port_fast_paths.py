@@ -60,7 +60,7 @@ class Ticker(Component, name="ticker"):
 @pytest.fixture
 async def gateway() -> AsyncIterator[str]:
     host = ComponentHost(clock=ScaledClock(20), factories={"ticker": Ticker})
-    async with host, serve(GatewayConfig(port=0, ping_interval=5), host=host) as url:
+    async with host, serve(GatewayConfig.of(port=0, ping_interval=5), host=host) as url:
         yield url
 
 

@@ -92,7 +92,7 @@ async def served() -> AsyncIterator[tuple[Windowed, str]]:
     async with ComponentHost(clock=ScaledClock(1), factories={"windowed": Windowed}) as host:
         component = await host.load("windowed")
         assert isinstance(component, Windowed)
-        async with serve(GatewayConfig(port=0), host=host) as url:
+        async with serve(GatewayConfig.of(port=0), host=host) as url:
             yield component, url
 
 
@@ -330,7 +330,7 @@ async def test_a_reader_that_takes_nothing_for_the_keep_alive_time_is_disconnect
         assert isinstance(component, Windowed)
         view = PortView(window(32, 20_000, 40, seed=7), 44100, 0.0, KemarPortData)
         component.Port.publish(view)
-        async with serve(GatewayConfig(port=0, keep_alive=0.5), host=host) as url:
+        async with serve(GatewayConfig.of(port=0, keep_alive=0.5), host=host) as url:
             sock, first = await _stalled(url, "/module/windowed/read/Port")
             await waits.gave_up.wait()
             received = bytearray(first)

@@ -168,7 +168,7 @@ async def test_a_wait_on_a_request_the_gateway_cannot_stop_answers_503_at_shutdo
     async with ComponentHost(clock=ScaledClock(1.0)) as host, aiohttp.ClientSession() as http:
         demo = await host.load("demo")
         motion = await demo.send("GotoPosition", 1.0)
-        async with serve(GatewayConfig(port=0, audio_socket_port=0), host) as url:
+        async with serve(GatewayConfig.of(port=0, audio_socket_port=0), host) as url:
             wait = asyncio.create_task(http.get(f"{url}/module/demo/wait/{motion.id}"))
             async with http.get(f"{url}/") as reply:
                 assert reply.status == 200
@@ -235,7 +235,7 @@ async def test_a_port_in_use_is_one_line_naming_the_port_and_the_flag() -> None:
 async def test_an_audio_socket_port_in_use_names_the_port_and_the_flag() -> None:
     with taken_port() as holder:
         port = holder.getsockname()[1]
-        config = GatewayConfig(port=0, audio_socket_port=port, preload=["capture"])
+        config = GatewayConfig.of(port=0, audio_socket_port=port, preload=["capture"])
         async with serve(config) as url, aiohttp.ClientSession(base_url=url) as http:
             async with http.get("/module/capture/send/DedicatedSocket") as reply:
                 opening = (await reply.json())["id"]

@@ -23,7 +23,7 @@ from tests.conftest import TEST_TIME_SCALE
 
 @pytest.fixture
 async def gateway() -> AsyncIterator[str]:
-    config = GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, preload=["demo"])
+    config = GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, preload=["demo"])
     async with serve(config) as url:
         yield url.removeprefix("http://")
 
@@ -88,7 +88,7 @@ async def test_five_hundred_refused_heads_write_no_traceback(gateway: str, caplo
 async def test_the_parsers_refusals_log_no_traceback_under_any_runner(caplog: pytest.LogCaptureFixture) -> None:
     # The application served by aiohttp's own runner: aiohttp's parser refuses the head itself.
     caplog.set_level(logging.DEBUG)
-    config = GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, preload=["demo"])
+    config = GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, preload=["demo"])
     runner = web.AppRunner(create_app(config), access_log=None)
     await runner.setup()
     await web.TCPSite(runner, "127.0.0.1", 0).start()

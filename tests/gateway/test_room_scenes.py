@@ -58,7 +58,7 @@ async def gateway(sounds: Path) -> AsyncIterator[tuple[aiohttp.ClientSession, Ma
     clock = ManualClock()
     settings = HostSettings(audio_socket_port=0, audio_files=(str(sounds),))
     async with ComponentHost(clock=clock, settings=settings, factories=FACTORIES) as host, \
-            serve(GatewayConfig(port=0), host) as url, aiohttp.ClientSession(url) as http:
+            serve(GatewayConfig.of(port=0), host) as url, aiohttp.ClientSession(url) as http:
         yield http, clock
 
 

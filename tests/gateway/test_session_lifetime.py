@@ -34,7 +34,7 @@ def clock(monkeypatch: pytest.MonkeyPatch) -> FakeClock:
 
 @pytest.fixture
 def gateway_config() -> GatewayConfig:
-    return GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, session_idle=60, max_sessions=3)
+    return GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, session_idle=60, max_sessions=3)
 
 
 @pytest.fixture

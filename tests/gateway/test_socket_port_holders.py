@@ -26,7 +26,7 @@ def _free_port() -> int:
 @pytest.fixture
 async def http_and_port() -> AsyncIterator[tuple[aiohttp.ClientSession, int]]:
     port = _free_port()
-    async with serve(GatewayConfig(port=0, audio_socket_port=port, time_scale=20)) as url:
+    async with serve(GatewayConfig.of(port=0, audio_socket_port=port, time_scale=20)) as url:
         async with aiohttp.ClientSession(base_url=url) as http:
             yield http, port
 

@@ -23,7 +23,7 @@ def gateway_config() -> GatewayConfig:
     with socket.socket() as probe:          # a free port, known to the test, for the dedicated socket
         probe.bind(("127.0.0.1", 0))
         free = probe.getsockname()[1]
-    return GatewayConfig(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=free, token=TOKEN)
+    return GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=free, token=TOKEN)
 
 
 async def send(http: aiohttp.ClientSession, path: str) -> None:
@@ -59,7 +59,7 @@ async def raw_exchange(port: int, lines: bytes) -> bytes:
 async def test_a_client_without_the_token_reads_no_audio(http: aiohttp.ClientSession, gateway_config: GatewayConfig,
                                                          module: str, request_line: bytes) -> None:
     await open_socket(http, module)
-    port = gateway_config.audio_socket_port
+    port = gateway_config.rig.audio_socket_port
     for lines in (request_line, b"Token guess\n" + request_line, b"Bearer " + TOKEN.encode() + b"\n" + request_line):
         answer = await raw_exchange(port, lines)
         assert answer.startswith(b"ERROR ") and answer.endswith(b"\n") and answer.count(b"\n") == 1
@@ -69,7 +69,7 @@ async def test_a_client_without_the_token_reads_no_audio(http: aiohttp.ClientSes
 
 async def test_the_python_clients_send_the_token(http: aiohttp.ClientSession, gateway_config: GatewayConfig) -> None:
     await open_socket(http, "bass")
-    port = gateway_config.audio_socket_port
+    port = gateway_config.rig.audio_socket_port
     with pytest.raises(AudioSocketError, match="refused"):
         async with AsyncFrameSocketClient(port=port) as stranger:
             await stranger.read(10)

@@ -26,7 +26,7 @@ class Gauges(Component, name="gauges"):
 async def url() -> AsyncIterator[str]:
     async with ComponentHost(clock=ScaledClock(1), factories={"gauges": Gauges}) as host:
         await host.load("gauges")
-        async with serve(GatewayConfig(port=0), host=host) as base:
+        async with serve(GatewayConfig.of(port=0), host=host) as base:
             yield base
 
 

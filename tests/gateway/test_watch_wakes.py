@@ -21,7 +21,7 @@ PING_INTERVAL = 0.2
 @pytest.fixture
 async def served() -> AsyncIterator[tuple[ComponentHost, str]]:
     host = ComponentHost(clock=ScaledClock(20), factories={"ticker": Ticker})
-    async with host, serve(GatewayConfig(port=0, ping_interval=PING_INTERVAL), host=host) as url:
+    async with host, serve(GatewayConfig.of(port=0, ping_interval=PING_INTERVAL), host=host) as url:
         await host.load("ticker")
         yield host, url
 

@@ -1,8 +1,8 @@
 """Issue 33: an outside component's own audio port is recorded, exported, replayed, shown live and localised.
 
-``Ears`` stands for a component of another package: its port type is its own (``ears::block``:
-16-bit samples, interleaved, numbered by chunk), no table of ours names it, and its declaration
-says what it carries (``AudioStream``).  The recorder records it as audio with its frame indexes,
+``Ears`` is a component of another package (``outside_package/outside_ears``): its port type is its
+own (``ears::block``: 16-bit samples, interleaved, numbered by chunk), no table of ours names it,
+and its declaration says what it carries (``AudioStream``).  The recorder records it as audio with its frame indexes,
 ``aiogenomix-record export`` writes it as a WAV (the same samples), a capture plays it again
 (``mcap:PATH``), the live view shows it as
 ``foxglove.RawAudio``, and ``binauloc``'s one audio in port reads it and finds the source.  The rig
@@ -11,101 +11,26 @@ runs on a VirtualClock: the scene, the chunks and the estimates meet where the t
 
 from __future__ import annotations
 
-import collections
-import dataclasses
 import importlib.util
 import math
 import statistics
 from collections.abc import AsyncIterator
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Any
 
 import numpy as np
 import pytest
 import soundfile
-from numpy.typing import NDArray
 
-from aiogenomix.components.audio import open_backend, open_for_host
+from aiogenomix.components.audio import open_backend
 from aiogenomix.components.binauloc import Binauloc
-from aiogenomix.components.core import (
-    AudioStream, Component, ComponentHost, Double, HostSettings, ManualClock, OutPort, ULong, VirtualClock, activity,
-    idl_struct,
-)
+from aiogenomix.components.core import Component, ComponentHost, HostSettings, ManualClock, VirtualClock
 from aiogenomix.components.recorder import Recorder
 from aiogenomix.record import main as record_main
 
+from .outside_package.outside_ears import Ears
+
 RATE, FRAMES = 44100, 2205
-#: The chunks the outside port holds: a reader slower than this loses some (counted, never silent).
-HELD = 50
-
-
-@idl_struct("ears::block", carries=AudioStream(numbering="chunks", index="last", rate="rate", channels=("samples",),
-                                               interleaved=2, start="began", chunk_frames="frames"))
-class Block:
-    """The ears' newest chunks: 16-bit samples, left and right interleaved."""
-
-    rate: Annotated[ULong, "Frames per second"] = 0
-    frames: Annotated[ULong, "Frames per chunk"] = 0
-    last: Annotated[ULong, "The newest chunk's number (from 1)"] = 0
-    began: Annotated[Double, "When the first chunk began (POSIX seconds)"] = 0.0
-    samples: NDArray[np.int16] = dataclasses.field(default_factory=lambda: np.zeros(0, np.int16))
-
-
-class Held:
-    """The last chunks the ears heard, numbered, published as a ``Block`` (readers ask for those after one)."""
-
-    def __init__(self, began: float = 0.0) -> None:
-        self.rate, self.frames, self.began = RATE, FRAMES, began
-        self.last = 0
-        self._chunks: collections.deque[NDArray[np.int16]] = collections.deque(maxlen=HELD)
-
-    def add(self, interleaved: NDArray[np.int16]) -> None:
-        self._chunks.append(interleaved)
-        self.last += 1
-
-    @property
-    def index(self) -> int:
-        return self.last
-
-    @property
-    def samples(self) -> NDArray[np.int16]:
-        return np.concatenate(self._chunks) if self._chunks else np.zeros(0, np.int16)
-
-    def since(self, index: int) -> tuple[Block, int]:
-        """The chunks after *index*, and how many after it the ears no longer hold."""
-        first_held = self.last - len(self._chunks) + 1
-        start = max(index + 1, first_held)
-        kept = list(self._chunks)[start - first_held:]
-        block = Block(rate=self.rate, frames=self.frames, last=self.last, began=self.began,
-                      samples=np.concatenate(kept) if kept else np.zeros(0, np.int16))
-        return block, max(0, first_held - index - 1)
-
-
-class Ears(Component, name="ears"):
-    """Binaural ears of another package: they hear a sound device and publish their own blocks."""
-
-    Ears: OutPort[Held] = OutPort(Block, doc="The newest chunks heard")
-
-    async def on_start(self) -> None:
-        #: Every sample published, in order (what the test compares the others with).
-        self.heard: list[NDArray[np.int16]] = []
-        self.Ears.publish(Held())
-
-    @activity
-    async def Listen(self, device: Annotated[str, "The sound device"] = "sim",
-                     seconds: Annotated[Double, "How long"] = 1.0) -> None:
-        """Hear the device for a while, publishing each chunk."""
-        backend = open_for_host(self.host, device, RATE, FRAMES, self.clock)
-        async with backend:
-            held = Held(self.clock.wall())
-            for _ in range(math.ceil(seconds * RATE / FRAMES)):
-                chunk = await backend.read()
-                if chunk is None:
-                    break
-                interleaved = (chunk.frames >> 16).astype(np.int16).ravel()
-                self.heard.append(interleaved)
-                held.add(interleaved)
-                self.Ears.publish(held)
 
 
 def scene(directory: Path, azimuth: float) -> str:

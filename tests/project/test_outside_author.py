@@ -7,12 +7,10 @@ pyright and IDEs resolve it as they resolve any installed package, so an outside
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 import sys
 from pathlib import Path
 
-import pytest
 
 COMPONENT = '''
 from typing import Annotated
@@ -60,10 +58,8 @@ def test_mypy_strict_sees_the_installed_package(tmp_path: Path) -> None:
     assert run.returncode == 0, out
 
 
-def test_pyright_sees_the_installed_package(tmp_path: Path) -> None:
-    pyright = shutil.which("pyright", path=str(Path(sys.executable).parent)) or shutil.which("pyright")
-    if pyright is None:
-        pytest.skip("pyright is not installed (npm install -g pyright, or pip install pyright)")
+def test_pyright_sees_the_installed_package(tmp_path: Path, pyright_tool: Path) -> None:
+    pyright = str(pyright_tool)
     source = tmp_path / "lamp.py"
     source.write_text(COMPONENT, encoding="utf-8")
     run = subprocess.run([pyright, "--pythonpath", sys.executable, source.name], cwd=tmp_path,

@@ -44,10 +44,11 @@ def test_the_page_runs_from_nothing_to_generated_client_functions(
     assert "OUT_OF_RANGE: ::pantilt::OUT_OF_RANGE." in shown and "\ntilt 30.0\n" in shown
     assert "@function has no option 'interupts' (did you mean 'interrupts'?)" in shown
     assert "pointed at 60.0 after True" in shown
+    assert "speed (--pantilt-speed) takes a number, 1 or more, not 0.0" in shown
 
     async def point_twice_on_a_gateway() -> list[float]:
         factories = {"pantilt": page["PanTilt"], "counting_pantilt": page["CountingPanTilt"]}
-        async with ComponentHost(factories=factories) as host, serve(GatewayConfig(port=0), host) as url:
+        async with ComponentHost(factories=factories) as host, serve(GatewayConfig.of(port=0), host) as url:
             # The blocking client of the page, in a thread: this one runs the gateway.
             reached = await asyncio.to_thread(page["point_twice"], url)
             counting = await host.load("counting_pantilt")

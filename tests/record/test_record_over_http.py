@@ -110,7 +110,7 @@ async def test_ctrl_c_ends_the_command_cleanly_with_a_readable_file(tmp_path: Pa
     output = tmp_path / "ctrl_c.mcap"
     settings = HostSettings(audio_socket_port=0)
     async with ComponentHost(clock=ScaledClock(5.0), settings=settings) as host, \
-            serve(GatewayConfig(port=0), host) as url:
+            serve(GatewayConfig.of(port=0), host) as url:
         capture = await host.load("kemarcapture")
         running = await capture.send("StartCapture", {"device": "sim", "Port_chunks": 400})
         command = await asyncio.create_subprocess_exec(
@@ -194,7 +194,7 @@ async def test_bass_audio_over_http_is_stamped_on_the_rigs_clock(tmp_path: Path)
     output = tmp_path / "scaled.mcap"
     settings = HostSettings(can_timeout=10.0, audio_socket_port=0)
     async with ComponentHost(clock=ScaledClock(20.0), settings=settings) as host, \
-            serve(GatewayConfig(port=0), host) as url, aconnect(url) as lab:
+            serve(GatewayConfig.of(port=0), host) as url, aconnect(url) as lab:
         kemar, bass = await lab.load("kemar"), await lab.load("bass")
         await kemar.Homing()
         await bass.Acquire(device="sim", nChunksOnPort=400, ack=True)

@@ -323,7 +323,7 @@ async def test_a_load_of_an_offer_nothing_answers_for_says_so(endpoint: str) -> 
 
 async def test_a_silent_host_s_port_is_refused_before_a_watch_starts(endpoint: str) -> None:
     async with robot(endpoint, "turner"), gateway(endpoint) as (gateway_host, _), \
-            serve_gateway(GatewayConfig(port=0), gateway_host) as url, aiohttp.ClientSession(base_url=url) as http:
+            serve_gateway(GatewayConfig.of(port=0), gateway_host) as url, aiohttp.ClientSession(base_url=url) as http:
         proxy = await gateway_host.load("turner")
         assert isinstance(proxy, RemoteInstance)
         async with http.get("/module/turner/read/Reading") as reply:

@@ -80,7 +80,7 @@ async def start(http: aiohttp.ClientSession, path: str, session: str | None, **i
 async def test_stopping_a_gateway_s_session_stops_the_recording_it_sent_to_a_host(endpoint: str,
                                                                                   tmp_path: Path) -> None:
     async with robot(endpoint, tmp_path) as robot_host, gateway(endpoint, offers=2) as (gateway_host, _), \
-            serve_gateway(GatewayConfig(port=0), gateway_host) as url, aiohttp.ClientSession(base_url=url) as http:
+            serve_gateway(GatewayConfig.of(port=0), gateway_host) as url, aiohttp.ClientSession(base_url=url) as http:
         for name in ("probe", "recorder"):
             await gateway_host.load(name)
         recorder = recorder_of(robot_host)

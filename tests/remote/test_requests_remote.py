@@ -163,7 +163,7 @@ async def test_remote_instances_count_towards_the_instance_cap(demo_rig: tuple[s
 def test_zenoh_is_not_imported_unless_asked_for() -> None:
     check = ("import sys, asyncio\n"
              "from aiogenomix.gateway import GatewayConfig, create_app\n"
-             "create_app(GatewayConfig(port=0))\n"
+             "create_app(GatewayConfig.of(port=0))\n"
              "assert 'zenoh' not in sys.modules, 'zenoh was imported'\n")
     done = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from aiogenomix.components.audio import (
-    DeviceNotFound, SceneError, scene_renderer, DEFAULT_SCENE, open_backend, split_device,
+    AudioError, DeviceNotFound, SceneError, UnknownDevicePrefix, scene_renderer, DEFAULT_SCENE, known_prefixes,
+    open_backend, split_device,
 )
 from aiogenomix.components.audio._alsa import AlsaBackend, alsa_capture_devices
 from aiogenomix.components.audio._handoff import ThreadHandoff
@@ -29,6 +30,23 @@ FPC = 2205
 ])
 def test_device_strings_pick_the_backend(device: str, expected: tuple[str, str]) -> None:
     assert split_device(device) == expected
+
+
+@pytest.mark.parametrize("device", ["plughw:CARD=USB,DEV=0", "sysdefault:CARD=PCH", "front:CARD=PCH,DEV=0",
+                                    "dsnoop:1", "pulse"])
+def test_alsas_own_names_stay_alsas(device: str) -> None:
+    assert split_device(device) == ("alsa", device)
+
+
+@pytest.mark.parametrize("device", ["fiel:take.wav", "smi:scene.json", "pa2:3", "tcp:robot:7447"])
+def test_an_unknown_prefix_is_refused_naming_the_known_ones(device: str) -> None:
+    with pytest.raises(UnknownDevicePrefix) as refused:
+        split_device(device)
+    prefix = device.split(":")[0]
+    assert refused.value.prefix == prefix and refused.value.known == known_prefixes()
+    assert str(refused.value).startswith(f"no capture backend has the device prefix {prefix!r} (in {device!r}): "
+                                         "the prefixes are alsa, file, mcap, pa, portaudio, sim")
+    assert isinstance(refused.value, AudioError)   # what the components turn into their declared exceptions
 
 
 def test_a_backend_and_its_library_are_imported_when_a_capture_first_uses_it() -> None:

@@ -41,7 +41,7 @@ async def bass(host: ComponentHost) -> Bass:
 @pytest.fixture
 async def url(host: ComponentHost) -> AsyncIterator[str]:
     """A gateway serving the same host on a free loopback port."""
-    async with serve(GatewayConfig(port=0), host=host) as base:
+    async with serve(GatewayConfig.of(port=0), host=host) as base:
         yield base
 
 

@@ -74,7 +74,7 @@ async def served() -> AsyncIterator[tuple[Capture, str]]:
                              factories={"capture": Capture}) as host:
         capture = await host.load("capture")
         assert isinstance(capture, Capture)
-        async with serve(GatewayConfig(port=0), host=host) as url:
+        async with serve(GatewayConfig.of(port=0), host=host) as url:
             yield capture, url
 
 

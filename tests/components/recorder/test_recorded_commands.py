@@ -31,7 +31,7 @@ async def rig(tmp_path: Path) -> AsyncIterator[tuple[aiohttp.ClientSession, Manu
     """A gateway whose rig runs on a clock the test steps, recordings allowed in a directory of the test."""
     clock = ManualClock(start=1_700_000_000.0)
     settings = HostSettings(can_timeout=10.0, audio_socket_port=0, record_dirs=(str(tmp_path),))
-    async with ComponentHost(clock=clock, settings=settings) as host, serve(GatewayConfig(port=0), host) as url, \
+    async with ComponentHost(clock=clock, settings=settings) as host, serve(GatewayConfig.of(port=0), host) as url, \
             aiohttp.ClientSession(base_url=url) as http:
         for name in ("kemar", "recorder"):
             async with http.get(f"/load/{name}") as loaded:

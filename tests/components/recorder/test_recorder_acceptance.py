@@ -37,7 +37,7 @@ async def rig(tmp_path: Path) -> AsyncIterator[tuple[str, ManualClock, Path]]:
     clock = ManualClock()
     settings = HostSettings(can_timeout=10.0, audio_socket_port=0, record_dirs=(str(tmp_path),))
     async with ComponentHost(clock=clock, settings=settings) as host, \
-            serve(GatewayConfig(port=0), host) as url:
+            serve(GatewayConfig.of(port=0), host) as url:
         yield url, clock, tmp_path
 
 

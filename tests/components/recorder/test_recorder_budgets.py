@@ -48,7 +48,7 @@ async def rig(tmp_path: Path, budgets: Budgets = Budgets(), record_mode: int = 0
     clock = ManualClock()
     settings = HostSettings(can_timeout=10.0, audio_socket_port=0, record_dirs=(str(records),), budgets=budgets,
                             record_mode=record_mode)
-    async with ComponentHost(clock=clock, settings=settings) as host, serve(GatewayConfig(port=0), host) as url, \
+    async with ComponentHost(clock=clock, settings=settings) as host, serve(GatewayConfig.of(port=0), host) as url, \
             aiohttp.ClientSession(base_url=url) as http:
         for name in ("capture", "recorder"):
             async with http.get(f"/load/{name}") as loaded:
@@ -226,5 +226,5 @@ def test_the_budgets_are_flags_with_their_defaults(capsys: pytest.CaptureFixture
                           ("--max-recording-bytes", "4G"), ("--max-record-dir-bytes", "16G")):
         assert flag in shown and f"(default {default})" in shown.rsplit(flag, 1)[1][:200]
     config = parse_args(["--max-recordings", "2", "--max-recording-bytes", "512M", "--max-recording-seconds", "60"])
-    assert (config.budgets.recordings, config.budgets.recording_bytes, config.budgets.recording_seconds) == \
-        (2, 512 * MIB, 60)
+    budgets = config.rig.budgets
+    assert (budgets.recordings, budgets.recording_bytes, budgets.recording_seconds) == (2, 512 * MIB, 60)

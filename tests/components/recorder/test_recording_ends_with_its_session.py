@@ -54,7 +54,7 @@ async def gateway(tmp_path: Path, config: GatewayConfig) -> AsyncIterator[tuple[
 
 @pytest.fixture
 async def lab(tmp_path: Path, session_clock: FakeClock) -> AsyncIterator[tuple[aiohttp.ClientSession, str]]:
-    async with gateway(tmp_path, GatewayConfig(port=0, session_idle=60)) as served:
+    async with gateway(tmp_path, GatewayConfig.of(port=0, session_idle=60)) as served:
         yield served
 
 
@@ -127,7 +127,7 @@ async def test_a_recording_stops_when_its_session_expires_unused(
 async def test_a_recording_whose_client_went_away_stops_though_no_client_comes(tmp_path: Path) -> None:
     # The sessions' own clock: real seconds.  The gateway notices the listener gone (its next keep-alive),
     # then the session's idle time passes: nothing but the gateway's own look at its sessions ends it.
-    async with gateway(tmp_path, GatewayConfig(port=0, session_idle=0.2, ping_interval=0.05)) as (http, url):
+    async with gateway(tmp_path, GatewayConfig.of(port=0, session_idle=0.2, ping_interval=0.05)) as (http, url):
         listening = await RawEventStream.open(url, "left")
         recording = await start(http, "left.mcap", "left")
         assert await running(http, "recorder", recording)

@@ -31,7 +31,7 @@ async def rig() -> AsyncIterator[tuple[ComponentHost, str]]:
     the robots stop does not depend on how busy the machine is.
     """
     async with ComponentHost(clock=VirtualClock(SCALE), settings=HostSettings(audio_socket_port=0)) as host:
-        async with serve(GatewayConfig(port=0), host=host) as url:
+        async with serve(GatewayConfig.of(port=0), host=host) as url:
             yield host, url
 
 
