@@ -15,10 +15,15 @@ previous block's). The ear signals add three parts:
    Allen & Berkley 1979) of orders 1 to ``max_order`` that arrive before the
    mixing time, each through the measured response nearest its direction from
    the head, at its delay (rounded to a sample) and its walls' gain per octave
-   band. They make one response per source, made again when the head or a
-   source has moved (at most every ``update`` seconds); the output fades
-   linearly from the old response to the new across the block, so every sample
-   is a convex mix of two time-invariant convolutions.
+   band. They make one response per source, made again (looked up at most every
+   ``update`` seconds) when a source or the listener has moved or the head has
+   turned far enough for an image to be heard through another measurement;
+   the output fades linearly from the old response to the new across the
+   block, so every sample is a convex mix of two time-invariant convolutions.
+   All sources' images are made in one weighted count and one FFT, and a room
+   whose absorption differs per band needs as many responses as its images'
+   band gains have independent shapes (the number of orders when the walls
+   absorb alike), not seven (:class:`_ImagePlan`).
 3. **The late tail** from the mixing time on (:func:`~._late.late_tail`): the
    head's diffuse field decaying with the room's Eyring RT60 per band. It is
    fixed per source (that of the positions of the first block: a diffuse field
@@ -31,6 +36,7 @@ over (the early images fade out and the tail in over 5 ms, cos² and sin²).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -45,7 +51,7 @@ from ._hrir_set import HrirSet, wrap_degrees
 from ._kemar import load_kemar
 from ._late import late_tail
 from ._renderer import BinauralRenderer
-from ._room import MIN_DISTANCE, OCTAVE_BANDS, SPEED_OF_SOUND, ImageSources, Shoebox, band_weights, image_sources
+from ._room import MIN_DISTANCE, SPEED_OF_SOUND, Shoebox, band_weights, image_sources
 
 __all__ = ["RoomRenderer"]
 
@@ -109,12 +115,17 @@ class RoomRenderer:
         self._nearest = NearestDirections(self.hrirs)
         self._early: FadingConvolver | None = None
         self._early_spectra: npt.NDArray[np.complex128] | None = None
-        self._early_key: tuple[bytes, bytes] | None = None
-        self._images: dict[bytes, ImageSources] = {}     # per source and listener position: a head turning keeps them
+        self._early_key: tuple[int, bytes] | None = None  # what they were made from: the plan's number, the nearest
+        self._early_length = 0
+        self._plan: _ImagePlan | None = None             # the images as the head looks them up: a turn keeps them
+        self._plans = 0
+        self._plan_keys: list[bytes] = []                # per source: its position and the listener's
+        self._plan_sources: list[_SourceImages] = []
         self._since_update = 0
         self._late: StagedLateConvolver | None = None
         self._weights = np.ones((1, 1))                  # the octave bands' weights at the early FFT's bins
         self._reflection_taps = self.hrirs.taps
+        self._reflection_taps_by_ear = np.zeros((0, 2, 0))   # the same as (directions, ears, taps)
         self._tail_head = np.zeros((0, 2, 1), dtype=np.complex128)
         self.frames_rendered = 0
 
@@ -208,6 +219,8 @@ class RoomRenderer:
         self._lines = line[:, -self._line_length:]
         if frames == 0:
             return signals
+        if np.array_equal(start_delays, delays) and np.array_equal(start_gains, gains) and np.all(delays >= 2.0):
+            return self._delay_still(line, frames, delays, gains)
         ramp = np.arange(1, frames + 1) / frames
         delay = start_delays[:, np.newaxis] + (delays - start_delays)[:, np.newaxis] * ramp          # (src, frames)
         gain = start_gains[:, np.newaxis] + (gains - start_gains)[:, np.newaxis] * ramp
@@ -219,6 +232,20 @@ class RoomRenderer:
         rows = np.arange(self.sources)[:, np.newaxis]
         out = sum(taps[k] * line[rows, np.clip(base + k - 1, 0, line.shape[1] - 1)] for k in range(4))
         return np.asarray(out * gain)
+
+    def _delay_still(self, line: npt.NDArray[np.float64], frames: int, delays: npt.NDArray[np.float64],
+                     gains: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """The last *frames* of the *line* through fixed delays (2 samples or more) and gains: four slices each."""
+        out = np.empty((self.sources, frames))
+        for source, (delay, gain) in enumerate(zip(delays, gains, strict=True)):
+            where = self._line_length - float(delay)           # frame 0's place in the line, as in _delay
+            base = math.floor(where)
+            taps = _lagrange(np.asarray(where - base)) * gain
+            first = base - 1                                    # taps at base - 1 ... base + 2, within the line
+            row = line[source]
+            out[source] = (taps[0] * row[first:first + frames] + taps[1] * row[first + 1:first + 1 + frames]
+                           + taps[2] * row[first + 2:first + 2 + frames] + taps[3] * row[first + 3:first + 3 + frames])
+        return out
 
     # -- the room ----------------------------------------------------------------------------------
 
@@ -238,7 +265,9 @@ class RoomRenderer:
         fade = max(1, round(0.001 * self.rate))
         self._reflection_taps = self.hrirs.taps[:, :kept].copy()
         self._reflection_taps[:, kept - fade:] *= np.cos(0.5 * np.pi * np.arange(1, fade + 1) / fade)[:, np.newaxis]
-        self._early = FadingConvolver(self.sources, mixing_frames + kept)
+        self._reflection_taps_by_ear = np.ascontiguousarray(self._reflection_taps.transpose(0, 2, 1))
+        self._early_length = mixing_frames + kept
+        self._early = FadingConvolver(self.sources, self._early_length)
         rng = np.random.default_rng(self._seed + 17)
         diffuse = diffuse_filters(self._measured, self.rate)
         tails = [late_tail(diffuse, room.eyring_rt60(), volume=room.volume, speed_of_sound=self.speed_of_sound,
@@ -255,57 +284,156 @@ class RoomRenderer:
         self._weights = band_weights(np.fft.rfftfreq(self._early.n_fft, 1.0 / self.rate))
 
     def _reflections(self, signals: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-        """The early reflections of these frames, fading to new responses when things moved."""
+        """The early reflections of these frames, fading to new responses when an image's response changed."""
         assert self._early is not None
         frames = signals.shape[1]
         self._since_update += frames
         if self._early_spectra is None or self._since_update >= self._update_frames:
-            spectra, key = self._early_filters()
-            if self._early_spectra is None:
-                self._early_spectra, self._early_key = spectra, key
-            elif key != self._early_key:
-                previous, self._early_spectra, self._early_key = self._early_spectra, spectra, key
-                self._since_update = 0
-                return self._early.convolve(signals, previous, spectra)
             self._since_update = 0
+            plan = self._image_plan()
+            nearest = self._nearest_now(plan)
+            key = (self._plans, nearest.tobytes())
+            if key != self._early_key:
+                # Only a new image set or an image heard through another measurement changes the responses:
+                # a head turning less than half a measurement's spacing (or still) costs the look-up alone.
+                spectra = self._early_spectra_of(plan, nearest)
+                previous, self._early_spectra, self._early_key = self._early_spectra, spectra, key
+                if previous is not None:
+                    return self._early.convolve(signals, previous, spectra)
+        assert self._early_spectra is not None
         return self._early.convolve(signals, self._early_spectra)
 
-    def _early_filters(self) -> tuple[npt.NDArray[np.complex128], tuple[bytes, bytes]]:
-        """The early reflections' spectra ``(sources, 2, bins)`` now, and what they were made from."""
-        assert self.room is not None and self._early is not None and self._positions is not None
-        assert self._listener is not None and self._head is not None and self.mixing_time is not None
-        taps = self._reflection_taps
-        length = self._early.taps
-        mixing = self.mixing_time
-        # Responses per band (one when every wall absorbs alike at every frequency: the common case).
-        bands = 1 if bool(np.all(self.room.absorption == self.room.absorption[:, :1])) else len(OCTAVE_BANDS)
-        responses = np.zeros((bands, self.sources, 2, length))
-        keys = []
-        images_now: dict[bytes, ImageSources] = {}
-        for i, position in enumerate(self._positions):
-            key = position.tobytes() + self._listener.tobytes()
-            images = self._images.get(key)
-            if images is None:
-                images = image_sources(self.room, position, self._listener, max_order=self.max_order, max_time=mixing)
-            images_now[key] = images
-            reflected = images.orders > 0
-            delays = images.delays(self.speed_of_sound)[reflected]
-            gains = images.gains[reflected] * _fade_out(delays, mixing)[:, np.newaxis]           # (n, bands)
-            azimuth, elevation, _ = directions(images.positions[reflected], tuple(self._listener), self._head)
-            nearest = self._nearest.indices(azimuth, elevation)
-            starts = np.round(delays * self.rate).astype(np.int64)
-            keys.append((nearest.tobytes(), starts.tobytes()))
-            index = (starts[:, np.newaxis] + np.arange(taps.shape[1])).ravel()                   # (n · taps)
-            chosen = taps[nearest]                                                                # (n, taps, ears)
-            for band in range(bands):
-                for ear in range(2):
-                    weights = (gains[:, band, np.newaxis] * chosen[:, :, ear]).ravel()
-                    responses[band, i, ear] = np.bincount(index, weights, minlength=length)[:length]
-        spectra = np.fft.rfft(responses, self._early.n_fft, axis=-1)                 # (bands, sources, ears, bins)
-        spectra = spectra[0] if bands == 1 else np.einsum("bsef,bf->sef", spectra, self._weights)
-        spectra += self._tail_head
-        self._images = images_now
-        return spectra, (b"".join(k[0] for k in keys), b"".join(k[1] for k in keys))
+    def _early_filters(self) -> npt.NDArray[np.complex128]:
+        """One making of the early reflections' spectra ``(sources, 2, bins)`` at the current positions and head."""
+        plan = self._image_plan()
+        return self._early_spectra_of(plan, self._nearest_now(plan))
+
+    def _image_plan(self) -> _ImagePlan:
+        """The reflected images of every source at the current positions (kept while nothing moves)."""
+        assert self.room is not None and self._positions is not None and self._listener is not None
+        assert self.mixing_time is not None
+        keys = [position.tobytes() + self._listener.tobytes() for position in self._positions]
+        if self._plan is not None and keys == self._plan_keys:
+            return self._plan
+        cached = dict(zip(self._plan_keys, self._plan_sources, strict=True))
+        sources = [cached.get(key) or _SourceImages.of(self.room, position, self._listener, self)
+                   for key, position in zip(keys, self._positions, strict=True)]
+        self._plan_keys, self._plan_sources = keys, sources
+        self._plans += 1
+        self._plan = _ImagePlan.of(sources, self._early_length, self._reflection_taps.shape[1], self._weights)
+        return self._plan
+
+    def _nearest_now(self, plan: _ImagePlan) -> npt.NDArray[np.intp]:
+        """The measured direction nearest each image's, seen from the head as it is now."""
+        assert self._head is not None
+        return self._nearest.indices(plan.azimuth - self._head, plan.elevation)
+
+    def _early_spectra_of(self, plan: _ImagePlan, nearest: npt.NDArray[np.intp]) -> npt.NDArray[np.complex128]:
+        """The early responses' spectra ``(sources, 2, bins)`` with each image heard through its *nearest* measurement.
+
+        All sources, ears and band components are one weighted count (``np.bincount``) into one array of
+        responses ``(components, sources, ears, taps)``, then one FFT.
+        """
+        assert self._early is not None
+        components, sources, length = plan.components.shape[1], self.sources, self._early_length
+        chosen = self._reflection_taps_by_ear[nearest]                                      # (images, ears, taps)
+        weights = plan.components.T[:, :, np.newaxis, np.newaxis] * chosen                   # (comp, images, ...)
+        responses = np.bincount(plan.index, weights.ravel(), minlength=components * sources * 2 * length)
+        spectra = np.fft.rfft(responses.reshape(components, sources, 2, length), self._early.n_fft, axis=-1)
+        if plan.shapes is None:
+            result = spectra[0]
+        else:
+            result = np.einsum("csef,scf->sef", spectra, plan.shapes)
+        return np.asarray(result + self._tail_head)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _SourceImages:
+    """One source's reflected images before the mixing time, as the head will look them up.
+
+    Attributes:
+        azimuth: ``(n,)`` room azimuths of the images from the listener, degrees.
+        elevation: ``(n,)`` their elevations, degrees.
+        starts: ``(n,)`` their delays in samples.
+        gains: ``(n, bands)`` their amplitudes per octave band, faded out towards the mixing time.
+    """
+
+    azimuth: npt.NDArray[np.float64]
+    elevation: npt.NDArray[np.float64]
+    starts: npt.NDArray[np.int64]
+    gains: npt.NDArray[np.float64]
+
+    @classmethod
+    def of(cls, room: Shoebox, position: npt.NDArray[np.float64], listener: npt.NDArray[np.float64],
+           renderer: RoomRenderer) -> _SourceImages:
+        assert renderer.mixing_time is not None
+        images = image_sources(room, position, listener, max_order=renderer.max_order, max_time=renderer.mixing_time)
+        reflected = images.orders > 0
+        delays = images.delays(renderer.speed_of_sound)[reflected]
+        gains = images.gains[reflected] * _fade_out(delays, renderer.mixing_time)[:, np.newaxis]   # (n, bands)
+        azimuth, elevation, _ = directions(images.positions[reflected], tuple(listener), 0.0)
+        starts = np.round(delays * renderer.rate).astype(np.int64)
+        return cls(azimuth, elevation, starts, gains)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _ImagePlan:
+    """Every source's images, and how their responses are summed into one array of responses.
+
+    The bands' gains of a source's images form a matrix ``(images, 7)`` whose rank is usually small: in a
+    room whose walls absorb alike, an image's gains depend on its order only, so the rank is the number of
+    orders. Its singular value decomposition ``U·Σ·Vᵀ`` makes the seven band responses from ``rank``
+    responses (the columns of ``U·Σ``), each heard through the band mix ``Vᵀ`` of the band weights: the same
+    spectra from fewer responses and FFTs. In a room that absorbs alike at every frequency, one response.
+
+    Attributes:
+        azimuth: ``(images,)`` room azimuths, all sources' images one after the other.
+        elevation: ``(images,)`` elevations.
+        components: ``(images, components)`` each image's weight in each response.
+        shapes: ``(sources, components, bins)`` each response's spectral weighting (None: one response, unweighted).
+        index: ``(components · images · ears · taps,)`` where each weighted tap goes in the responses.
+    """
+
+    azimuth: npt.NDArray[np.float64]
+    elevation: npt.NDArray[np.float64]
+    components: npt.NDArray[np.float64]
+    shapes: npt.NDArray[np.float64] | None
+    index: npt.NDArray[np.intp]
+
+    @classmethod
+    def of(cls, sources: list[_SourceImages], length: int, taps: int,
+           band_weights: npt.NDArray[np.float64]) -> _ImagePlan:
+        """The plan of *sources*' images into responses of *length* taps, each image's response *taps* long."""
+        count = len(sources)
+        flat = all(bool(np.all(s.gains == s.gains[:, :1])) for s in sources)
+        factors: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]] = []
+        for source in sources:
+            if flat or len(source.gains) == 0:
+                factors.append((source.gains[:, :1], np.ones((1, source.gains.shape[1]))))
+                continue
+            u, sigma, vt = np.linalg.svd(source.gains, full_matrices=False)
+            rank = max(1, int(np.sum(sigma > sigma[0] * 1e-12)))
+            factors.append((u[:, :rank] * sigma[:rank], vt[:rank]))
+        width = max((f[0].shape[1] for f in factors), default=1)
+        images = sum(len(s.starts) for s in sources)
+        components = np.zeros((images, width))
+        shapes = None if flat else np.zeros((count, width, band_weights.shape[1]))
+        owner = np.zeros(images, dtype=np.intp)
+        at = 0
+        for i, (source, (weights, mix)) in enumerate(zip(sources, factors, strict=True)):
+            components[at:at + len(source.starts), :weights.shape[1]] = weights
+            if shapes is not None:
+                shapes[i, :mix.shape[0]] = mix @ band_weights
+            owner[at:at + len(source.starts)] = i
+            at += len(source.starts)
+        starts = np.concatenate([s.starts for s in sources]) if sources else np.zeros(0, dtype=np.int64)
+        # Tap t of image i's ear e in response c: at ((c · sources + owner) · 2 + e) · length + start + t.
+        offset = (owner * 2 * length + starts)[:, np.newaxis, np.newaxis] + (np.arange(2) * length)[:, np.newaxis]
+        index = (np.arange(width) * count * 2 * length)[:, np.newaxis, np.newaxis, np.newaxis] + (
+            offset + np.arange(taps))[np.newaxis]
+        return cls(np.concatenate([s.azimuth for s in sources]) if sources else np.zeros(0),
+                   np.concatenate([s.elevation for s in sources]) if sources else np.zeros(0),
+                   components, shapes, index.ravel())
 
 
 def _fade_out(delays: npt.NDArray[np.float64], mixing: float) -> npt.NDArray[np.float64]:
