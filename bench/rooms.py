@@ -72,11 +72,12 @@ def _early_cost(repeats: int) -> list[dict[str, Any]]:
     for order in ORDERS:
         renderer = RoomRenderer(RATE, 3, hrirs=load_kemar(), room=room, max_order=order, mixing_time=0.25)
         renderer.render(np.zeros((3, 64)), 0.0, talkers, listener.position)
+        assert renderer.early is not None
+        positions, centre = np.asarray(talkers), np.asarray(listener.position)
         times = []
         for r in range(repeats):
-            renderer._head = float(r)          # a new head azimuth each time, as a turning head has
             started = time.process_time()
-            renderer._early_filters()
+            renderer.early.spectra(positions, centre, float(r))     # made afresh, as after a move
             times.append(time.process_time() - started)
         images = sum(len(image_sources(room, t, listener.position, max_order=order, max_time=0.25).orders) - 1
                      for t in talkers)

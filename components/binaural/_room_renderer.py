@@ -11,19 +11,16 @@ previous block's). The ear signals add three parts:
    of its direction relative to the head, interpolated in azimuth and between
    elevation rings, cross-faded from sub-block to sub-block
    (:class:`~._renderer.BinauralRenderer`): no click when the head turns.
-2. **Early reflections.** The source's image sources (:func:`~._room.image_sources`,
-   Allen & Berkley 1979) of orders 1 to ``max_order`` that arrive before the
-   mixing time, each through the measured response nearest its direction from
-   the head, at its delay (rounded to a sample) and its walls' gain per octave
-   band. They make one response per source, made again (looked up at most every
-   ``update`` seconds) when a source or the listener has moved or the head has
-   turned far enough for an image to be heard through another measurement;
-   the output fades linearly from the old response to the new across the
-   block, so every sample is a convex mix of two time-invariant convolutions.
-   All sources' images are made in one weighted count and one FFT, and a room
-   whose absorption differs per band needs as many responses as its images'
-   band gains have independent shapes (the number of orders when the walls
-   absorb alike), not seven (:class:`_ImagePlan`).
+2. **Early reflections** (:class:`~._early.EarlyReflections`). The source's
+   image sources (Allen & Berkley 1979) of orders 1 to ``max_order`` that
+   arrive before the mixing time, each through the measured response nearest
+   its direction from the head, at its delay (rounded to a sample) and its
+   walls' gain per octave band: one response per source, which changes (looked
+   up at most every ``update`` seconds) when a source or the listener moves or
+   the head turns far enough for an image to be heard through another
+   measurement; the output fades linearly from the old response to the new
+   across the block, so every sample is a convex mix of two time-invariant
+   convolutions.
 3. **The late tail** from the mixing time on (:func:`~._late.late_tail`): the
    head's diffuse field decaying with the room's Eyring RT60 per band. It is
    fixed per source (that of the positions of the first block: a diffuse field
@@ -36,14 +33,13 @@ over (the early images fade out and the tail in over 5 ms, cos² and sin²).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 import numpy.typing as npt
 
-from ._convolution import FadingConvolver, StagedLateConvolver
-from ._directions import NearestDirections
+from ._convolution import StagedLateConvolver
+from ._early import EarlyReflections
 from ._errors import BinauralError
 from ._filters import diffuse_filters
 from ._geometry import Position, directions
@@ -51,7 +47,7 @@ from ._hrir_set import HrirSet, wrap_degrees
 from ._kemar import load_kemar
 from ._late import late_tail
 from ._renderer import BinauralRenderer
-from ._room import MIN_DISTANCE, SPEED_OF_SOUND, Shoebox, band_weights, image_sources
+from ._room import MIN_DISTANCE, SPEED_OF_SOUND, Shoebox, image_sources
 
 __all__ = ["RoomRenderer"]
 
@@ -112,21 +108,8 @@ class RoomRenderer:
         self._positions: npt.NDArray[np.float64] | None = None
         self._listener: npt.NDArray[np.float64] | None = None
         self._head: float | None = None
-        self._nearest = NearestDirections(self.hrirs)
-        self._early: FadingConvolver | None = None
-        self._early_spectra: npt.NDArray[np.complex128] | None = None
-        self._early_key: tuple[int, bytes] | None = None  # what they were made from: the plan's number, the nearest
-        self._early_length = 0
-        self._plan: _ImagePlan | None = None             # the images as the head looks them up: a turn keeps them
-        self._plans = 0
-        self._plan_keys: list[bytes] = []                # per source: its position and the listener's
-        self._plan_sources: list[_SourceImages] = []
-        self._since_update = 0
+        self.early: EarlyReflections | None = None       # made with the first block's positions
         self._late: StagedLateConvolver | None = None
-        self._weights = np.ones((1, 1))                  # the octave bands' weights at the early FFT's bins
-        self._reflection_taps = self.hrirs.taps
-        self._reflection_taps_by_ear = np.zeros((0, 2, 0))   # the same as (directions, ears, taps)
-        self._tail_head = np.zeros((0, 2, 1), dtype=np.complex128)
         self.frames_rendered = 0
 
     @property
@@ -203,8 +186,8 @@ class RoomRenderer:
         delayed = self._delay(signals, delays, gains)
         out = self.direct.render(delayed, self._head, azimuth, elevation)
         if self.room is not None:
-            out += self._reflections(signals)
-            assert self._late is not None
+            assert self.early is not None and self._late is not None
+            out += self.early.render(signals, self._positions, self._listener, self._head)
             out += self._late.convolve(signals)
         return out
 
@@ -258,188 +241,22 @@ class RoomRenderer:
             arrivals = [float(np.min(s.distances[s.orders == self.max_order + 1])) for s in firsts]
             mixing = min(arrivals, default=_MIXING_BOUNDS[0] * self.speed_of_sound) / self.speed_of_sound
             self.mixing_time = float(np.clip(mixing, *_MIXING_BOUNDS))
-        mixing_frames = int(math.ceil(self.mixing_time * self.rate))
-        # Reflections are heard through the first 6 ms of their responses (a head's response is that long;
-        # the rest of a measured set's 512 taps is the measurement's low tail), faded out over the last 1 ms.
-        kept = min(self.hrirs.length, round(0.006 * self.rate))
-        fade = max(1, round(0.001 * self.rate))
-        self._reflection_taps = self.hrirs.taps[:, :kept].copy()
-        self._reflection_taps[:, kept - fade:] *= np.cos(0.5 * np.pi * np.arange(1, fade + 1) / fade)[:, np.newaxis]
-        self._reflection_taps_by_ear = np.ascontiguousarray(self._reflection_taps.transpose(0, 2, 1))
-        self._early_length = mixing_frames + kept
-        self._early = FadingConvolver(self.sources, self._early_length)
+        self.early = EarlyReflections(room, self.hrirs, self.sources, max_order=self.max_order,
+                                      mixing_time=self.mixing_time, fade=_FADE, speed_of_sound=self.speed_of_sound,
+                                      update=self._update_frames)
         rng = np.random.default_rng(self._seed + 17)
         diffuse = diffuse_filters(self._measured, self.rate)
         tails = [late_tail(diffuse, room.eyring_rt60(), volume=room.volume, speed_of_sound=self.speed_of_sound,
                            start=self.mixing_time, fade=_FADE, rng=rng) for _ in range(self.sources)]
         # The tail's first taps join the early responses (convolved at once, they need no latency); from the
         # largest power of two those hold on, the late convolver takes it in blocks that grow.
-        block = 1 << int(math.floor(math.log2(self._early.taps)))
+        block = 1 << int(math.floor(math.log2(self.early.length)))
         length = max([len(t) for t in tails] + [block + 1])
         stacked = np.zeros((self.sources, length, 2))
         for i, tail in enumerate(tails):
             stacked[i, :len(tail)] = tail
-        self._tail_head = self._early.spectra(stacked[:, :block])
+        self.early.tail_head = self.early.convolver.spectra(stacked[:, :block])
         self._late = StagedLateConvolver(stacked, block)
-        self._weights = band_weights(np.fft.rfftfreq(self._early.n_fft, 1.0 / self.rate))
-
-    def _reflections(self, signals: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-        """The early reflections of these frames, fading to new responses when an image's response changed."""
-        assert self._early is not None
-        frames = signals.shape[1]
-        self._since_update += frames
-        if self._early_spectra is None or self._since_update >= self._update_frames:
-            self._since_update = 0
-            plan = self._image_plan()
-            nearest = self._nearest_now(plan)
-            key = (self._plans, nearest.tobytes())
-            if key != self._early_key:
-                # Only a new image set or an image heard through another measurement changes the responses:
-                # a head turning less than half a measurement's spacing (or still) costs the look-up alone.
-                spectra = self._early_spectra_of(plan, nearest)
-                previous, self._early_spectra, self._early_key = self._early_spectra, spectra, key
-                if previous is not None:
-                    return self._early.convolve(signals, previous, spectra)
-        assert self._early_spectra is not None
-        return self._early.convolve(signals, self._early_spectra)
-
-    def _early_filters(self) -> npt.NDArray[np.complex128]:
-        """One making of the early reflections' spectra ``(sources, 2, bins)`` at the current positions and head."""
-        plan = self._image_plan()
-        return self._early_spectra_of(plan, self._nearest_now(plan))
-
-    def _image_plan(self) -> _ImagePlan:
-        """The reflected images of every source at the current positions (kept while nothing moves)."""
-        assert self.room is not None and self._positions is not None and self._listener is not None
-        assert self.mixing_time is not None
-        keys = [position.tobytes() + self._listener.tobytes() for position in self._positions]
-        if self._plan is not None and keys == self._plan_keys:
-            return self._plan
-        cached = dict(zip(self._plan_keys, self._plan_sources, strict=True))
-        sources = [cached.get(key) or _SourceImages.of(self.room, position, self._listener, self)
-                   for key, position in zip(keys, self._positions, strict=True)]
-        self._plan_keys, self._plan_sources = keys, sources
-        self._plans += 1
-        self._plan = _ImagePlan.of(sources, self._early_length, self._reflection_taps.shape[1], self._weights)
-        return self._plan
-
-    def _nearest_now(self, plan: _ImagePlan) -> npt.NDArray[np.intp]:
-        """The measured direction nearest each image's, seen from the head as it is now."""
-        assert self._head is not None
-        return self._nearest.indices(plan.azimuth - self._head, plan.elevation)
-
-    def _early_spectra_of(self, plan: _ImagePlan, nearest: npt.NDArray[np.intp]) -> npt.NDArray[np.complex128]:
-        """The early responses' spectra ``(sources, 2, bins)`` with each image heard through its *nearest* measurement.
-
-        All sources, ears and band components are one weighted count (``np.bincount``) into one array of
-        responses ``(components, sources, ears, taps)``, then one FFT.
-        """
-        assert self._early is not None
-        components, sources, length = plan.components.shape[1], self.sources, self._early_length
-        chosen = self._reflection_taps_by_ear[nearest]                                      # (images, ears, taps)
-        weights = plan.components.T[:, :, np.newaxis, np.newaxis] * chosen                   # (comp, images, ...)
-        responses = np.bincount(plan.index, weights.ravel(), minlength=components * sources * 2 * length)
-        spectra = np.fft.rfft(responses.reshape(components, sources, 2, length), self._early.n_fft, axis=-1)
-        if plan.shapes is None:
-            result = spectra[0]
-        else:
-            result = np.einsum("csef,scf->sef", spectra, plan.shapes)
-        return np.asarray(result + self._tail_head)
-
-
-@dataclasses.dataclass(frozen=True, eq=False)
-class _SourceImages:
-    """One source's reflected images before the mixing time, as the head will look them up.
-
-    Attributes:
-        azimuth: ``(n,)`` room azimuths of the images from the listener, degrees.
-        elevation: ``(n,)`` their elevations, degrees.
-        starts: ``(n,)`` their delays in samples.
-        gains: ``(n, bands)`` their amplitudes per octave band, faded out towards the mixing time.
-    """
-
-    azimuth: npt.NDArray[np.float64]
-    elevation: npt.NDArray[np.float64]
-    starts: npt.NDArray[np.int64]
-    gains: npt.NDArray[np.float64]
-
-    @classmethod
-    def of(cls, room: Shoebox, position: npt.NDArray[np.float64], listener: npt.NDArray[np.float64],
-           renderer: RoomRenderer) -> _SourceImages:
-        assert renderer.mixing_time is not None
-        images = image_sources(room, position, listener, max_order=renderer.max_order, max_time=renderer.mixing_time)
-        reflected = images.orders > 0
-        delays = images.delays(renderer.speed_of_sound)[reflected]
-        gains = images.gains[reflected] * _fade_out(delays, renderer.mixing_time)[:, np.newaxis]   # (n, bands)
-        azimuth, elevation, _ = directions(images.positions[reflected], tuple(listener), 0.0)
-        starts = np.round(delays * renderer.rate).astype(np.int64)
-        return cls(azimuth, elevation, starts, gains)
-
-
-@dataclasses.dataclass(frozen=True, eq=False)
-class _ImagePlan:
-    """Every source's images, and how their responses are summed into one array of responses.
-
-    The bands' gains of a source's images form a matrix ``(images, 7)`` whose rank is usually small: in a
-    room whose walls absorb alike, an image's gains depend on its order only, so the rank is the number of
-    orders. Its singular value decomposition ``U·Σ·Vᵀ`` makes the seven band responses from ``rank``
-    responses (the columns of ``U·Σ``), each heard through the band mix ``Vᵀ`` of the band weights: the same
-    spectra from fewer responses and FFTs. In a room that absorbs alike at every frequency, one response.
-
-    Attributes:
-        azimuth: ``(images,)`` room azimuths, all sources' images one after the other.
-        elevation: ``(images,)`` elevations.
-        components: ``(images, components)`` each image's weight in each response.
-        shapes: ``(sources, components, bins)`` each response's spectral weighting (None: one response, unweighted).
-        index: ``(components · images · ears · taps,)`` where each weighted tap goes in the responses.
-    """
-
-    azimuth: npt.NDArray[np.float64]
-    elevation: npt.NDArray[np.float64]
-    components: npt.NDArray[np.float64]
-    shapes: npt.NDArray[np.float64] | None
-    index: npt.NDArray[np.intp]
-
-    @classmethod
-    def of(cls, sources: list[_SourceImages], length: int, taps: int,
-           band_weights: npt.NDArray[np.float64]) -> _ImagePlan:
-        """The plan of *sources*' images into responses of *length* taps, each image's response *taps* long."""
-        count = len(sources)
-        flat = all(bool(np.all(s.gains == s.gains[:, :1])) for s in sources)
-        factors: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]] = []
-        for source in sources:
-            if flat or len(source.gains) == 0:
-                factors.append((source.gains[:, :1], np.ones((1, source.gains.shape[1]))))
-                continue
-            u, sigma, vt = np.linalg.svd(source.gains, full_matrices=False)
-            rank = max(1, int(np.sum(sigma > sigma[0] * 1e-12)))
-            factors.append((u[:, :rank] * sigma[:rank], vt[:rank]))
-        width = max((f[0].shape[1] for f in factors), default=1)
-        images = sum(len(s.starts) for s in sources)
-        components = np.zeros((images, width))
-        shapes = None if flat else np.zeros((count, width, band_weights.shape[1]))
-        owner = np.zeros(images, dtype=np.intp)
-        at = 0
-        for i, (source, (weights, mix)) in enumerate(zip(sources, factors, strict=True)):
-            components[at:at + len(source.starts), :weights.shape[1]] = weights
-            if shapes is not None:
-                shapes[i, :mix.shape[0]] = mix @ band_weights
-            owner[at:at + len(source.starts)] = i
-            at += len(source.starts)
-        starts = np.concatenate([s.starts for s in sources]) if sources else np.zeros(0, dtype=np.int64)
-        # Tap t of image i's ear e in response c: at ((c · sources + owner) · 2 + e) · length + start + t.
-        offset = (owner * 2 * length + starts)[:, np.newaxis, np.newaxis] + (np.arange(2) * length)[:, np.newaxis]
-        index = (np.arange(width) * count * 2 * length)[:, np.newaxis, np.newaxis, np.newaxis] + (
-            offset + np.arange(taps))[np.newaxis]
-        return cls(np.concatenate([s.azimuth for s in sources]) if sources else np.zeros(0),
-                   np.concatenate([s.elevation for s in sources]) if sources else np.zeros(0),
-                   components, shapes, index.ravel())
-
-
-def _fade_out(delays: npt.NDArray[np.float64], mixing: float) -> npt.NDArray[np.float64]:
-    """1 for images before the fade, falling as cos² to 0 at the mixing time."""
-    share = np.clip((delays - (mixing - _FADE)) / _FADE, 0.0, 1.0)
-    return np.asarray(np.cos(0.5 * np.pi * share))
 
 
 def _lagrange(fraction: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
