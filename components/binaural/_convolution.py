@@ -66,7 +66,9 @@ class FadingConvolver:
         padded[:, :self._keep] = self._history
         padded[:, self._keep:self._keep + frames] = signals
         self._history = padded[:, frames:frames + self._keep].copy()
-        segments = np.lib.stride_tricks.sliding_window_view(padded, self.n_fft, axis=1)[:, ::self.block][:, :count]
+        step, sample = padded.strides          # overlapping views (as_strided costs less than sliding_window_view)
+        segments = np.lib.stride_tricks.as_strided(padded, (self.inputs, count, self.n_fft),
+                                                   (step, self.block * sample, sample), writeable=False)
         spectra = np.fft.rfft(segments, axis=-1)                                                # (in, count, bins)
         out = self._inverse(np.einsum("ikf,ief->kef", spectra, start), frames)
         if end is None or end is start:
