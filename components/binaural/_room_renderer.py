@@ -23,8 +23,9 @@ previous block's). The ear signals add three parts:
    convolutions.
 3. **The late tail** from the mixing time on (:func:`~._late.late_tail`): the
    head's diffuse field decaying with the room's Eyring RT60 per band. It is
-   fixed per source (that of the positions of the first block: a diffuse field
-   does not turn with the head) and convolved in growing partitions.
+   fixed (a diffuse field does not turn with the head), one for the room: the
+   sources' dry signals are summed into it (decision 44: nothing in it depends
+   on the source), convolved in growing partitions.
 
 The mixing time is, unless given, the arrival of the first image of order
 ``max_order + 1``: before it the images are complete, after it the tail takes
@@ -74,7 +75,7 @@ class RoomRenderer:
         update: Seconds between two makings of the early reflections while things move.
         diffuse_level: RMS of an independent diffuse noise field at the ears, dB re full scale, or None.
         sensor_noise: RMS of independent noise at each ear, dB re full scale, or None.
-        seed: Seed of the tails, the diffuse field and the sensor noise.
+        seed: Seed of the tail, the diffuse field and the sensor noise.
         speed_of_sound: Metres per second (default: the room's, else 343).
     """
 
@@ -188,7 +189,7 @@ class RoomRenderer:
         if self.room is not None:
             assert self.early is not None and self._late is not None
             out += self.early.render(signals, self._positions, self._listener, self._head)
-            out += self._late.convolve(signals)
+            out += self._late.convolve(signals.sum(axis=0, keepdims=True))
         return out
 
     def _delay(self, signals: npt.NDArray[np.float64], delays: npt.NDArray[np.float64],
@@ -233,7 +234,7 @@ class RoomRenderer:
     # -- the room ----------------------------------------------------------------------------------
 
     def _start_room(self, positions: npt.NDArray[np.float64], listener: npt.NDArray[np.float64]) -> None:
-        """Fix the mixing time, make the early convolver and the tails, from the first block's positions."""
+        """Fix the mixing time, make the early reflections and the tail, from the first block's positions."""
         assert self.room is not None
         room = self.room
         if self.mixing_time is None:
@@ -244,18 +245,17 @@ class RoomRenderer:
         self.early = EarlyReflections(room, self.hrirs, self.sources, max_order=self.max_order,
                                       mixing_time=self.mixing_time, fade=_FADE, speed_of_sound=self.speed_of_sound,
                                       update=self._update_frames)
+        # One tail for every source (decision 44): their dry signals' sum goes through it, as a reverberator
+        # fed by all the sources of a room; the first source's tail as it was when each had its own.
         rng = np.random.default_rng(self._seed + 17)
-        diffuse = diffuse_filters(self._measured, self.rate)
-        tails = [late_tail(diffuse, room.eyring_rt60(), volume=room.volume, speed_of_sound=self.speed_of_sound,
-                           start=self.mixing_time, fade=_FADE, rng=rng) for _ in range(self.sources)]
+        tail = late_tail(diffuse_filters(self._measured, self.rate), room.eyring_rt60(), volume=room.volume,
+                         speed_of_sound=self.speed_of_sound, start=self.mixing_time, fade=_FADE, rng=rng)
         # The tail's first taps join the early responses (convolved at once, they need no latency); from the
         # largest power of two those hold on, the late convolver takes it in blocks that grow.
         block = 1 << int(math.floor(math.log2(self.early.length)))
-        length = max([len(t) for t in tails] + [block + 1])
-        stacked = np.zeros((self.sources, length, 2))
-        for i, tail in enumerate(tails):
-            stacked[i, :len(tail)] = tail
-        self.early.tail_head = self.early.convolver.spectra(stacked[:, :block])
+        stacked = np.zeros((1, max(len(tail), block + 1), 2))
+        stacked[0, :len(tail)] = tail
+        self.early.tail_head = np.repeat(self.early.convolver.spectra(stacked[:, :block]), self.sources, axis=0)
         self._late = StagedLateConvolver(stacked, block)
 
 
