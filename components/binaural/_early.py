@@ -135,8 +135,8 @@ class EarlyReflections:
 
     def _made(self, plan: _ImagePlan, nearest: npt.NDArray[np.intp]) -> npt.NDArray[np.complex128]:
         """The responses' spectra ``(sources, 2, bins)``, each image heard through its *nearest* measurement."""
-        components, length = plan.components.shape[1], self.length
-        weights = plan.components.T[:, :, np.newaxis, np.newaxis] * self._taps[nearest]   # (comp, images, ears, taps)
+        components, length = plan.components.shape[0], self.length
+        weights = plan.components[:, :, np.newaxis, np.newaxis] * self._taps[nearest]     # (comp, images, ears, taps)
         responses = np.bincount(plan.index, weights.ravel(), minlength=components * self.sources * 2 * length)
         spectra = np.fft.rfft(responses.reshape(components, self.sources, 2, length), self.convolver.n_fft, axis=-1)
         made = spectra[0] if plan.shapes is None else np.einsum("csef,scf->sef", spectra, plan.shapes)
@@ -191,7 +191,7 @@ class _ImagePlan:
     Attributes:
         azimuth: ``(images,)`` room azimuths, all sources' images one after the other.
         elevation: ``(images,)`` elevations.
-        components: ``(images, components)`` each image's weight in each response.
+        components: ``(components, images)`` each image's weight in each response.
         shapes: ``(sources, components, bins)`` each response's spectral weighting (None: one response, unweighted).
         index: ``(components · images · ears · taps,)`` where each weighted tap goes in the responses.
     """
@@ -218,12 +218,12 @@ class _ImagePlan:
             factors.append((u[:, :rank] * sigma[:rank], vt[:rank]))
         width = max((f[0].shape[1] for f in factors), default=1)
         images = sum(len(s.starts) for s in sources)
-        components = np.zeros((images, width))
+        components = np.zeros((width, images))
         shapes = None if flat else np.zeros((count, width, band_weights.shape[1]))
         owner = np.zeros(images, dtype=np.intp)
         at = 0
         for i, (source, (weights, mix)) in enumerate(zip(sources, factors, strict=True)):
-            components[at:at + len(source.starts), :weights.shape[1]] = weights
+            components[:weights.shape[1], at:at + len(source.starts)] = weights.T
             if shapes is not None:
                 shapes[i, :mix.shape[0]] = mix @ band_weights
             owner[at:at + len(source.starts)] = i
