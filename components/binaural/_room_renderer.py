@@ -72,7 +72,7 @@ class RoomRenderer:
         max_order: The highest order of image sources heard as early reflections.
         mixing_time: Seconds from the source's emission where the late tail takes over (None: the
             arrival of the first image of order ``max_order + 1``, within 20 to 250 ms).
-        update: Seconds between two makings of the early reflections while things move.
+        update: Seconds between two look-ups of the early reflections' measurements (made again when one changed).
         diffuse_level: RMS of an independent diffuse noise field at the ears, dB re full scale, or None.
         sensor_noise: RMS of independent noise at each ear, dB re full scale, or None.
         seed: Seed of the tail, the diffuse field and the sensor noise.
