@@ -221,14 +221,13 @@ class RoomRenderer:
                      gains: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """The last *frames* of the *line* through fixed delays (2 samples or more) and gains: four slices each."""
         out = np.empty((self.sources, frames))
-        for source, (delay, gain) in enumerate(zip(delays, gains, strict=True)):
-            where = self._line_length - float(delay)           # frame 0's place in the line, as in _delay
-            base = math.floor(where)
-            taps = _lagrange(np.asarray(where - base)) * gain
-            first = base - 1                                    # taps at base - 1 ... base + 2, within the line
-            row = line[source]
-            out[source] = (taps[0] * row[first:first + frames] + taps[1] * row[first + 1:first + 1 + frames]
-                           + taps[2] * row[first + 2:first + 2 + frames] + taps[3] * row[first + 3:first + 3 + frames])
+        where = self._line_length - delays                      # frame 0's place in the line, as in _delay
+        bases = np.floor(where)
+        taps = _lagrange(where - bases) * gains                 # (4, sources)
+        for source, base in enumerate(bases.astype(int).tolist()):
+            first, row, tap = base - 1, line[source], taps[:, source]   # taps at base - 1 ... base + 2
+            out[source] = (tap[0] * row[first:first + frames] + tap[1] * row[first + 1:first + 1 + frames]
+                           + tap[2] * row[first + 2:first + 2 + frames] + tap[3] * row[first + 3:first + 3 + frames])
         return out
 
     # -- the room ----------------------------------------------------------------------------------
