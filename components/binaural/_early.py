@@ -16,9 +16,9 @@ A turning head changes the measurement an image is heard through only when it cr
 half the spacing of the measured directions; the responses are looked up at most every
 ``update`` seconds and made again only then. Making them is one weighted count
 (``np.bincount``) of every image's taps into the responses of all sources and ears at
-once, then one FFT (a fraction of a millisecond for three talkers at order 3: cheaper
-than changing only the images whose measurement changed, in the frequency domain, at
-the half of them that a head turning 2.5° changes). A room whose absorption differs per band would
+once, then one FFT: a fraction of a millisecond for three talkers at order 3, less than
+changing only the images whose measurement changed, in the frequency domain (a head
+turning 2.5° changes half of them). A room whose absorption differs per band would
 need a response per band; the images' band gains of a source have few independent
 shapes (one per order when the walls absorb alike), so it needs as many responses as
 those, each heard through its mix of the band weights.
@@ -38,6 +38,7 @@ from ._hrir_set import HrirSet
 from ._room import Shoebox, band_weights, image_sources
 
 __all__ = ["EarlyReflections"]
+
 
 class EarlyReflections:
     """The early reflections of several sources in a room, streamed block after block.
