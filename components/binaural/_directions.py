@@ -127,7 +127,7 @@ class NearestDirections:
     def __init__(self, hrirs: HrirSet) -> None:
         self.hrirs = hrirs
         self._measured = np.ascontiguousarray(unit_vectors(hrirs.azimuth, hrirs.elevation).T)   # (3, n)
-        # Directions looked up per matrix product: OpenBLAS threads a product of more than 2¹⁸ multiplications.
+        # Directions per matrix product: OpenBLAS threads products of over 2¹⁸ multiplications; keep to half that.
         self._rows = max(1, (1 << 17) // (3 * max(1, len(hrirs.azimuth))))
 
     def indices(self, azimuths: npt.ArrayLike, elevations: npt.ArrayLike) -> npt.NDArray[np.intp]:
