@@ -66,7 +66,9 @@ class FadingConvolver:
         padded[:, :self._keep] = self._history
         padded[:, self._keep:self._keep + frames] = signals
         self._history = padded[:, frames:frames + self._keep].copy()
-        segments = np.lib.stride_tricks.sliding_window_view(padded, self.n_fft, axis=1)[:, ::self.block][:, :count]
+        step, sample = padded.strides          # overlapping views (as_strided costs less than sliding_window_view)
+        segments = np.lib.stride_tricks.as_strided(padded, (self.inputs, count, self.n_fft),
+                                                   (step, self.block * sample, sample), writeable=False)
         spectra = np.fft.rfft(segments, axis=-1)                                                # (in, count, bins)
         out = self._inverse(np.einsum("ikf,ief->kef", spectra, start), frames)
         if end is None or end is start:
@@ -98,10 +100,13 @@ class LateConvolver:
         padded[:, :shifted.shape[1]] = shifted
         parts = padded.reshape(inputs, partitions, block, 2)
         self._filters = np.fft.rfft(parts, 2 * block, axis=2).transpose(1, 0, 3, 2).copy()   # (part, in, ears, bins)
-        self._inputs = np.zeros((partitions, inputs, block + 1), dtype=np.complex128)       # the delay line
-        self._previous = np.zeros((inputs, block))
-        self._pending = np.zeros((inputs, 0))
-        self._ready = np.zeros((block, 2))        # the output of the first block: silent
+        # The delay line of input spectra, newest first, written twice (at q and q + partitions) so that the
+        # window lines[q:q + partitions] is always in order without moving it: no roll per block.
+        self._lines = np.zeros((2 * partitions, inputs, block + 1), dtype=np.complex128)
+        self._newest = 0
+        self._frame = np.zeros((inputs, 2 * block))  # the last complete block, then the one filling
+        self._filled = 0                             # frames of the filling block, and of its output used
+        self._ready = np.zeros((2, block))           # the output of the filling block (the first: silent)
 
     @property
     def partitions(self) -> int:
@@ -110,20 +115,31 @@ class LateConvolver:
 
     def convolve(self, signals: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """The next ``(frames, 2)`` of the inputs ``(inputs, frames)`` through the filters."""
-        frames = signals.shape[1]
-        self._pending = np.concatenate([self._pending, signals], axis=1)
-        outputs = [self._ready]
-        while self._pending.shape[1] >= self.block:
-            current = self._pending[:, :self.block]
-            self._pending = self._pending[:, self.block:]
-            self._inputs = np.roll(self._inputs, 1, axis=0)
-            self._inputs[0] = np.fft.rfft(np.concatenate([self._previous, current], axis=1), axis=1)
-            self._previous = current
-            spectrum = np.einsum("pif,pief->ef", self._inputs, self._filters)
-            outputs.append(np.fft.irfft(spectrum, 2 * self.block, axis=-1)[:, self.block:].T)
-        available = np.concatenate(outputs)
-        out, self._ready = available[:frames], available[frames:]
+        frames, block = signals.shape[1], self.block
+        out = np.empty((frames, 2))
+        done = 0
+        while done < frames:
+            filled = self._filled
+            take = min(frames - done, block - filled)
+            self._frame[:, block + filled:block + filled + take] = signals[:, done:done + take]
+            out[done:done + take] = self._ready[:, filled:filled + take].T
+            done += take
+            self._filled = filled + take
+            if self._filled == block:
+                self._step()
         return out
+
+    def _step(self) -> None:
+        """The filling block is complete: the output of the next one."""
+        block, partitions = self.block, self.partitions
+        self._newest = (self._newest - 1) % partitions
+        spectrum = np.fft.rfft(self._frame, axis=1)
+        self._lines[self._newest] = spectrum
+        self._lines[self._newest + partitions] = spectrum
+        window = self._lines[self._newest:self._newest + partitions]
+        self._ready = np.fft.irfft(np.einsum("pif,pief->ef", window, self._filters), 2 * block, axis=-1)[:, block:]
+        self._frame[:, :block] = self._frame[:, block:]
+        self._filled = 0
 
 
 class StagedLateConvolver:

@@ -11,18 +11,21 @@ previous block's). The ear signals add three parts:
    of its direction relative to the head, interpolated in azimuth and between
    elevation rings, cross-faded from sub-block to sub-block
    (:class:`~._renderer.BinauralRenderer`): no click when the head turns.
-2. **Early reflections.** The source's image sources (:func:`~._room.image_sources`,
-   Allen & Berkley 1979) of orders 1 to ``max_order`` that arrive before the
-   mixing time, each through the measured response nearest its direction from
-   the head, at its delay (rounded to a sample) and its walls' gain per octave
-   band. They make one response per source, made again when the head or a
-   source has moved (at most every ``update`` seconds); the output fades
-   linearly from the old response to the new across the block, so every sample
-   is a convex mix of two time-invariant convolutions.
+2. **Early reflections** (:class:`~._early.EarlyReflections`). The source's
+   image sources (Allen & Berkley 1979) of orders 1 to ``max_order`` that
+   arrive before the mixing time, each through the measured response nearest
+   its direction from the head, at its delay (rounded to a sample) and its
+   walls' gain per octave band: one response per source, which changes (looked
+   up at most every ``update`` seconds) when a source or the listener moves or
+   the head turns far enough for an image to be heard through another
+   measurement; the output fades linearly from the old response to the new
+   across the block, so every sample is a convex mix of two time-invariant
+   convolutions.
 3. **The late tail** from the mixing time on (:func:`~._late.late_tail`): the
    head's diffuse field decaying with the room's Eyring RT60 per band. It is
-   fixed per source (that of the positions of the first block: a diffuse field
-   does not turn with the head) and convolved in growing partitions.
+   fixed (a diffuse field does not turn with the head), one for the room: the
+   sources' dry signals are summed into it (decision 44: nothing in it depends
+   on the source), convolved in growing partitions.
 
 The mixing time is, unless given, the arrival of the first image of order
 ``max_order + 1``: before it the images are complete, after it the tail takes
@@ -36,8 +39,8 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from ._convolution import FadingConvolver, StagedLateConvolver
-from ._directions import NearestDirections
+from ._convolution import StagedLateConvolver
+from ._early import EarlyReflections
 from ._errors import BinauralError
 from ._filters import diffuse_filters
 from ._geometry import Position, directions
@@ -45,7 +48,7 @@ from ._hrir_set import HrirSet, wrap_degrees
 from ._kemar import load_kemar
 from ._late import late_tail
 from ._renderer import BinauralRenderer
-from ._room import MIN_DISTANCE, OCTAVE_BANDS, SPEED_OF_SOUND, ImageSources, Shoebox, band_weights, image_sources
+from ._room import MIN_DISTANCE, SPEED_OF_SOUND, Shoebox, image_sources
 
 __all__ = ["RoomRenderer"]
 
@@ -69,10 +72,10 @@ class RoomRenderer:
         max_order: The highest order of image sources heard as early reflections.
         mixing_time: Seconds from the source's emission where the late tail takes over (None: the
             arrival of the first image of order ``max_order + 1``, within 20 to 250 ms).
-        update: Seconds between two makings of the early reflections while things move.
+        update: Seconds between two look-ups of the early reflections' measurements (made again when one changed).
         diffuse_level: RMS of an independent diffuse noise field at the ears, dB re full scale, or None.
         sensor_noise: RMS of independent noise at each ear, dB re full scale, or None.
-        seed: Seed of the tails, the diffuse field and the sensor noise.
+        seed: Seed of the tail, the diffuse field and the sensor noise.
         speed_of_sound: Metres per second (default: the room's, else 343).
     """
 
@@ -106,16 +109,8 @@ class RoomRenderer:
         self._positions: npt.NDArray[np.float64] | None = None
         self._listener: npt.NDArray[np.float64] | None = None
         self._head: float | None = None
-        self._nearest = NearestDirections(self.hrirs)
-        self._early: FadingConvolver | None = None
-        self._early_spectra: npt.NDArray[np.complex128] | None = None
-        self._early_key: tuple[bytes, bytes] | None = None
-        self._images: dict[bytes, ImageSources] = {}     # per source and listener position: a head turning keeps them
-        self._since_update = 0
+        self.early: EarlyReflections | None = None       # made with the first block's positions
         self._late: StagedLateConvolver | None = None
-        self._weights = np.ones((1, 1))                  # the octave bands' weights at the early FFT's bins
-        self._reflection_taps = self.hrirs.taps
-        self._tail_head = np.zeros((0, 2, 1), dtype=np.complex128)
         self.frames_rendered = 0
 
     @property
@@ -192,9 +187,9 @@ class RoomRenderer:
         delayed = self._delay(signals, delays, gains)
         out = self.direct.render(delayed, self._head, azimuth, elevation)
         if self.room is not None:
-            out += self._reflections(signals)
-            assert self._late is not None
-            out += self._late.convolve(signals)
+            assert self.early is not None and self._late is not None
+            out += self.early.render(signals, self._positions, self._listener, self._head)
+            out += self._late.convolve(signals.sum(axis=0, keepdims=True))
         return out
 
     def _delay(self, signals: npt.NDArray[np.float64], delays: npt.NDArray[np.float64],
@@ -208,6 +203,8 @@ class RoomRenderer:
         self._lines = line[:, -self._line_length:]
         if frames == 0:
             return signals
+        if np.array_equal(start_delays, delays) and np.array_equal(start_gains, gains) and np.all(delays >= 2.0):
+            return self._delay_still(line, frames, delays, gains)
         ramp = np.arange(1, frames + 1) / frames
         delay = start_delays[:, np.newaxis] + (delays - start_delays)[:, np.newaxis] * ramp          # (src, frames)
         gain = start_gains[:, np.newaxis] + (gains - start_gains)[:, np.newaxis] * ramp
@@ -220,10 +217,23 @@ class RoomRenderer:
         out = sum(taps[k] * line[rows, np.clip(base + k - 1, 0, line.shape[1] - 1)] for k in range(4))
         return np.asarray(out * gain)
 
+    def _delay_still(self, line: npt.NDArray[np.float64], frames: int, delays: npt.NDArray[np.float64],
+                     gains: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """The last *frames* of the *line* through fixed delays (2 samples or more) and gains: four slices each."""
+        out = np.empty((self.sources, frames))
+        where = self._line_length - delays                      # frame 0's place in the line, as in _delay
+        bases = np.floor(where)
+        taps = _lagrange(where - bases) * gains                 # (4, sources)
+        for source, base in enumerate(bases.astype(int).tolist()):
+            first, row, tap = base - 1, line[source], taps[:, source]   # taps at base - 1 ... base + 2
+            out[source] = (tap[0] * row[first:first + frames] + tap[1] * row[first + 1:first + 1 + frames]
+                           + tap[2] * row[first + 2:first + 2 + frames] + tap[3] * row[first + 3:first + 3 + frames])
+        return out
+
     # -- the room ----------------------------------------------------------------------------------
 
     def _start_room(self, positions: npt.NDArray[np.float64], listener: npt.NDArray[np.float64]) -> None:
-        """Fix the mixing time, make the early convolver and the tails, from the first block's positions."""
+        """Fix the mixing time, make the early reflections and the tail, from the first block's positions."""
         assert self.room is not None
         room = self.room
         if self.mixing_time is None:
@@ -231,87 +241,21 @@ class RoomRenderer:
             arrivals = [float(np.min(s.distances[s.orders == self.max_order + 1])) for s in firsts]
             mixing = min(arrivals, default=_MIXING_BOUNDS[0] * self.speed_of_sound) / self.speed_of_sound
             self.mixing_time = float(np.clip(mixing, *_MIXING_BOUNDS))
-        mixing_frames = int(math.ceil(self.mixing_time * self.rate))
-        # Reflections are heard through the first 6 ms of their responses (a head's response is that long;
-        # the rest of a measured set's 512 taps is the measurement's low tail), faded out over the last 1 ms.
-        kept = min(self.hrirs.length, round(0.006 * self.rate))
-        fade = max(1, round(0.001 * self.rate))
-        self._reflection_taps = self.hrirs.taps[:, :kept].copy()
-        self._reflection_taps[:, kept - fade:] *= np.cos(0.5 * np.pi * np.arange(1, fade + 1) / fade)[:, np.newaxis]
-        self._early = FadingConvolver(self.sources, mixing_frames + kept)
+        self.early = EarlyReflections(room, self.hrirs, self.sources, max_order=self.max_order,
+                                      mixing_time=self.mixing_time, fade=_FADE, speed_of_sound=self.speed_of_sound,
+                                      update=self._update_frames)
+        # One tail for every source (decision 44): their dry signals' sum goes through it, as a reverberator
+        # fed by all the sources of a room; the first source's tail as it was when each had its own.
         rng = np.random.default_rng(self._seed + 17)
-        diffuse = diffuse_filters(self._measured, self.rate)
-        tails = [late_tail(diffuse, room.eyring_rt60(), volume=room.volume, speed_of_sound=self.speed_of_sound,
-                           start=self.mixing_time, fade=_FADE, rng=rng) for _ in range(self.sources)]
+        tail = late_tail(diffuse_filters(self._measured, self.rate), room.eyring_rt60(), volume=room.volume,
+                         speed_of_sound=self.speed_of_sound, start=self.mixing_time, fade=_FADE, rng=rng)
         # The tail's first taps join the early responses (convolved at once, they need no latency); from the
         # largest power of two those hold on, the late convolver takes it in blocks that grow.
-        block = 1 << int(math.floor(math.log2(self._early.taps)))
-        length = max([len(t) for t in tails] + [block + 1])
-        stacked = np.zeros((self.sources, length, 2))
-        for i, tail in enumerate(tails):
-            stacked[i, :len(tail)] = tail
-        self._tail_head = self._early.spectra(stacked[:, :block])
+        block = 1 << int(math.floor(math.log2(self.early.length)))
+        stacked = np.zeros((1, max(len(tail), block + 1), 2))
+        stacked[0, :len(tail)] = tail
+        self.early.tail_head = np.repeat(self.early.convolver.spectra(stacked[:, :block]), self.sources, axis=0)
         self._late = StagedLateConvolver(stacked, block)
-        self._weights = band_weights(np.fft.rfftfreq(self._early.n_fft, 1.0 / self.rate))
-
-    def _reflections(self, signals: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-        """The early reflections of these frames, fading to new responses when things moved."""
-        assert self._early is not None
-        frames = signals.shape[1]
-        self._since_update += frames
-        if self._early_spectra is None or self._since_update >= self._update_frames:
-            spectra, key = self._early_filters()
-            if self._early_spectra is None:
-                self._early_spectra, self._early_key = spectra, key
-            elif key != self._early_key:
-                previous, self._early_spectra, self._early_key = self._early_spectra, spectra, key
-                self._since_update = 0
-                return self._early.convolve(signals, previous, spectra)
-            self._since_update = 0
-        return self._early.convolve(signals, self._early_spectra)
-
-    def _early_filters(self) -> tuple[npt.NDArray[np.complex128], tuple[bytes, bytes]]:
-        """The early reflections' spectra ``(sources, 2, bins)`` now, and what they were made from."""
-        assert self.room is not None and self._early is not None and self._positions is not None
-        assert self._listener is not None and self._head is not None and self.mixing_time is not None
-        taps = self._reflection_taps
-        length = self._early.taps
-        mixing = self.mixing_time
-        # Responses per band (one when every wall absorbs alike at every frequency: the common case).
-        bands = 1 if bool(np.all(self.room.absorption == self.room.absorption[:, :1])) else len(OCTAVE_BANDS)
-        responses = np.zeros((bands, self.sources, 2, length))
-        keys = []
-        images_now: dict[bytes, ImageSources] = {}
-        for i, position in enumerate(self._positions):
-            key = position.tobytes() + self._listener.tobytes()
-            images = self._images.get(key)
-            if images is None:
-                images = image_sources(self.room, position, self._listener, max_order=self.max_order, max_time=mixing)
-            images_now[key] = images
-            reflected = images.orders > 0
-            delays = images.delays(self.speed_of_sound)[reflected]
-            gains = images.gains[reflected] * _fade_out(delays, mixing)[:, np.newaxis]           # (n, bands)
-            azimuth, elevation, _ = directions(images.positions[reflected], tuple(self._listener), self._head)
-            nearest = self._nearest.indices(azimuth, elevation)
-            starts = np.round(delays * self.rate).astype(np.int64)
-            keys.append((nearest.tobytes(), starts.tobytes()))
-            index = (starts[:, np.newaxis] + np.arange(taps.shape[1])).ravel()                   # (n · taps)
-            chosen = taps[nearest]                                                                # (n, taps, ears)
-            for band in range(bands):
-                for ear in range(2):
-                    weights = (gains[:, band, np.newaxis] * chosen[:, :, ear]).ravel()
-                    responses[band, i, ear] = np.bincount(index, weights, minlength=length)[:length]
-        spectra = np.fft.rfft(responses, self._early.n_fft, axis=-1)                 # (bands, sources, ears, bins)
-        spectra = spectra[0] if bands == 1 else np.einsum("bsef,bf->sef", spectra, self._weights)
-        spectra += self._tail_head
-        self._images = images_now
-        return spectra, (b"".join(k[0] for k in keys), b"".join(k[1] for k in keys))
-
-
-def _fade_out(delays: npt.NDArray[np.float64], mixing: float) -> npt.NDArray[np.float64]:
-    """1 for images before the fade, falling as cos² to 0 at the mixing time."""
-    share = np.clip((delays - (mixing - _FADE)) / _FADE, 0.0, 1.0)
-    return np.asarray(np.cos(0.5 * np.pi * share))
 
 
 def _lagrange(fraction: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
