@@ -90,6 +90,17 @@ async def test_a_reply_written_whole_is_aiohttps_byte_for_byte(
     assert fast[0][0].startswith("HTTP/1.1 ")
 
 
+async def test_a_refused_method_written_whole_is_aiohttps_byte_for_byte(
+        connection: Connection, whole: list[bool], monkeypatch: pytest.MonkeyPatch) -> None:
+    request = f"DELETE /version HTTP/1.1\r\nHost: {connection.host}\r\n\r\n".encode()
+    fast = await exchange(connection, request)
+    monkeypatch.setattr(Reply, "_head", lambda self, request, length: None)
+    slow = await exchange(connection, request)
+    assert whole == [True]
+    assert fast == slow
+    assert fast[0][0] == "HTTP/1.1 405 Method Not Allowed" and "Allow: GET,HEAD" in fast[0]
+
+
 @pytest.mark.parametrize(("request_head", "answer"), [
     (b"HEAD /version HTTP/1.1\r\nHost: %s\r\n\r\n", b"HTTP/1.1 200 OK\r\n"),
     (b"GET /version HTTP/1.0\r\nHost: %s\r\n\r\n", b"HTTP/1.0 200 OK\r\n"),
