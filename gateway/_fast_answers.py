@@ -1,7 +1,8 @@
 """The gateway's own GETs (``/``, ``/version``) answered ahead of the routes, with the routes' replies.
 
-A client asks ``/version`` when it connects and ``/`` for what is loaded (the
-console and the Python client poll it).  Through the routes, such a request pays
+A client asks ``/version`` when it connects, and ``/`` for what is loaded and
+for the rig's clock (the Python client at each of its calls for them, the
+console after each change).  Through the routes, such a request pays
 aiohttp's router, the guard's middleware layers and their bookkeeping, for an
 answer made from the application alone.
 

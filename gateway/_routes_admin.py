@@ -145,8 +145,8 @@ def version_reply(app: web.Application) -> web.Response:
 
 
 #: The routes whose plain GETs the server's request handler answers ahead of the router
-#: (``_fast_answers``), by path: what a client asks when it connects and polls, answered from
-#: the application alone by the same function as the route's.
+#: (``_fast_answers``), by path: what a client asks when it connects and for the rig's clock,
+#: answered from the application alone by the same function as the route's.
 ANSWERED_AHEAD = {"/": index_reply, "/version": version_reply}
 
 
