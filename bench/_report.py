@@ -83,7 +83,8 @@ def _analysis(results: dict[str, Any]) -> str:
         f"{f('the publication' + chr(39) + 's struct with chunked arrays')}, a JSON body "
         f"{f('build a JSON body (splice the chunks' + chr(39) + ' texts)')} (a new chunk's text is made once, by "
         f"its first reader), a binary one {f('build a binary body (list the chunks' + chr(39) + ' memory)')}. "
-        "For comparison, `/version` through aiohttp's routes: "
+        "For comparison, `/version` through aiohttp's routes (a session named: a plain one is answered ahead of "
+        "them): "
         f"{f('the guard, route and handler (/version)')} per request, of which its handler "
         f"{f('the /version handler')}. Each fresh read also pays waking both processes after a pause: "
         f"{_wake(results)}.",
@@ -106,6 +107,16 @@ def _analysis(results: dict[str, Any]) -> str:
         "`/module` one regular expression after another), its two middleware layers and its `Response`. "
         "The throughput ratio also depends on how the two cores are shared with wrk and the rest of the "
         "machine: the CPU ratio is the steadier figure.",
+        "* **Instructions per request.** On Python 3.11 aiohttp answers each request in a task of its own, "
+        "started at the event loop's next turn, and wakes its connection's request loop before and after it: "
+        "three turns of the loop a request (two on Python 3.12, where aiohttp starts the task eagerly), with a "
+        "`Request` and a writer made for each. d5f1c87's connection answered a plain read with a reader of its "
+        "own, in the turn its bytes came: that is most of what a plain read costs beyond d5f1c87's, the price "
+        "of one parser (decision 47). Every JSON or text reply is written whole, its head made as aiohttp makes "
+        "it, without aiohttp's header preparation (`gateway/_replies.py`), and plain GETs of `/` and `/version` "
+        "are answered ahead of the routes by the routes' own functions (`gateway/_fast_answers.py`). A routed "
+        "module description still pays the router and the guard, and rebuilds the description every time "
+        "(more than half of its count).",
         "* **Memory.** At start the gateway imports only what serving needs (components are imported when first "
         "loaded); the figure with every component loaded is dominated by the simulators (MuJoCo for `world`, "
         "`pr2` and `morse_kemar`). A session costs about a kilobyte and sessions are bounded (`--max-sessions`); "

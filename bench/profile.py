@@ -3,8 +3,9 @@
 The benchmark gateway runs with ``--profile`` (cProfile, stats written when it
 is stopped) while a raw reader reads ``kemarcapture``'s 4000 ms window, each
 read one chunk period after the last (so each read is of a publication nobody
-has read yet), in JSON and in binary, then asks ``/version`` as many times (a
-request through aiohttp's routes, with nothing to build).  The figures are
+has read yet), in JSON and in binary, then asks ``/version?s=profile`` as many
+times (a request through aiohttp's routes, with nothing to build: a plain
+``/version`` is answered ahead of them, and the routes alone take a session).  The figures are
 per call of the gateway's functions, in ms.  cProfile slows Python code about
 twofold and C calls (the kernel copy, orjson) not at all: the Python figures
 are upper bounds, and what matters is their share.
@@ -29,7 +30,7 @@ FUNCTIONS = [
     ("aiohttp: a request's bytes received and parsed (every request)", "web_protocol.py", "data_received"),
     ("aiohttp: a request handled (its task, request object and reply; every request)", "web_protocol.py",
      "_handle_request"),
-    ("the server's handler: a plain read answered, or the routes", "gateway/_fast_reads.py", "handle"),
+    ("the server's handler: a plain read answered, or the routes", "gateway/_ahead.py", "handle"),
     ("a plain read answered ahead of the routes (all below but the write)", "gateway/_fast_reads.py", "reply"),
     ("the door's decision", "gateway/_door.py", "decide"),
     ("the read's body (made ahead for a polled form: found ready)", "gateway/_routes_ports.py", "read_body"),
@@ -43,6 +44,9 @@ FUNCTIONS = [
     ("the /version handler", "gateway/_routes_admin.py", "version"),
 ]
 
+#: ``/version`` through the routes (a plain one is answered ahead of them: ``gateway/_fast_answers.py``).
+ROUTED_VERSION = "/version?s=profile"
+
 
 def _per_call(stats: pstats.Stats) -> dict[str, dict[str, float]]:
     found: dict[str, dict[str, float]] = {}
@@ -54,7 +58,7 @@ def _per_call(stats: pstats.Stats) -> dict[str, dict[str, float]]:
 
 
 async def run(reads: int = 100) -> Result:
-    """Profile *reads* fresh JSON reads, as many binary ones and as many ``/version`` requests."""
+    """Profile *reads* fresh JSON reads, as many binary ones and as many routed ``/version`` requests."""
     chunks = WINDOWS[4000]
     with tempfile.TemporaryDirectory() as directory:
         stats_file = Path(directory) / "gateway.prof"
@@ -65,7 +69,7 @@ async def run(reads: int = 100) -> Result:
                 await _start_window(http, base, chunks)
             reader = await RawReader.connect(port, http=True)
             path = f"/module/{MODULE}/read/Port"
-            for request in (_http_get(path), _http_get(path + "?format=binary"), _http_get("/version")):
+            for request in (_http_get(path), _http_get(path + "?format=binary"), _http_get(ROUTED_VERSION)):
                 for _ in range(reads):
                     await asyncio.sleep(CHUNK_MS / 1000)
                     await reader.exchange(request)
@@ -79,10 +83,10 @@ async def run(reads: int = 100) -> Result:
 def render(r: Result) -> str:
     """The table of the profile, for docs/benchmarks.md."""
     lines = ["### Profile of a read of a new publication (4000 ms window)", "",
-             f"{r['reads']} JSON reads, {r['reads']} binary reads and {r['reads']} `/version` requests, each one chunk "
-             "period after the last, against the gateway under cProfile (`./run bench --only profile`). Time per "
-             "call, cumulative (a function's figure includes those it calls); Python figures are upper bounds "
-             "(cProfile slows Python code about twofold, C calls not).", "",
+             f"{r['reads']} JSON reads, {r['reads']} binary reads and {r['reads']} `{ROUTED_VERSION}` requests "
+             "(through the routes), each one chunk period after the last, against the gateway under cProfile "
+             "(`./run bench --only profile`). Time per call, cumulative (a function's figure includes those it "
+             "calls); Python figures are upper bounds (cProfile slows Python code about twofold, C calls not).", "",
              "| function | calls | ms per call |", "|---|---|---|"]
     for label in r["labels"]:
         figure = r["functions"][label]

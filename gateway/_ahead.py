@@ -2,8 +2,9 @@
 
 aiohttp's server calls one request handler for every request it has read (its
 parser, the only reader of requests: docs/decisions/0037).  The gateway's one
-answers plain port reads (:mod:`._fast_reads`) and plain sends
-(:mod:`._fast_sends`) there, and hands every other request to the
+answers plain port reads (:mod:`._fast_reads`), plain sends
+(:mod:`._fast_sends`) and plain GETs of ``/`` and ``/version``
+(:mod:`._fast_answers`) there, and hands every other request to the
 application's own handler: the router, the guard, the routes.
 """
 
@@ -15,6 +16,7 @@ from aiohttp import web
 from aiohttp.http import HttpVersion10, HttpVersion11
 
 from ._connection import UNSUPPORTED_VERSION, GatewayConnection
+from ._fast_answers import FastAnswers
 from ._fast_reads import FastReads
 from ._fast_sends import FastSends
 
@@ -25,8 +27,9 @@ RequestHandler = Callable[[web.BaseRequest], Awaitable[web.StreamResponse]]
 _VERSIONS = frozenset({HttpVersion10, HttpVersion11})
 
 
-def ahead_of_the_routes(fast_reads: FastReads, fast_sends: FastSends, routes: RequestHandler) -> RequestHandler:
-    """The server's request handler: a plain read or send answered here, anything else by *routes*.
+def ahead_of_the_routes(fast_reads: FastReads, fast_sends: FastSends, fast_answers: FastAnswers,
+                        routes: RequestHandler) -> RequestHandler:
+    """The server's request handler: a plain read, send or GET of the gateway's own answered here, else by *routes*.
 
     It also tells the gateway's connection when a request's head is complete and when its
     handler has returned (the head timeout, ``_connection``).
@@ -41,12 +44,15 @@ def ahead_of_the_routes(fast_reads: FastReads, fast_sends: FastSends, routes: Re
             # HTTP/0.9: its reply would have no status line.
             if connection is not None and request.version not in _VERSIONS:
                 return connection.refuse(505, UNSUPPORTED_VERSION)
-            reply = fast_reads.reply(request)
+            reply = fast_reads.reply(request)  # (the most frequent first)
             if reply is not None:
                 return reply
             send = fast_sends.plain(request)
             if send is not None:
                 return await fast_sends.reply(request, send)
+            answer = fast_answers.reply(request)
+            if answer is not None:
+                return answer
             return await routes(request)
         finally:
             if connection is not None:

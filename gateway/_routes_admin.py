@@ -19,7 +19,7 @@ from ._errors import BadQuery, LoadForbidden
 from ._keys import CONFIG, DOOR, HOST, SESSIONS
 from ._replies import SERVER_HEADER, SERVER_VERSION, json_reply, text_reply
 
-__all__ = ["routes", "GENOMIX_PROTOCOL_VERSION", "FEATURES", "WHERE_HEADER", "CONSOLE_ASSETS"]
+__all__ = ["routes", "ANSWERED_AHEAD", "GENOMIX_PROTOCOL_VERSION", "FEATURES", "WHERE_HEADER", "CONSOLE_ASSETS"]
 
 #: The header of a load's reply that says where the instance runs (JSON: ``runs``, ``host``, ``endpoints``...).
 WHERE_HEADER = "Aiogenomix-Where"
@@ -47,7 +47,12 @@ routes = web.RouteTableDef()
 @routes.get("/")
 async def index(request: web.Request) -> web.Response:
     """What runs here: versions, loaded modules, loadable components, sessions."""
-    host = request.app[HOST]
+    return index_reply(request.app)
+
+
+def index_reply(app: web.Application) -> web.Response:
+    """The reply to ``GET /`` of the gateway *app* (made from the application alone: see :data:`ANSWERED_AHEAD`)."""
+    host = app[HOST]
     instances = host.instances
     index: dict[str, object] = {
         "server": f"aiogenomix {SERVER_VERSION}",
@@ -55,11 +60,11 @@ async def index(request: web.Request) -> web.Response:
         "loaded": {name: c.genom_name for name, c in instances.items()},
         # Where each loaded instance runs: here, or on which component host (its endpoints, its protocol).
         "where": {name: c.placement() for name, c in instances.items()},
-        "available": _allowed(request),
+        "available": _allowed(app),
         # Components that other processes offer on Zenoh (gateway --zenoh), loadable as the others.
         "offered": host.finder.offered() if host.finder is not None else [],
-        "sessions": len(request.app[SESSIONS]),
-        "simulated": request.app[CONFIG].simulated_parts(),
+        "sessions": len(app[SESSIONS]),
+        "simulated": app[CONFIG].simulated_parts(),
         # The rig's clock, which stamps the ports' data: a recorder elsewhere stamps data without time with it.
         "clock": clock_reading(host.clock),
         "features": FEATURES,
@@ -131,12 +136,23 @@ async def favicon(request: web.Request) -> web.Response:
 @routes.get("/version")
 async def version(request: web.Request) -> web.Response:
     """The genomix protocol version (the Server header names aiogenomix)."""
+    return version_reply(request.app)
+
+
+def version_reply(app: web.Application) -> web.Response:
+    """The reply to ``GET /version`` (the same for every gateway of this release)."""
     return text_reply(GENOMIX_PROTOCOL_VERSION)
 
 
-def _allowed(request: web.Request) -> list[str]:
-    allow = request.app[CONFIG].server.components
-    return [n for n in request.app[HOST].available() if allow is None or n in allow]
+#: The routes whose plain GETs the server's request handler answers ahead of the router
+#: (``_fast_answers``), by path: what a client asks when it connects and for the rig's clock,
+#: answered from the application alone by the same function as the route's.
+ANSWERED_AHEAD = {"/": index_reply, "/version": version_reply}
+
+
+def _allowed(app: web.Application) -> list[str]:
+    allow = app[CONFIG].server.components
+    return [n for n in app[HOST].available() if allow is None or n in allow]
 
 
 def _argv(request: web.Request) -> list[str]:
@@ -170,11 +186,11 @@ async def load(request: web.Request) -> web.Response:
     name = request.match_info["name"]
     if "/" in name or name.endswith(".so"):
         raise LoadForbidden(
-            f"cannot load {name!r}: only registered components load, by name ({', '.join(_allowed(request))})"
+            f"cannot load {name!r}: only registered components load, by name ({', '.join(_allowed(request.app))})"
         )
     allow = request.app[CONFIG].server.components
     if allow is not None and name.partition("@")[0] not in allow:
-        raise NoSuchModule(f"no component {name!r} {names_hint(name, _allowed(request), 'available')}")
+        raise NoSuchModule(f"no component {name!r} {names_hint(name, _allowed(request.app), 'available')}")
     component = await request.app[HOST].load(name, _argv(request))
     reply = text_reply(component.instance)
     reply.headers[WHERE_HEADER] = orjson.dumps(component.placement()).decode()
@@ -193,6 +209,6 @@ async def unload(request: web.Request) -> web.Response:
 async def usage(request: web.Request) -> web.Response:
     """The load options of a component, as ``[{"option": ..., "descr": ...}]``."""
     name = request.match_info["name"]
-    if name not in _allowed(request):
-        raise NoSuchModule(f"no component {name!r} {names_hint(name, _allowed(request), 'available')}")
+    if name not in _allowed(request.app):
+        raise NoSuchModule(f"no component {name!r} {names_hint(name, _allowed(request.app), 'available')}")
     return json_reply(request.app[HOST].usage(name))

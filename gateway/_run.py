@@ -19,9 +19,11 @@ from ._config import GatewayConfig
 from ._errors import GatewayError
 from ._connection import GatewayConnection
 from ._ahead import ahead_of_the_routes
+from ._fast_answers import FastAnswers
 from ._fast_reads import FastReads
 from ._fast_sends import FastSends
 from ._shutdown import HANDLER_GRACE
+from ._routes_admin import ANSWERED_AHEAD
 from ._signals import STOP_SIGNALS, signal_name
 
 __all__ = ["serve", "serve_in_thread", "run", "ListenError"]
@@ -53,8 +55,8 @@ async def serve(config: GatewayConfig, host: ComponentHost | None = None) -> Asy
 
     The application is :func:`~._app.create_app`'s, as a test or an embedder builds it.
     Each connection is a :class:`~._connection.GatewayConnection` (aiohttp's own, with
-    the gateway's refusals and head timeout), and plain port reads and sends are answered
-    ahead of the routes (:mod:`._ahead`).
+    the gateway's refusals and head timeout), and plain port reads and sends and plain GETs
+    of ``/`` and ``/version`` are answered ahead of the routes (:mod:`._ahead`).
 
     Args:
         config: The gateway configuration (``port=0`` picks a free port).
@@ -67,7 +69,8 @@ async def serve(config: GatewayConfig, host: ComponentHost | None = None) -> Asy
     try:
         server = runner.server
         assert server is not None
-        server.request_handler = ahead_of_the_routes(FastReads(app), FastSends(app), server.request_handler)
+        server.request_handler = ahead_of_the_routes(FastReads(app), FastSends(app), FastAnswers(app, ANSWERED_AHEAD),
+                                                     server.request_handler)
         limits, address, port = config.connections, config.server.host, config.server.port
         try:
             listener = await asyncio.get_running_loop().create_server(

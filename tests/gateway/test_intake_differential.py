@@ -1,18 +1,19 @@
 """One verdict per request head, whichever way the gateway would answer it, and no traceback for any (issue 32).
 
-Plain port reads and plain sends are answered ahead of the routes
-(``gateway/_fast_reads.py``, ``gateway/_fast_sends.py``); everything else, and
-every request those decline, by the routes.  All are fed by one parser,
-aiohttp's, and judged by one door.  This test generates request heads the way the
-suite's fuzzers and the issues' reports built them (repeated fields, folded lines,
-odd versions and methods, absolute forms, bodies, hostile Host, Origin and token
-fields, parameters of every kind), each aimed at a port read or at a send, and
-sends each twice over real sockets: once naming the port or the service as a
-plain request would (``/module/demo/read/Mobile``, ``/module/demo/send/GetSpeed``),
-once percent-encoded (``.../%4Dobile``, ``.../%47etSpeed``), which only the routes
-decode.  Both must get the same status, the same error, and for an answer the same
-body (a send's request number apart); and the log must hold no line above DEBUG
-and no traceback.
+Plain port reads, plain sends and plain GETs of ``/version`` are answered ahead
+of the routes (``gateway/_fast_reads.py``, ``gateway/_fast_sends.py``,
+``gateway/_fast_answers.py``); everything else, and every request those decline,
+by the routes.  All are fed by one parser, aiohttp's, and judged by one door.
+This test generates request heads the way the suite's fuzzers and the issues'
+reports built them (repeated fields, folded lines, odd versions and methods,
+absolute forms, bodies, hostile Host, Origin and token fields, parameters of every
+kind), each aimed at a port read, a send or the version, and sends each twice over
+real sockets: once naming the target as a plain request would
+(``/module/demo/read/Mobile``, ``/module/demo/send/GetSpeed``, ``/version``), once
+with a letter percent-encoded (``.../%4Dobile``, ``.../%47etSpeed``,
+``/versio%6E``), which only the routes decode.  Both must get the same status,
+the same error, and for an answer the same body (a send's request number apart);
+and the log must hold no line above DEBUG and no traceback.
 
 10,000 heads on the default Python (``AIOGENOMIX_HEAVY`` unset), 1,000 on the others.
 Each exchange is a plain non-blocking socket (no stream objects, one timeout for
@@ -39,7 +40,8 @@ HEADS = 1000 if os.environ.get("AIOGENOMIX_HEAVY") == "0" else 10_000
 TOKEN = "s3cret"
 #: The targets of each kind of head: as a plain request names them, and percent-encoded (the routes' alone).
 TARGETS = {"read": ("/module/demo/read/Mobile", "/module/demo/read/%4Dobile"),
-           "send": ("/module/demo/send/GetSpeed", "/module/demo/send/%47etSpeed")}
+           "send": ("/module/demo/send/GetSpeed", "/module/demo/send/%47etSpeed"),
+           "version": ("/version", "/versio%6E")}
 #: The number of a send's request, which differs between its two sendings.
 _REQUEST_NUMBER = re.compile(rb'"id":"demo::\d+"')
 pytestmark = pytest.mark.timeout(900)
@@ -106,7 +108,7 @@ def _heads(count: int, address: str, seed: int) -> list[tuple[str, str, bytes]]:
         end = "\n" if pick.random() < 0.02 else "\r\n"
         body = pick.choice(bodies)
         if kinds.random() < 0.25:
-            # A client's own request, its query aside: the heads a plain read or send answers must be many.
+            # A client's own request, its query aside: the heads a plain read, send or GET answers must be many.
             method, version, line = "GET", "HTTP/1.1", f"GET {target} HTTP/1.1"
             fields, end, body = [hosts[0], tokens[0], *(field for field in fields if field in plain)], "\r\n", b""
         head = end.join([line, *fields, "", ""]).encode("latin-1", "replace")

@@ -1,0 +1,163 @@
+"""JSON and text replies are written whole, with the bytes aiohttp would have written.
+
+``json_reply`` and ``text_reply`` make a :class:`~aiogenomix.gateway._replies.Reply`,
+aiohttp's ``Response`` that writes its head and body in one piece when nothing
+in it is unusual, without aiohttp's header preparation.  These tests ask the
+routes for the same replies both ways (written whole, and with the whole write
+switched off, so that aiohttp prepares them) and compare them byte for byte but
+for the ``Date``; and check that what only aiohttp's way does (``HEAD``,
+HTTP/1.0, a connection that closes, a cookie) still goes its way.  Raw sockets,
+on kept-alive connections as clients use them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator
+
+import pytest
+from aiohttp import web
+
+from aiogenomix.components.core import ComponentHost, ScaledClock
+from aiogenomix.gateway import GatewayConfig, serve
+from aiogenomix.gateway._replies import Reply, json_reply
+from tests.gateway.test_fast_reads import Connection
+
+PAGE = "https://notebooks.lab"
+
+
+@pytest.fixture
+def whole(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
+    """Whether each reply prepared was written whole (True) or by aiohttp."""
+    written: list[bool] = []
+    original = Reply._head
+
+    def head(self: Reply, request: web.BaseRequest, length: int) -> bytes | None:
+        result = original(self, request, length)
+        written.append(result is not None)
+        return result
+
+    monkeypatch.setattr(Reply, "_head", head)
+    return written
+
+
+@pytest.fixture
+async def connection() -> AsyncIterator[Connection]:
+    async with ComponentHost(clock=ScaledClock(1)) as host:
+        await host.load("demo")
+        async with serve(GatewayConfig.of(port=0, allowed_origins=[PAGE]), host=host) as url:
+            opened = await Connection.open(url)
+            try:
+                yield opened
+            finally:
+                await opened.close()
+
+
+def raw(head: bytes) -> tuple[list[str], bytes]:
+    """A reply's head lines but its ``Date``, in order."""
+    return [line for line in head.decode("latin-1").split("\r\n") if not line.startswith("Date: ")], head
+
+
+async def exchange(connection: Connection, request: bytes) -> tuple[list[str], bytes]:
+    """The head lines (no ``Date``) and the body of the reply to *request*."""
+    connection.writer.write(request)
+    head = await connection.reader.readuntil(b"\r\n\r\n")
+    lines, _ = raw(head)
+    length = next(int(line.split(": ")[1]) for line in lines if line.lower().startswith("content-length: "))
+    return lines, await connection.reader.readexactly(length)
+
+
+@pytest.mark.parametrize(("path", "headers"), [
+    ("/version", ()),
+    ("/module/demo/info", ()),
+    ("/openapi.json", ()),
+    ("/usage/demo", ()),
+    ("/nowhere", ()),  # the router's 404, as the guard answers it
+    ("/module/nobody/info", ()),  # 404, the guard's error reply
+    ("/module/demo/status/0", ()),
+    ("/module/demo/info?bad=1", ()),  # the door's refusal
+    ("/version", (f"Origin: {PAGE}",)),  # with the CORS headers the guard adds
+    ("/version", ("Origin: https://elsewhere.example",)),
+])
+async def test_a_reply_written_whole_is_aiohttps_byte_for_byte(
+        connection: Connection, whole: list[bool], monkeypatch: pytest.MonkeyPatch, path: str,
+        headers: tuple[str, ...]) -> None:
+    request = connection.request(path, *headers)
+    fast = await exchange(connection, request)
+    monkeypatch.setattr(Reply, "_head", lambda self, request, length: None)  # aiohttp's way
+    slow = await exchange(connection, request)
+    assert whole == [True]
+    assert fast == slow
+    assert fast[0][0].startswith("HTTP/1.1 ")
+
+
+async def test_a_refused_method_written_whole_is_aiohttps_byte_for_byte(
+        connection: Connection, whole: list[bool], monkeypatch: pytest.MonkeyPatch) -> None:
+    request = f"DELETE /version HTTP/1.1\r\nHost: {connection.host}\r\n\r\n".encode()
+    fast = await exchange(connection, request)
+    monkeypatch.setattr(Reply, "_head", lambda self, request, length: None)
+    slow = await exchange(connection, request)
+    assert whole == [True]
+    assert fast == slow
+    assert fast[0][0] == "HTTP/1.1 405 Method Not Allowed" and "Allow: GET,HEAD" in fast[0]
+
+
+@pytest.mark.parametrize(("request_head", "answer"), [
+    (b"HEAD /version HTTP/1.1\r\nHost: %s\r\n\r\n", b"HTTP/1.1 200 OK\r\n"),
+    (b"GET /version HTTP/1.0\r\nHost: %s\r\n\r\n", b"HTTP/1.0 200 OK\r\n"),
+    (b"GET /version HTTP/1.1\r\nHost: %s\r\nConnection: close\r\n\r\n", b"HTTP/1.1 200 OK\r\n"),
+])
+async def test_what_only_aiohttp_does_is_aiohttps(
+        connection: Connection, whole: list[bool], request_head: bytes, answer: bytes) -> None:
+    connection.writer.write(request_head % connection.host.encode())
+    reply = await connection.reader.read(1 << 16)
+    assert reply.startswith(answer)
+    assert whole == [False]
+    if request_head.startswith(b"HEAD"):
+        assert reply.endswith(b"\r\n\r\n") and b"\r\nContent-Length: 5\r\n" in reply  # no body
+    else:
+        assert reply.endswith(b"\r\n\r\n1.7.3")
+    if b"Connection: close" in request_head:
+        assert b"\r\nConnection: close\r\n" in reply
+
+
+async def served_by(app: web.Application, path: str) -> tuple[int, dict[str, str], bytes]:
+    """The reply of *app*, served by aiohttp's runner, to a GET of *path*."""
+    runner = web.AppRunner(app, access_log=None)
+    await runner.setup()
+    site = web.TCPSite(runner, "127.0.0.1", 0)
+    await site.start()
+    try:
+        connection = await Connection.open(f"http://127.0.0.1:{runner.addresses[0][1]}")
+        try:
+            return await connection.get(path)
+        finally:
+            await connection.close()
+    finally:
+        await runner.cleanup()
+
+
+async def test_a_reply_with_a_cookie_goes_aiohttps_way(whole: list[bool]) -> None:
+    async def handler(request: web.Request) -> web.StreamResponse:
+        reply = json_reply({"signed": True})
+        reply.set_cookie("session", "abc", httponly=True)
+        return reply
+
+    app = web.Application()
+    app.router.add_get("/", handler)
+    status, fields, body = await served_by(app, "/")
+    assert (status, body, whole) == (200, b'{"signed":true}', [])
+    assert fields["Set-Cookie"].startswith("session=abc;")
+
+
+async def test_an_application_that_changes_replies_as_they_are_prepared_gets_aiohttps_way(whole: list[bool]) -> None:
+    async def handler(request: web.Request) -> web.StreamResponse:
+        return json_reply({"seen": False})
+
+    async def mark(request: web.Request, response: web.StreamResponse) -> None:
+        response.headers["X-Seen"] = "yes"
+
+    app = web.Application()
+    app.router.add_get("/", handler)
+    app.on_response_prepare.append(mark)
+    status, fields, body = await served_by(app, "/")
+    assert (status, body, fields["X-Seen"], whole) == (200, b'{"seen":false}', "yes", [False])
