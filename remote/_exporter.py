@@ -78,7 +78,7 @@ class PortEncoder:
         reason = self.port.withdrawn
         assert reason is not None
         owner = self.port.owner
-        body = owner.exception_object(reason) if isinstance(owner, Component) else {"ex": reason.id}
+        body = owner.engine.exception_object(reason) if isinstance(owner, Component) else {"ex": reason.id}
         return encode_message(self.port.name, None, None, kind="withdrawn", reason=body)
 
     def _struct(self, value: Any, since: int | None) -> tuple[Any, int]:
