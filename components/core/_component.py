@@ -69,10 +69,21 @@ class Component:
     Subclass with ``class Demo(Component, name="demo", version="1.1")``.  The
     class docstring documents the component in ``/info``.
 
+    An author writes declarations, service methods and hooks; the instance's
+    :class:`~aiogenomix.components.core.runtime.RequestEngine` runs its requests,
+    and the host and its scripts drive it through the engine's methods, which the
+    instance shows as its own (``send``, ``interrupt``, ``abort``...).
+
     Args:
         host: The host that runs the instance (clock, settings, peers).
         instance: The instance name (the component name unless loaded with ``-i``).
         argv: Extra load arguments (see :attr:`usage_options`).
+
+    Attributes:
+        engine: What runs the instance's requests.
+        requests: Its requests, running and ended (the engine's): ``self.requests.running()``.
+        send: Start a request: ``await component.send("Point", {"pan": 20})`` (the engine's
+            :meth:`~aiogenomix.components.core.runtime.RequestEngine.send`).
     """
 
     #: The genom3 component name (ids of its exceptions are ``::<name>::X``).
@@ -146,9 +157,7 @@ class Component:
         self._port_runtimes: dict[str, OutPortRuntime[Any] | InPortRuntime[Any]] = {}
         self._task_runtimes: dict[str, TaskRuntime] = {}
         self._started = False
-        #: What runs the instance's requests (the host's and the gateway's way in).
         self.engine = RequestEngine(self)
-        #: The instance's requests, running and ended (the engine's): ``self.requests.running()``.
         self.requests: RequestTracker = self.engine.requests
         # The engine's own method rather than a method that calls it: a send reaches the engine
         # in as many steps as when the component ran its requests itself.
@@ -250,6 +259,22 @@ class Component:
             raise NoSuchPort(f"{self.instance}/{name} is an out port, not an in port")
         return runtime
 
+    def _genom_state(self) -> GenomState:
+        """The data of the ``genom_state`` port, computed when it is read."""
+        activities: list[dict[str, Any]] = [{"id": r.number, "name": r.service.name} for r in self.requests.running()
+                      if r.service.kind == "activity"]
+        tasks = [rt.state() | {"activity": [a for a in activities
+                                            if self._services[a["name"]].task == rt.name]}
+                 for rt in (self._task_runtime(n) for n in self._tasks)]
+        untasked = [a for a in activities if self._services[a["name"]].task not in self._tasks]
+        if untasked:
+            tasks.append({"name": "", "rusage": {"cycles": 0, "timings": {"last": 0, "max": 0, "avg": 0}},
+                          "activity": untasked})
+        return GenomState.build(
+            tasks, digest=self.genom_name, version=self.version,
+            date=datetime.datetime.fromtimestamp(self.clock.wall(), datetime.UTC).isoformat(),
+        )
+
     # -- lifecycle ------------------------------------------------------------------------
 
     async def start(self) -> None:
@@ -331,19 +356,3 @@ class Component:
     async def session_ended(self, session: str, sent_by: Callable[[Request], bool] | None = None) -> None:
         """The host's seam: *session* ended; its running requests (those *sent_by* one gateway) go to the hook."""
         await self.engine.session_ended(session, sent_by)
-
-    def _genom_state(self) -> GenomState:
-        """The data of the ``genom_state`` port, computed when it is read."""
-        activities: list[dict[str, Any]] = [{"id": r.number, "name": r.service.name} for r in self.requests.running()
-                      if r.service.kind == "activity"]
-        tasks = [rt.state() | {"activity": [a for a in activities
-                                            if self._services[a["name"]].task == rt.name]}
-                 for rt in (self._task_runtime(n) for n in self._tasks)]
-        untasked = [a for a in activities if self._services[a["name"]].task not in self._tasks]
-        if untasked:
-            tasks.append({"name": "", "rusage": {"cycles": 0, "timings": {"last": 0, "max": 0, "avg": 0}},
-                          "activity": untasked})
-        return GenomState.build(
-            tasks, digest=self.genom_name, version=self.version,
-            date=datetime.datetime.fromtimestamp(self.clock.wall(), datetime.UTC).isoformat(),
-        )
