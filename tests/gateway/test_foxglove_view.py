@@ -144,12 +144,14 @@ async def test_a_viewer_gets_the_head_and_a_camera_while_a_stalled_one_delays_no
                   if np.array_equal(captured[k:k + len(shown)], shown)]
         assert len(starts) == 1  # those very chunks of the capture
 
-        # The gateway's clients meanwhile: the listen stream is as prompt as before, within 50 ms (the 90th
-        # percentile, judged against the same measure without the stalled viewer: a machine whose cores are
-        # busy delays some events by itself).
+        # The gateway's clients meanwhile: the listen stream is as prompt as before (the median within
+        # 20 ms). Its 90th percentile is judged against the same measure without the stalled viewer, with
+        # 250 ms to spare: a machine whose cores are shared six times over delays some events by itself
+        # (seen: 0.19 s against 0.02 s a minute earlier), while a viewer that held the gateway up would
+        # hold it for as long as it does not read, seconds.
         hindered = await listen_delays(url, 30)
         assert statistics.median(hindered) < 0.02, hindered
-        assert percentile(hindered, 0.9) <= percentile(unhindered, 0.9) + 0.05, (unhindered, hindered)
+        assert percentile(hindered, 0.9) <= percentile(unhindered, 0.9) + 0.25, (unhindered, hindered)
         # (the viewer is still served)
         await asyncio.wait_for(viewer.recv(), 30)
 

@@ -31,6 +31,8 @@ from typing import Any
 
 import pytest
 
+from ..conftest import TEST_CAN_TIMEOUT
+
 ROOT = Path(__file__).resolve().parents[2]
 #: Runtime seconds per real second: homing the head and driving the PR2 take seconds, not tens.
 TIME_SCALE = 10
@@ -176,7 +178,10 @@ async def gateway(tmp_path: Path) -> AsyncIterator[tuple[int, int]]:
     with open(tmp_path / "gateway.log", "wb") as log:
         process = await asyncio.create_subprocess_exec(
             sys.executable, "-m", "aiogenomix.gateway", "--port", "0", "--audio-socket-port", str(socket_port),
-            "--time-scale", str(TIME_SCALE), "--record-dir", str(tmp_path), stdout=asyncio.subprocess.PIPE,
+            "--time-scale", str(TIME_SCALE), "--record-dir", str(tmp_path),
+            # The drive's reply timeout is real time (decision 8); on a loaded machine the in-process
+            # simulated drive may be starved past the default 0.5 s, which is not what this test reads.
+            "--can-timeout", str(TEST_CAN_TIMEOUT), stdout=asyncio.subprocess.PIPE,
             stderr=log)
     try:
         assert process.stdout is not None

@@ -17,12 +17,16 @@ from aiogenomix.gateway import GatewayConfig, serve
 
 #: One second of audio takes 100 ms of real time in these tests.
 TIME_SCALE = 10.0
+#: Real seconds the simulated drive, served by a thread, has to answer: the CAN reply timeout is real time
+#: by design (decision 8), and a loaded machine may starve the thread past the default 0.5 s.
+CAN_TIMEOUT = 10.0
 
 
 @pytest.fixture
 async def host() -> AsyncIterator[ComponentHost]:
     """A host with bass, basc and kemar loadable; the dedicated socket takes a free port."""
-    async with ComponentHost(clock=ScaledClock(TIME_SCALE), settings=HostSettings(audio_socket_port=0),
+    settings = HostSettings(audio_socket_port=0, can_timeout=CAN_TIMEOUT)
+    async with ComponentHost(clock=ScaledClock(TIME_SCALE), settings=settings,
                              factories={"bass": Bass, "basc": Basc, "kemar": Kemar}) as running:
         yield running
 
