@@ -7,7 +7,8 @@ decodes and validates a request, interrupts the services it must, and runs it
 ``error``, never a hang.  The engine knows a component only by its declarations
 (its class's service table, ``max_activities``, ``service_defaults``), its
 service methods and its hooks, so it drives any component, whatever package
-declares it, the genom3 standard services (:class:`GenomServices`) included.
+declares it, the genom3 standard services
+(:class:`~aiogenomix.components.core.GenomServices`) included.
 """
 
 from __future__ import annotations
@@ -43,6 +44,8 @@ class RequestEngine:
 
     Attributes:
         component: That instance.
+        instance: Its instance name (the prefix of its request ids).
+        genom_name: Its component's name (the scope of its exception ids).
         requests: Its requests, running and ended (ids, status, events to the sessions).
         killed: Whether ``kill`` ran: every later send is refused with ``::genom::disallowed``.
     """
