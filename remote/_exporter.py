@@ -1,11 +1,12 @@
 """The host side: one component instance offered on Zenoh (queries, publications, a liveliness token).
 
-The component runs on the ordinary runtime; this only translates.  Requests go through the same
-``Component`` methods the gateway's routes call, and a refusal is answered with the genomix error
-the gateway would answer (``error_body`` of the runtime), so the gateway in front of it only
-relays.  A request belongs to the gateway that sent it: its events go to that gateway alone, and
-another gateway may not see, abort or clean it.  Each out port's publications leave once, whoever
-reads them: a delta of the new items for numbered data (the audio window), the data itself otherwise.
+The component runs on the ordinary runtime; this only translates.  Requests go to the component's
+request engine (``component.engine``), which the gateway's routes reach too, and a refusal is
+answered with the genomix error the gateway would answer (``error_body`` of the runtime), so the
+gateway in front of it only relays.  A request belongs to the gateway that sent it: its events go
+to that gateway alone, and another gateway may not see, abort or clean it.  Each out port's
+publications leave once, whoever reads them: a delta of the new items for numbered data (the audio
+window), the data itself otherwise.
 """
 
 from __future__ import annotations
@@ -78,7 +79,7 @@ class PortEncoder:
         reason = self.port.withdrawn
         assert reason is not None
         owner = self.port.owner
-        body = owner.exception_object(reason) if isinstance(owner, Component) else {"ex": reason.id}
+        body = owner.engine.exception_object(reason) if isinstance(owner, Component) else {"ex": reason.id}
         return encode_message(self.port.name, None, None, kind="withdrawn", reason=body)
 
     def _struct(self, value: Any, since: int | None) -> tuple[Any, int]:
@@ -179,6 +180,8 @@ class ComponentExporter:
         self.node = node
         self.session = session
         self.component = component
+        #: What runs the instance's requests: the gateways' sends, aborts and cleans go to it.
+        self.engine = component.engine
         self.loop = node.loop
         self.instance = component.instance
         zid = node.zid
@@ -273,15 +276,15 @@ class ComponentExporter:
         if not gateway:
             message = "a request names the gateway that sends it (remote protocol 2)"
             return error_reply(400, {"ex": "::genom::serialization", "detail": {"what": message}, "message": message})
-        component = self.component
+        engine = self.engine
         self._clean_answered(gateway, payload.get("cleaned"))
         via = str(payload.get("via", ""))
         if operation == "send":
             # A request may name only this gateway's requests (abort_activity): another's are unknown.
             scope = SENDER_SCOPE.set(lambda request: self._owners.setdefault(request, gateway) == gateway)
             try:
-                request = await component.send(payload.get("service", ""), payload.get("input"),
-                                               session=payload.get("session"), oneway=bool(payload.get("oneway")))
+                request = await engine.send(payload.get("service", ""), payload.get("input"),
+                                            session=payload.get("session"), oneway=bool(payload.get("oneway")))
             finally:
                 SENDER_SCOPE.reset(scope)
             self._owners[request] = gateway
@@ -298,16 +301,16 @@ class ComponentExporter:
             return ok_reply({"ended": [_status_with_serial(request) for request in stopped]})
         if operation == "session_ended":
             # Sessions are a gateway's: another gateway's session of the same name is another session.
-            await component.session_ended(str(payload.get("session", "")),
-                                          sent_by=lambda request: self._owners.get(request) == gateway)
+            await engine.session_ended(str(payload.get("session", "")),
+                                       sent_by=lambda request: self._owners.get(request) == gateway)
             return ok_reply(None)
         request_id = str(payload.get("id", ""))
         if operation == "status":
             return ok_reply(_status_with_serial(self._owned(request_id, gateway)))
         if operation == "abort":
-            return ok_reply(_status_with_serial(await component.abort(self._owned(request_id, gateway).id)))
+            return ok_reply(_status_with_serial(await engine.abort(self._owned(request_id, gateway).id)))
         if operation == "clean":
-            await component.clean(self._owned(request_id, gateway).id)
+            await engine.clean(self._owned(request_id, gateway).id)
             return ok_reply(None)
         return error_reply(404, {"ex": "::genomix::http", "message": f"no request operation {operation!r}"})
 
@@ -318,7 +321,7 @@ class ComponentExporter:
             NoSuchRequest: when there is none, or another gateway sent it (sessions, requests and events of
                 one gateway never reach another's clients).
         """
-        request = self.component.requests.get(request_id)
+        request = self.engine.requests.get(request_id)
         owner = self._owners.setdefault(request, gateway)  # an orphan's: adopted, its events go there now
         if owner != gateway:
             raise NoSuchRequest(f"no request {request.id} of this gateway (another gateway sent it)")
@@ -351,7 +354,7 @@ class ComponentExporter:
             return
         for request_id in ids:
             try:
-                self.component.requests.clean(self._owned(str(request_id), gateway).id)
+                self.engine.requests.clean(self._owned(str(request_id), gateway).id)
             except (ComponentError, ValueError) as exc:
                 log.debug("%s: clean answered by the gateway not applied: %s", self.instance, exc)
 
@@ -369,10 +372,10 @@ class ComponentExporter:
         def sent_by(request: Request) -> bool:
             return self._owners.get(request) == gateway
 
-        for session in dict.fromkeys(r.session for r in self.component.requests.running() if sent_by(r)):
+        for session in dict.fromkeys(r.session for r in self.engine.requests.running() if sent_by(r)):
             if session is not None:
                 try:
-                    await self.component.session_ended(session, sent_by=sent_by)
+                    await self.engine.session_ended(session, sent_by=sent_by)
                 except Exception as exc:  # noqa: BLE001  # a fault of the component: said, and the rest goes on
                     _throttled.error("%s: the end of session %r failed: %s", self.instance, session, exc, exc=exc)
         return await self.let_go(gateway, via=None, by="gateway_gone")
@@ -389,12 +392,12 @@ class ComponentExporter:
         def sent_by(request: RequestStatus) -> bool:
             return self._owners.get(request) == gateway and via in (None, self._via.get(request))
 
-        theirs = [request for request in self.component.requests.running() if sent_by(request)]
+        theirs = [request for request in self.engine.requests.running() if sent_by(request)]
         motions = [request for request in theirs if request.service.motion]
         why = "the gateway that started it is gone (dead-man)" if by == "gateway_gone" else "its gateway unloaded it"
         for request in motions:
             _throttled.warning("%s: stopping %s (%s): %s", self.instance, request.id, request.service.name, why)
-        await asyncio.gather(*(self.component.interrupt(request, by=by) for request in motions))
+        await asyncio.gather(*(self.engine.interrupt(request, by=by) for request in motions))
         last = self._last_mover
         if last is not None and last[0] == gateway and via in (None, last[1]):
             self._last_mover = None

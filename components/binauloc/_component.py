@@ -18,8 +18,8 @@ from ..binaural import (
 )
 from ..binaural import Window as WindowName
 from ..core import (
-    AudioStream, Component, Double, InPort, Out, OutPort, Task, ULong, activity, function, redeclare,
-    Unit,
+    AudioStream, Component, Double, GenomServices, InPort, Out, OutPort, Task, ULong, activity, function,
+    redeclare, Unit,
 )
 from ._feed import AudioBlock, NotStreaming, PortFeed
 from ._history import EstimateHistory, EstimateWindow
@@ -89,11 +89,11 @@ class Binauloc(Component, name="binauloc", version="1.0"):
 
     # -- which port, which analysis ----------------------------------------------------------
 
-    @redeclare(Component.connect_port, doc=(
+    @redeclare(GenomServices.connect_port, doc=(
         "Connect the in port local to the out port remote (component/port): Audio to any audio port, bass/Audio, "
         "capture/Port, kemarcapture/Port or another component's."))
     async def connect_port(self, **inputs: Any) -> None:
-        await Component.connect_port(self, **inputs)
+        await GenomServices.connect_port(self, **inputs)
 
     def _feed(self, head: TurnableHead | None) -> PortFeed:
         port = self.Audio

@@ -18,6 +18,7 @@ from ._exceptions import (
     GenomException, disallowed, interrupted, no_such_activity, no_such_inport, no_such_outport, no_such_service,
     port_io, serialization, syserr, too_many_activities, unkex,
 )
+from ._genom_services import GenomServices
 from ._host import ComponentHost, LoadError
 from ._log_limits import ThrottledLog
 from ._names import NAME_FORBIDDEN, forbidden_in_name
@@ -50,8 +51,8 @@ __all__ = [
     "Budgets", "OverBudget", "Ledger", "Ledgers", "Reservation", "ThrottledLog",
     # What a name a client gives may hold (session names, recording paths)
     "NAME_FORBIDDEN", "forbidden_in_name",
-    # Services
-    "function", "activity", "attribute", "redeclare", "Out",
+    # Services, and the genom3 standard services every component has (to redeclare one)
+    "function", "activity", "attribute", "redeclare", "Out", "GenomServices",
     # Ports and tasks
     "OutPort", "InPort", "ComputedOutPort", "OutPortRuntime", "InPortRuntime", "Task",
     # Port data read piece by piece

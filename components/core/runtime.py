@@ -7,6 +7,7 @@ a host of components (the gateway, a remote component host, a test) does.
 from ._binary import BINARY_CONTENT_TYPE, BINARY_MAGIC, encode_binary
 from ._budgets import MIB, size_text
 from ._describe import describe
+from ._engine import RequestEngine
 from ._error_bodies import REMOTE_IO, error_body, message_of
 from ._exceptions import (
     AmbiguousModule, ComponentError, InputError, NoSuchModule, NoSuchPort, NoSuchRequest, NoSuchService,
@@ -28,9 +29,9 @@ from ._types import (
 )
 
 __all__ = [
-    # Describing and hosting components, local or in other processes
-    "describe", "TooManyInstances", "RemoteFinder", "LoadedInstance", "Placement", "Request", "RequestStatus",
-    "RequestTracker", "parse_request_id", "SENDER_SCOPE", "TaskRuntime",
+    # Describing and hosting components, local or in other processes; running a component's requests
+    "describe", "RequestEngine", "TooManyInstances", "RemoteFinder", "LoadedInstance", "Placement", "Request",
+    "RequestStatus", "RequestTracker", "parse_request_id", "SENDER_SCOPE", "TaskRuntime",
     # What the runtime reads from declarations
     "ServiceSpec", "ParamSpec", "NO_DEFAULT", "ServiceDecorator", "PortSpec", "ComputedOutPortRuntime",
     # IDL type objects: description, decoding and encoding of data

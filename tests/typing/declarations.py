@@ -14,8 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from aiogenomix.components.core import (
-    Bound, Component, Double, InPort, InPortRuntime, Length, Long, OutPort, OutPortRuntime, String, activity,
-    function, idl_struct, redeclare,
+    Bound, Component, Double, GenomServices, InPort, InPortRuntime, Length, Long, OutPort, OutPortRuntime, String,
+    activity, function, idl_struct, redeclare,
 )
 
 
@@ -90,3 +90,17 @@ async def drive(merged: Merged) -> None:
     """The redeclared service keeps the original's signature."""
     await merged.Goto(1.0, "home")
     await merged.Goto("far")  # type: ignore[arg-type]
+
+
+class Following(Rover, name="following"):
+    """A component redeclares a genom3 standard service, as it redeclares a service of its parts."""
+
+    @redeclare(GenomServices.connect_port, doc="Connect Goal to another rover's Where")
+    async def connect_port(self, **inputs: Any) -> None:
+        await GenomServices.connect_port(self, **inputs)
+
+
+async def follow(following: Following) -> None:
+    """The redeclared standard service keeps its signature: the component it serves, then the inputs."""
+    await following.connect_port("Goal", "rover/Where")
+    await GenomServices.kill(following)
