@@ -51,7 +51,7 @@ class Plain(Component, name="plain"):
 @pytest.fixture
 async def http() -> AsyncIterator[aiohttp.ClientSession]:
     async with ComponentHost(factories={"spool": Spool, "plain": Plain}) as host, \
-            serve(GatewayConfig(port=0), host) as url, aiohttp.ClientSession(base_url=url) as session:
+            serve(GatewayConfig.of(port=0), host) as url, aiohttp.ClientSession(base_url=url) as session:
         yield session
 
 
