@@ -11,7 +11,8 @@ import asyncio
 import socket
 import threading
 import time
-from typing import TYPE_CHECKING, Annotated
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 from aiohttp import web
@@ -53,12 +54,22 @@ class Probe(Component, name="probe"):
         return time.monotonic()
 
 
+def _config(**settings: Any) -> GatewayConfig:
+    """A gateway's configuration from flat settings, whichever checkout is measured.
+
+    Since decision 42 a configuration holds settings groups and is built by ``GatewayConfig.of``; a
+    baseline checkout that predates it takes the same names as its own fields.
+    """
+    build: Callable[..., GatewayConfig] = getattr(GatewayConfig, "of", GatewayConfig)
+    return build(**settings)
+
+
 async def _gateway(args: argparse.Namespace) -> None:
     # Served as the gateway's command serves it (its HTTP layer included), with a probe component.
     # record_dirs only when asked: a baseline checkout's GatewayConfig may predate it.
     recording = {"record_dirs": args.record_dir} if args.record_dir else {}
-    config = GatewayConfig.of(host="127.0.0.1", port=0, audio_socket_port=0, time_scale=1.0,
-                           max_sessions=args.max_sessions, **recording)
+    sessions = {"max_sessions": args.max_sessions} if args.max_sessions else {}
+    config = _config(host="127.0.0.1", port=0, audio_socket_port=0, time_scale=1.0, **sessions, **recording)
     host = ComponentHost(clock=ScaledClock(1.0), settings=config.host_settings())
     host.register("probe", Probe)
     async with serve(config, host) as url:
@@ -211,8 +222,8 @@ def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("kind", choices=["gateway", "aiohttp", "socket", "socket_strict", "zenoh", "relay"])
     parser.add_argument("--profile", metavar="FILE", help="profile with cProfile; write the stats on SIGTERM")
-    parser.add_argument("--max-sessions", type=int, default=GatewayConfig.max_sessions,
-                        help="the gateway's cap on sessions")
+    parser.add_argument("--max-sessions", type=int, default=None,
+                        help="the gateway's cap on sessions (default: the gateway's own)")
     parser.add_argument("--connect", help="the relay's Zenoh endpoint to connect to (the Zenoh floor's)")
     parser.add_argument("--record-dir", action="append", default=[], help="a directory recordings may be made in")
     args = parser.parse_args()

@@ -37,7 +37,8 @@ _SERVER = """
 import asyncio, sys
 from aiogenomix.gateway import GatewayConfig, serve
 async def main():
-    async with serve(GatewayConfig.of(port=int(sys.argv[1]), audio_socket_port=0, preload=["demo"])):
+    build = getattr(GatewayConfig, "of", GatewayConfig)  # a baseline that predates settings groups
+    async with serve(build(port=int(sys.argv[1]), audio_socket_port=0, preload=["demo"])):
         print("ready", flush=True)
         await asyncio.Event().wait()
 asyncio.run(main())
