@@ -7,7 +7,7 @@ import pytest
 
 from aiogenomix.components.binaural import (
     GRID_DEGREES, BinauralRenderer, HrirSet, LocalisationError, LocaliserSetup, RoomAzimuthFilter, SourceCounting,
-    SourceLocaliser, erb_bands, mirror_image, pick_sources, speech_like, tempered, wrap_degrees,
+    SourceLocaliser, erb_bands, mirror_image, pick_sources, speech_like, wrap_degrees,
 )
 
 RATE = 24_414.0
@@ -129,33 +129,3 @@ def test_mirror_images_of_a_still_head_are_suspect() -> None:
 def test_a_block_without_a_full_frame_is_refused(localiser) -> None:
     with pytest.raises(LocalisationError, match="frame"):
         localiser.localise(np.zeros((100, 2)))
-
-
-def test_noise_alone_is_no_source(kemar, localiser) -> None:
-    """Diffuse noise looks like a source straight ahead or behind: once it is learnt, it detects nothing."""
-    field = BinauralRenderer(RATE, 1, hrirs=kemar, diffuse_level=-40.0, seed=9)
-    noise = field.render(np.zeros((1, round(3 * RATE))), 0.0, [0.0])
-    learning = SourceLocaliser(LocaliserSetup(rate=RATE), hrirs=kemar)
-    learning.learn_noise(noise[:round(RATE)])
-    counted = learning.localise(noise[round(RATE):round(2 * RATE)])
-    assert counted.sources == () and counted.evidence < SourceCounting().min_evidence
-    asked = learning.localise(noise[round(2 * RATE):], count=1)
-    assert len(asked.sources) == 1 and asked.confidence < 0.2
-    # A talker 20 dB above the same field is detected, with the confidence of before.
-    speech = talkers(kemar, [40.0], 0.0, 1.0, seed=2)
-    found = learning.localise(speech + noise[round(2 * RATE):round(3 * RATE)])
-    assert found.evidence > 0.5 and near([s.azimuth for s in found.sources[:1]], [40.0])
-    assert found.confidence > 0.9
-
-
-def test_tempered_evidence_keeps_the_lateral_angle_and_weighs_front_and_back() -> None:
-    log_likelihood = np.float32(-0.02) * np.minimum(np.abs(wrap_degrees(GRID_DEGREES - 30.0)), 60.0) ** 2
-    log_likelihood = np.maximum(log_likelihood, np.float32(-8.0))
-    log_likelihood[150] = np.float32(-4.0)                   # the mirror image of 30° for a head at 0°
-    mirror = np.mod(180 - np.arange(360), 360)
-    assert np.array_equal(tempered(log_likelihood, 1.0), log_likelihood)
-    lateral = tempered(log_likelihood, 0.0)
-    assert np.allclose(lateral, lateral[mirror]) and lateral.max() == 0.0
-    half = tempered(log_likelihood, 0.5)
-    # Half the log-preference for 30° over 150° remains, and 30° is still the best.
-    assert int(np.argmax(half)) == 30 and half[30] - half[150] == pytest.approx(2.0, abs=1e-4)
