@@ -27,6 +27,7 @@ import inspect
 import keyword
 import os
 import re
+import signal
 import sys
 import threading
 import traceback
@@ -372,9 +373,22 @@ def _arguments(argv: Sequence[str] | None) -> argparse.Namespace:
     return parser.parse_args(argv)
 
 
+def _take_ctrl_c() -> None:
+    """At a terminal, make Ctrl-C raise KeyboardInterrupt even when the shell was started with SIGINT ignored.
+
+    A program started in the background by a script without job control (``cmd &`` in ``sh -c``, a CI
+    runner, ``nohup``) inherits SIGINT ignored, and Python then leaves it ignored: a Ctrl-C typed at
+    the shell's terminal would do nothing, and a blocking call would never end. An interactive shell
+    owns its terminal's Ctrl-C (as bash does), so it takes SIGINT back when its input is a terminal.
+    """
+    if sys.stdin.isatty() and signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the shell; the exit status is 0 when the session ended normally."""
     args = _arguments(argv)
+    _take_ctrl_c()
     options = {k: v for k, v in (("token", args.token), ("session", args.session)) if v}
     try:
         client = connect(args.address, **options)

@@ -8,6 +8,7 @@ import contextlib
 import json
 import os
 import re
+import signal
 import socket
 import sys
 import threading
@@ -128,14 +129,22 @@ def events(gateway: str) -> Iterator[SessionEvents]:
     stream.close()
 
 
-@pytest.fixture
-def shell(gateway: str, events: SessionEvents, tmp_path: Any) -> Iterator[Any]:
+@contextlib.contextmanager
+def running_shell(gateway: str, tmp_path: Any, sigint: Any = signal.SIG_DFL) -> Iterator[Any]:
+    """The shell in a terminal of its own, at its first prompt; it exits by ``exit`` at the end.
+
+    *sigint* is what the shell inherits for SIGINT: the default, as from an interactive terminal,
+    whatever the test runner's own (a runner started in the background by a script ignores it).
+    """
     # A private IPython directory (no history or profile of the user's); no cursor-position queries.
     # PAGER=cat: help (Service?) prints in place, whatever the test process's terminal size.
-    env = dict(os.environ, IPYTHONDIR=str(tmp_path), TERM="xterm", PROMPT_TOOLKIT_NO_CPR="1", PAGER="cat")
+    # PYTHONFAULTHANDLER: a shell that hangs shows its threads when the teardown aborts it.
+    env = dict(os.environ, IPYTHONDIR=str(tmp_path), TERM="xterm", PROMPT_TOOLKIT_NO_CPR="1", PAGER="cat",
+               PYTHONFAULTHANDLER="1")
     child = pexpect.spawn(sys.executable,
                           ["-m", "aiogenomix.clients.shell", gateway.removeprefix("http://"), "--session", SESSION],
-                          env=env, encoding="utf-8", timeout=30, dimensions=(40, 160))
+                          env=env, encoding="utf-8", timeout=30, dimensions=(40, 160),
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, sigint))
     log = open(tmp_path / "terminal.log", "w")  # what the terminal showed, for a failure's diagnosis
     child.logfile_read = log
     try:
@@ -143,11 +152,22 @@ def shell(gateway: str, events: SessionEvents, tmp_path: Any) -> Iterator[Any]:
         child.expect(PROMPT % 1)
         yield child
         child.send("exit\r")
-        child.expect(pexpect.EOF)
+        try:
+            child.expect(pexpect.EOF)
+        except pexpect.TIMEOUT:
+            child.kill(signal.SIGABRT)
+            child.expect(pexpect.EOF, timeout=10)
+            raise AssertionError("the shell hung; its threads:\n" + child.before[-6000:]) from None
     finally:
         child.close(force=True)
         log.close()
     assert child.exitstatus == 0 or child.signalstatus is None
+
+
+@pytest.fixture
+def shell(gateway: str, events: SessionEvents, tmp_path: Any) -> Iterator[Any]:
+    with running_shell(gateway, tmp_path) as child:
+        yield child
 
 
 def printed_until_prompt(child: Any, number: int) -> list[str]:
@@ -220,6 +240,17 @@ def test_ctrl_c_in_a_blocking_activity_aborts_it_on_the_gateway(shell: Any, even
         "^CCtrl-C: asked the gateway to abort Monitor (demo::0): interrupted by abort   (%tb shows the traceback)"]
     assert events.next_request() == {"id": "demo::0", "status": "error",
                                      "exception": {"ex": "::genom::interrupted", "detail": {"by": "abort"}}}
+
+
+def test_ctrl_c_works_in_a_shell_started_with_sigint_ignored(gateway: str, events: SessionEvents,
+                                                             tmp_path: Any) -> None:
+    # As a script's background job (``cmd &`` without job control, nohup, some CI runners) starts it.
+    with running_shell(gateway, tmp_path, sigint=signal.SIG_IGN) as shell:
+        shell.send("demo.Monitor(0.9)\r")
+        assert events.next_request() == {"id": "demo::0", "status": "sent"}
+        shell.sendintr()
+        assert printed_until_prompt(shell, 2) == [
+            "^CCtrl-C: asked the gateway to abort Monitor (demo::0): interrupted by abort   (%tb shows the traceback)"]
 
 
 def test_ctrl_c_in_a_blocking_function_lets_it_run_to_its_end(shell: Any, events: SessionEvents) -> None:

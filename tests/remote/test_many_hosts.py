@@ -83,11 +83,18 @@ class Deployment:
             while {run["host"] for run in (await self.get("/"))[1]["zenoh"]["hosts"]} != hosts:  # type: ignore[index]
                 await asyncio.sleep(0.1)  # the gateway is in another namespace: its own view, read again
 
-    async def received(self, host: str) -> int:
-        """The packets *host* receives on its interface over ``WINDOW`` seconds."""
-        before, _ = self.lab.received(host)
-        await asyncio.sleep(WINDOW)  # the measurement's window, not a synchronisation
-        return self.lab.received(host)[0] - before
+    async def received(self, host: str, windows: int = 3) -> int:
+        """The fewest packets *host* receives on its interface in one of *windows* windows of ``WINDOW`` seconds.
+
+        A one-off exchange (the declarations that newcomers' offers bring, still arriving for a second or
+        so after the gateway lists them) falls in one window; a periodic message, a beat, in every one.
+        """
+        counts = []
+        for _ in range(windows):
+            before, _ = self.lab.received(host)
+            await asyncio.sleep(WINDOW)  # the measurement's window, not a synchronisation
+            counts.append(self.lab.received(host)[0] - before)
+        return min(counts)
 
 
 async def test_a_host_hears_no_more_when_five_more_hosts_come(lab: Star, started: list[Process],
@@ -100,7 +107,8 @@ async def test_a_host_hears_no_more_when_five_more_hosts_come(lab: Star, started
     await rig.start([f"h0{n}" for n in range(2, 7)])
     await rig.heard({f"h0{n}" for n in range(1, 7)})
     with_others = await rig.received("h01")
-    # Each of the five beats as often as the gateway asks: a host that heard them would receive that many more.
+    # Each of the five beats as often as the gateway asks: a host that heard them would receive that many more
+    # in every window.
     their_beats = 5 * WINDOW / beat_period(RemoteTimeouts().stale)
     assert with_others - alone < 0.25 * their_beats, (alone, with_others)
 
