@@ -18,7 +18,8 @@ This page is written by the benchmarks; do not edit it. A section can be measure
 sections' figures from `bench/results/latest.json` (each section says when it was measured);
 `./run bench --render` rewrites the page from that file. `./run bench --quick` checks that every benchmark
 works, in under a minute (its figures are not for the record). `AIOGENOMIX_BENCH_BASELINE=DIR` also measures
-another checkout's gateway (`DIR/aiogenomix/gateway` ... as links) beside this one, in the same blocks.
+another checkout's gateway (`DIR/aiogenomix/gateway` ... as links) beside this one, in the same blocks; the
+results name it by its commit (`git describe` of that checkout).
 
 """
 

@@ -20,7 +20,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from ._common import Result, free_port
+from ._common import BASELINE, Result, baseline_name, free_port
 
 #: What is counted: a send of a function, a port read and the version (all plain: answered ahead of the
 #: routes), and a module's description (through the router, the guard and the route).
@@ -28,7 +28,6 @@ REQUESTS = {"send of a function (plain, ahead of the routes)": "/module/demo/sen
             "plain port read (ahead of the routes)": "/module/demo/read/Mobile",
             "/version (plain, ahead of the routes)": "/version",
             "/module/demo/info (routed)": "/module/demo/info"}
-BASELINE = os.environ.get("AIOGENOMIX_BENCH_BASELINE")
 #: The requests whose count must fall by 15 % from the baseline's (issue 32), and that share.
 TARGETED = ("send of a function (plain, ahead of the routes)", "/version (plain, ahead of the routes)")
 TARGET = 0.85
@@ -88,7 +87,7 @@ async def run(few: int = 300, many: int = 2300) -> Result:
             high = await _count(path, many, pythonpath)
             counts[name][label] = (high - low) / (many - few)
     return {"instructions": counts, "few": few, "many": many, "target": TARGET, "targeted": list(TARGETED),
-            "baseline": os.environ.get("AIOGENOMIX_BENCH_BASELINE_NAME", BASELINE)}
+            "baseline": baseline_name()}
 
 
 def render(r: Result) -> str:
