@@ -8,7 +8,7 @@ starting the gateway run at valgrind's plain speed, uncounted), answers a few
 hundred requests of each kind to warm up, and only then has its instrumentation
 turned on (``callgrind_control -i on``).  A count is then: zero the counters
 (``-z``), answer ``requests`` requests of one kind one after another on a
-kept-alive connection, dump the counters (``-d``); instructions per request are
+kept-alive connection, dump the counters (``--dump``); instructions per request are
 the dump's total divided by ``requests``.  The counts of a kind are repeated
 ``dumps`` times, and the figure is their median.  With
 ``AIOGENOMIX_BENCH_BASELINE=DIR`` another checkout's gateway runs under
@@ -124,7 +124,7 @@ class _Counted:
         return await self._total(Path(f"{self._out}.{self._dumps}")), seconds
 
     async def _total(self, dump: Path) -> int:
-        """The total of *dump* (callgrind writes the file before its ``-d`` returns; wait for it anyway)."""
+        """The total of *dump* (callgrind writes it before ``--dump`` returns; waited for all the same)."""
         deadline = time.monotonic() + 60
         while True:
             with contextlib.suppress(FileNotFoundError):
@@ -148,7 +148,7 @@ class _Counted:
                 await self._process.wait()
 
 
-async def run(requests: int = 200, dumps: int = 7, warm: int = 300, idle: float = 2.0) -> Result:
+async def run(requests: int = 200, dumps: int = 9, warm: int = 300, idle: float = 2.0) -> Result:
     """Instructions per request of each kind in :data:`REQUESTS` (and of the baseline's gateway), medians."""
     if shutil.which("valgrind") is None or shutil.which("callgrind_control") is None:
         return {"skipped": "valgrind is not installed (./run bench installs it)"}
