@@ -7,12 +7,37 @@ import contextlib
 import os
 import socket
 import statistics
+import subprocess
 import sys
 from collections.abc import AsyncIterator, Sequence
 from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
+#: Another checkout measured beside this one: a folder whose ``aiogenomix`` is that checkout's package
+#: (``AIOGENOMIX_BENCH_BASELINE``, put first on the baseline servers' import path).
+BASELINE = os.environ.get("AIOGENOMIX_BENCH_BASELINE")
+
+
+def baseline_name() -> str | None:
+    """The baseline's commit as the results and docs/benchmarks.md name it, never a path of this machine.
+
+    ``AIOGENOMIX_BENCH_BASELINE_NAME`` when it is set; else ``git describe --always --dirty`` of
+    the repository the baseline's package lives in (``aiogenomix`` may be a link into a clone:
+    it is followed); else, for a tree that is not a git checkout, the folder's own name.
+    """
+    if not BASELINE:
+        return None
+    named = os.environ.get("AIOGENOMIX_BENCH_BASELINE_NAME")
+    if named:
+        return named
+    package = (Path(BASELINE) / "aiogenomix").resolve()
+    try:
+        described = subprocess.run(["git", "-C", str(package), "describe", "--always", "--dirty"],
+                                   capture_output=True, text=True, check=True, timeout=30).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        described = ""
+    return described or f"an unversioned tree ({Path(BASELINE).name})"
 
 
 def free_port() -> int:

@@ -18,7 +18,8 @@ This page is written by the benchmarks; do not edit it. A section can be measure
 sections' figures from `bench/results/latest.json` (each section says when it was measured);
 `./run bench --render` rewrites the page from that file. `./run bench --quick` checks that every benchmark
 works, in under a minute (its figures are not for the record). `AIOGENOMIX_BENCH_BASELINE=DIR` also measures
-another checkout's gateway (`DIR/aiogenomix/gateway` ... as links) beside this one, in the same blocks.
+another checkout's gateway (`DIR/aiogenomix/gateway` ... as links) beside this one, in the same blocks; the
+results name it by its commit (`git describe` of that checkout).
 
 """
 
@@ -115,8 +116,9 @@ def _analysis(results: dict[str, Any]) -> str:
         "of one parser (decision 47). Every JSON or text reply is written whole, its head made as aiohttp makes "
         "it, without aiohttp's header preparation (`gateway/_replies.py`), and plain GETs of `/` and `/version` "
         "are answered ahead of the routes by the routes' own functions (`gateway/_fast_answers.py`). A routed "
-        "module description still pays the router and the guard, and rebuilds the description every time "
-        "(more than half of its count).",
+        "module description pays the router and the guard, but no longer its making: an instance describes "
+        "itself once and its `/info` body is encoded once (`gateway/_info_bodies.py`; it was more than two "
+        "thirds of the count).",
         "* **Memory.** At start the gateway imports only what serving needs (components are imported when first "
         "loaded); the figure with every component loaded is dominated by the simulators (MuJoCo for `world`, "
         "`pr2` and `morse_kemar`). A session costs about a kilobyte and sessions are bounded (`--max-sessions`); "

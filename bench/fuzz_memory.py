@@ -27,7 +27,6 @@ from __future__ import annotations
 import asyncio
 import collections
 import contextlib
-import os
 import random
 import socket
 import time
@@ -37,7 +36,7 @@ import aiohttp
 
 from aiogenomix.components.core import Budgets
 
-from ._common import Result, rss_bytes, verdict
+from ._common import BASELINE, Result, baseline_name, rss_bytes, verdict
 from .budgets import PER_CLIENT, _gateway, _Peak, _send, _until_full
 
 MIB = 2**20
@@ -46,8 +45,6 @@ FPC = RATE * CHUNK_MS // 1000
 PORT_BYTES = 8 * FPC * CHUNKS
 #: The JSON text of a chunk against its bytes, as the docs state it (Budgets: "about 3x their bytes").
 JSON_RATIO = 3.0
-#: Another checkout's gateway, fuzzed the same way after this one (``AIOGENOMIX_BENCH_BASELINE``).
-BASELINE = os.environ.get("AIOGENOMIX_BENCH_BASELINE")
 #: The peak the issue reports for the earlier hostile fuzz (56 MB before, 526 MB after), MB.
 ISSUE_PEAK_MB = 1200
 #: This fuzz against ``main`` before the change of issue 29 (8e17479, this machine, two runs), MiB.
@@ -277,7 +274,7 @@ async def run(clients: int = 50, seconds: float = 30.0, settle: float = 60.0) ->
     result: Result = {"after": await _fuzz(None, clients, seconds, settle)}
     if BASELINE:
         result["before"] = await _fuzz(BASELINE, clients, seconds, settle)
-        result["baseline"] = os.environ.get("AIOGENOMIX_BENCH_BASELINE_NAME", BASELINE)
+        result["baseline"] = baseline_name()
     return result
 
 

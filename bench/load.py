@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import os
 import re
 import shutil
 import statistics
@@ -19,15 +18,13 @@ import aiohttp
 
 from aiogenomix.components.core import ComponentHost, ScaledClock
 
-from ._common import Result, cpu_seconds, server
+from ._common import BASELINE, Result, baseline_name, cpu_seconds, server
 
 CONNECTIONS = 50
 #: The gateway's throughput as a share of bare aiohttp's on the same handler shape (issue 32).
 TARGET = 0.85
 #: The gateway's CPU time per request as a multiple of bare aiohttp's, at most (issue 32).
 CPU_TARGET = 1.2
-#: Another checkout's gateway, measured in the same rounds (``AIOGENOMIX_BENCH_BASELINE``).
-BASELINE = os.environ.get("AIOGENOMIX_BENCH_BASELINE")
 
 
 async def _wrk(url: str, seconds: float) -> dict[str, float]:
@@ -77,7 +74,7 @@ async def run(seconds: float = 30.0, rounds: int = 5) -> Result:
     baseline = {}
     if "baseline" in runs:
         before = [g["requests_per_s"] / b["requests_per_s"] for g, b in zip(runs["baseline"], bare_runs, strict=True)]
-        baseline = {"baseline": os.environ.get("AIOGENOMIX_BENCH_BASELINE_NAME", BASELINE),
+        baseline = {"baseline": baseline_name(),
                     "baseline_requests_per_s": statistics.median(r["requests_per_s"] for r in runs["baseline"]),
                     "baseline_ratios": before, "baseline_ratio": statistics.median(before),
                     "baseline_cpu_us_per_request": statistics.median(r["cpu_us_per_request"] for r in runs["baseline"]),

@@ -17,7 +17,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
-import os
 import statistics
 import sys
 import time
@@ -29,7 +28,7 @@ import orjson
 
 from aiogenomix.clients import AsyncAudioSocketClient, AsyncFrameSocketClient, aconnect
 
-from ._common import Result, server, summary
+from ._common import BASELINE, Result, baseline_name, server, summary
 from ._raw import RawReader
 
 RATE, CHUNK_MS = 44100, 50
@@ -59,7 +58,6 @@ def _http_get(path: str) -> bytes:
 
 #: Set to a directory holding another checkout as ``aiogenomix`` (``aiogenomix/gateway`` ... as
 #: links) to measure that gateway's JSON and binary reads in the same blocks ("before").
-BASELINE = os.environ.get("AIOGENOMIX_BENCH_BASELINE")
 BEFORE = "_before"
 
 
@@ -365,4 +363,4 @@ async def run(reads: int = 50, block: int = 10, windows: tuple[int, ...] = tuple
                                                               else "MISSED")
     return {"windows": results, "bass": bass, "module": MODULE, "targets": TARGETS, "strict_targets": STRICT_TARGETS,
             "seed_ms": SEED_MS,
-            "verdicts": verdicts, "baseline": os.environ.get("AIOGENOMIX_BENCH_BASELINE_NAME", BASELINE)}
+            "verdicts": verdicts, "baseline": baseline_name()}

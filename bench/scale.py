@@ -35,10 +35,8 @@ from pathlib import Path
 from typing import Any
 
 from . import _netns
-from ._common import ROOT, Result, rss_bytes, summary
+from ._common import BASELINE, ROOT, Result, baseline_name, rss_bytes, summary
 
-#: Another checkout's code, measured beside this one (``AIOGENOMIX_BENCH_BASELINE``: a folder holding ``aiogenomix``).
-BASELINE = os.environ.get("AIOGENOMIX_BENCH_BASELINE")
 #: ``demo`` instances per host.
 INSTANCES = 5
 #: The gateway's HTTP port (in its own namespace).
@@ -277,7 +275,7 @@ async def run(hosts: Sequence[int] = (1, 5, 10, 20), idle: float = 10.0, calls: 
                 print(f"bench: scale: {n} hosts, {code}", file=sys.stderr, flush=True)
                 rounds[code].append(await _round(lab, configs, n, path, idle, calls, blocks))
     result: dict[str, Any] = {code: _verdicts(found) for code, found in rounds.items()}
-    result["baseline"] = os.environ.get("AIOGENOMIX_BENCH_BASELINE_NAME", BASELINE)
+    result["baseline"] = baseline_name()
     result["instances_per_host"] = INSTANCES
     result["load_average"] = os.getloadavg()[0]
     result["cpus"] = os.cpu_count()

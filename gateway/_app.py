@@ -17,10 +17,11 @@ from ._door import Door
 from ._guard import MAX_BODY_BYTES, guard_middleware
 from ._foxglove import FoxgloveView
 from ._keys import (
-    CONFIG, DOOR, FOXGLOVE, HOST, READ_BODIES, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES, Shutdown,
-    WatchFrames,
+    CONFIG, DOOR, FOXGLOVE, HOST, INFO_BODIES, READ_BODIES, SESSIONS, SHUTDOWN, UNLOADS, WATCH_FRAMES, WATCH_WAKES,
+    Shutdown, WatchFrames,
 )
 from ._connection import handler_arguments
+from ._info_bodies import InfoBodies
 from ._read_bodies import ReadBodies
 from ._watch_wakes import WatchWakes
 from ._sessions import SessionStore
@@ -62,6 +63,7 @@ def create_app(config: GatewayConfig | None = None, host: ComponentHost | None =
     app[UNLOADS] = Unloads(app[HOST])
     shutdown = app[SHUTDOWN]
     app[READ_BODIES] = ReadBodies(app[UNLOADS], lambda: shutdown.future)
+    app[INFO_BODIES] = InfoBodies()
     app[WATCH_WAKES] = WatchWakes(app[UNLOADS], lambda: shutdown.future, sessions.ping_interval)
     app.add_routes(_routes_sessions.routes)
     app.add_routes(_routes_admin.routes)

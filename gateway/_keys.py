@@ -12,12 +12,13 @@ from ..components.core import ComponentHost, OutPortRuntime
 from ._config import GatewayConfig
 from ._door import Door
 from ._foxglove import FoxgloveView
+from ._info_bodies import InfoBodies
 from ._read_bodies import ReadBodies
 from ._sessions import SessionStore
 from ._unloads import Unloads
 from ._watch_wakes import WatchWakes
 
-__all__ = ["CONFIG", "DOOR", "FOXGLOVE", "HOST", "READ_BODIES", "SESSIONS", "SHUTDOWN", "UNLOADS",
+__all__ = ["CONFIG", "DOOR", "FOXGLOVE", "HOST", "INFO_BODIES", "READ_BODIES", "SESSIONS", "SHUTDOWN", "UNLOADS",
            "WATCH_FRAMES", "WATCH_WAKES", "Shutdown", "WatchFrames"]
 
 CONFIG = web.AppKey("config", GatewayConfig)
@@ -93,3 +94,5 @@ WATCH_WAKES = web.AppKey("watch_wakes", WatchWakes)
 
 #: The bodies of whole reads of chunked ports, made once per publication and form.
 READ_BODIES = web.AppKey("read_bodies", ReadBodies)
+#: Each loaded instance's ``/info`` body, encoded once.
+INFO_BODIES = web.AppKey("info_bodies", InfoBodies)

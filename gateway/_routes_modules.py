@@ -16,8 +16,8 @@ from ..components.core.runtime import LoadedInstance
 from ._errors import BadQuery, UnsupportedBody
 from ._guard import expect_body
 from ._input import parse_input
-from ._keys import HOST, SESSIONS, SHUTDOWN
-from ._replies import json_reply, text_reply
+from ._keys import HOST, INFO_BODIES, SESSIONS, SHUTDOWN
+from ._replies import JSON_HEADERS, Reply, json_reply, text_reply
 from ._shutdown import shutting_down_reply
 
 __all__ = ["routes", "parse_input", "MAX_WAIT"]
@@ -34,8 +34,8 @@ def _component(request: web.Request) -> LoadedInstance:
 
 @routes.get("/module/{module}/info")
 async def info(request: web.Request) -> web.Response:
-    """The description of the module's services, exceptions, ports and tasks."""
-    return json_reply(_component(request).description())
+    """The description of the module's services, exceptions, ports and tasks (encoded once per instance)."""
+    return Reply(body=request.app[INFO_BODIES].body(_component(request)), headers=JSON_HEADERS)
 
 
 @routes.get("/module/{module}/send/{service}", allow_head=False)

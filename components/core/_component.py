@@ -157,6 +157,7 @@ class Component:
         self._port_runtimes: dict[str, OutPortRuntime[Any] | InPortRuntime[Any]] = {}
         self._task_runtimes: dict[str, TaskRuntime] = {}
         self._started = False
+        self._description: dict[str, Any] | None = None
         self.engine = RequestEngine(self)
         self.requests: RequestTracker = self.engine.requests
         # The engine's own method rather than a method that calls it: a send reaches the engine
@@ -218,10 +219,18 @@ class Component:
         return runtime
 
     def description(self) -> dict[str, Any]:
-        """The ``/module/M/info`` description of the instance (see :func:`describe`)."""
-        from ._describe import describe
+        """The ``/module/M/info`` description of the instance (see :func:`describe`), described once.
 
-        return describe(self)
+        Nothing it says changes while the instance is loaded (its class's services, ports,
+        exceptions and tasks, its name, the host's settings its defaults come from), so the
+        first call describes it and every call returns that same object: read it, never change
+        it in place.
+        """
+        if self._description is None:
+            from ._describe import describe
+
+            self._description = describe(self)
+        return self._description
 
     def placement(self) -> Placement:
         """Where the instance runs: in this process."""

@@ -59,7 +59,7 @@ class LoadedInstance(Protocol):
         """The component's name (the scope of its exception ids)."""
 
     def description(self) -> dict[str, Any]:
-        """The ``/module/M/info`` description."""
+        """The ``/module/M/info`` description (the same object while it holds: not to be changed in place)."""
 
     def placement(self) -> Placement:
         """Where the instance runs."""

@@ -68,6 +68,7 @@ class Replay(Component, name="replay", version="1.0"):
         self.file = self.argv[self.argv.index("-file") + 1]
         self._recorded: dict[str, OutPortRuntime[Any]] = {}
         self._described: list[dict[str, Any]] = []
+        self._description_replayed: dict[str, Any] | None = None
         self._names: dict[str, str] = {}
         self._span = (0.0, 0.0)
 
@@ -120,10 +121,13 @@ class Replay(Component, name="replay", version="1.0"):
     # -- the replayed ports, beside the declared ones ------------------------------------------
 
     def description(self) -> dict[str, Any]:
-        """``/info``: the declared ports, then the replayed ones."""
-        described = super().description()
-        described["ports"] = [*described["ports"], *self._described]
-        return described
+        """``/info``: the declared ports, then the replayed ones (known once started; then described once)."""
+        declared = super().description()
+        if not self._described:
+            return declared
+        if self._description_replayed is None:
+            self._description_replayed = {**declared, "ports": [*declared["ports"], *self._described]}
+        return self._description_replayed
 
     def port(self, name: str) -> Any:
         """A replayed port by its name, or a declared one."""

@@ -22,7 +22,7 @@ from aiogenomix.components.core import (
     Budgets, Component, ComponentHost, GenomException, HostSettings, ManualClock, OutPort, String, idl_struct,
 )
 from aiogenomix.gateway import GatewayConfig, serve
-from tests.gateway.test_fast_reads import Connection
+from tests.gateway._raw_http import Connection
 
 
 @idl_struct("sensor::frame")

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
-
 import aiohttp
 import pytest
 
@@ -11,6 +9,7 @@ from aiogenomix.gateway import GatewayConfig
 from aiogenomix.gateway._access import AccessPolicy
 
 from ..conftest import TEST_TIME_SCALE
+from ._raw_http import exchange_once
 
 MOVE = "/module/demo/send/GotoPosition?input=%7B%22posRef%22:0.5%7D"
 
@@ -114,10 +113,6 @@ async def test_every_kind_of_reply_forbids_content_sniffing(demo: aiohttp.Client
         assert reply.status == 405 and reply.headers.get("X-Content-Type-Options") == "nosniff"
     async with demo.get("/session/listen", params={"s": "sniff"}) as stream:
         assert stream.headers.get("X-Content-Type-Options") == "nosniff"
-    host, port = gateway.removeprefix("http://").rstrip("/").split(":")
-    reader, writer = await asyncio.open_connection(host, int(port))
-    writer.write(b"GET /version HTTP/1.1\r\nHost: \x01bad\r\nBroken header\r\n\r\n")  # refused by the HTTP layer
-    head = await reader.readuntil(b"\r\n\r\n")
-    writer.close()
-    await writer.wait_closed()
+    # Refused by the HTTP layer, which closes the connection.
+    _, head, _ = await exchange_once(gateway, b"GET /version HTTP/1.1\r\nHost: \x01bad\r\nBroken header\r\n\r\n")
     assert b" 400 " in head.split(b"\r\n")[0] and b"X-Content-Type-Options: nosniff" in head

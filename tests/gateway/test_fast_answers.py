@@ -13,14 +13,12 @@ Raw sockets, on kept-alive connections as clients use them.
 from __future__ import annotations
 
 import json
-from collections.abc import AsyncIterator
 
 import pytest
 
-from aiogenomix.components.core import ComponentHost, ScaledClock
-from aiogenomix.gateway import GatewayConfig, serve
+from aiogenomix.gateway import GatewayConfig
 from aiogenomix.gateway._fast_answers import FastAnswers
-from tests.gateway.test_fast_reads import Connection
+from tests.gateway._raw_http import Connection, answered_ahead
 
 TOKEN = "s3cret-token"
 
@@ -28,49 +26,14 @@ TOKEN = "s3cret-token"
 @pytest.fixture
 def fast_answers(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
     """Whether each request looked at was answered ahead of the routes (True) or left to them."""
-    answered: list[bool] = []
-    original = FastAnswers.reply
-
-    def reply(self: FastAnswers, request: object) -> object:
-        result = original(self, request)  # type: ignore[arg-type]
-        answered.append(result is not None)
-        return result
-
-    monkeypatch.setattr(FastAnswers, "reply", reply)
-    return answered
-
-
-@pytest.fixture
-def gateway_config() -> GatewayConfig:
-    return GatewayConfig.of(port=0)
-
-
-@pytest.fixture
-async def connection(gateway_config: GatewayConfig) -> AsyncIterator[Connection]:
-    async with ComponentHost(clock=ScaledClock(1)) as host:
-        await host.load("demo")
-        async with serve(gateway_config, host=host) as url:
-            opened = await Connection.open(url)
-            try:
-                yield opened
-            finally:
-                await opened.close()
-
-
-async def exchange(connection: Connection, request: bytes) -> tuple[list[str], bytes]:
-    """The head lines of the reply to *request* (in order, without its ``Date``) and its body."""
-    connection.writer.write(request)
-    head = await connection.reader.readuntil(b"\r\n\r\n")
-    lines = [line for line in head.decode("latin-1").split("\r\n") if not line.startswith("Date: ")]
-    length = next(int(line.split(": ")[1]) for line in lines if line.startswith("Content-Length: "))
-    return lines, await connection.reader.readexactly(length)
+    return answered_ahead(monkeypatch, FastAnswers, "reply")
 
 
 @pytest.mark.parametrize("query", ["", "?_=1712345678"])
 async def test_version_ahead_is_the_routes_reply_byte_for_byte(
         connection: Connection, fast_answers: list[bool], query: str) -> None:
-    fast = await exchange(connection, connection.request(f"/version{query}"))
-    routed = await exchange(connection, connection.request(f"/versio%6E{query}"))
+    fast = await connection.exchange(connection.request(f"/version{query}"))
+    routed = await connection.exchange(connection.request(f"/versio%6E{query}"))
     assert fast_answers == [True, False]
     assert fast == routed
     assert fast[0][0] == "HTTP/1.1 200 OK" and fast[1] == b"1.7.3"
@@ -78,7 +41,7 @@ async def test_version_ahead_is_the_routes_reply_byte_for_byte(
 
 async def test_the_index_ahead_is_the_routes_reply(connection: Connection, fast_answers: list[bool]) -> None:
     (fast_head, fast_body), (routed_head, routed_body) = [
-        await exchange(connection, connection.request(path)) for path in ("/", "/?s=alpha")]
+        await connection.exchange(connection.request(path)) for path in ("/", "/?s=alpha")]
     assert fast_answers == [True, False]
     fast_index, routed_index = json.loads(fast_body), json.loads(routed_body)
     for index in (fast_index, routed_index):

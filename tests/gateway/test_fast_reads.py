@@ -25,61 +25,16 @@ from aiogenomix.components.kemarcapture import KemarPortData
 from aiogenomix.gateway import GatewayConfig, serve
 from aiogenomix.gateway._fast_reads import FastReads
 from aiogenomix.gateway._routes_ports import READ_HEADERS
+from tests.gateway._raw_http import Connection, address, answered_ahead
 from tests.gateway.test_port_pieces import Windowed, expected_binary, expected_json, window
 
 TOKEN = "s3cret"
 
 
-class Connection:
-    """One kept-alive raw HTTP connection."""
-
-    def __init__(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter, host: str) -> None:
-        self.reader, self.writer, self.host = reader, writer, host
-
-    @classmethod
-    async def open(cls, url: str) -> Connection:
-        host, port = url.removeprefix("http://").split(":")
-        reader, writer = await asyncio.open_connection(host, int(port), limit=1 << 24)
-        return cls(reader, writer, f"{host}:{port}")
-
-    def request(self, path: str, *headers: str, version: str = "1.1") -> bytes:
-        lines = [f"GET {path} HTTP/{version}", f"Host: {self.host}", *headers]
-        return ("\r\n".join(lines) + "\r\n\r\n").encode()
-
-    async def reply(self) -> tuple[int, dict[str, str], bytes]:
-        head = await self.reader.readuntil(b"\r\n\r\n")
-        status_line, *lines = head.decode("latin-1").rstrip("\r\n").split("\r\n")
-        fields = dict(line.split(": ", 1) for line in lines)
-        body = await self.reader.readexactly(int(fields["Content-Length"]))
-        return int(status_line.split()[1]), fields, body
-
-    async def get(self, path: str, *headers: str, version: str = "1.1") -> tuple[int, dict[str, str], bytes]:
-        self.writer.write(self.request(path, *headers, version=version))
-        return await self.reply()
-
-    async def close(self) -> None:
-        self.writer.close()
-        await self.writer.wait_closed()
-
-
 @pytest.fixture
 def fast_answers(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
     """Whether each request the connection looked at was answered there (True) or left to the routes."""
-    answered: list[bool] = []
-    original = FastReads.reply
-
-    def reply(self: FastReads, message: object) -> object:
-        result = original(self, message)
-        answered.append(result is not None)
-        return result
-
-    monkeypatch.setattr(FastReads, "reply", reply)
-    return answered
-
-
-@pytest.fixture
-def gateway_config() -> GatewayConfig:
-    return GatewayConfig.of(port=0)
+    return answered_ahead(monkeypatch, FastReads, "reply")
 
 
 @pytest.fixture
@@ -205,13 +160,13 @@ async def test_a_reader_that_vanishes_mid_reply_leaves_the_gateway_serving(
     component, connection = served
     view = PortView(window(80, 20_000, 80, seed=2), 44100, 0.0, KemarPortData)
     component.Port.publish(view)
-    host, port = connection.host.split(":")
+    host, port = address(connection.host)
     for _ in range(3):
         sock = socket.socket()
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
         sock.setblocking(False)
         loop = asyncio.get_running_loop()
-        await loop.sock_connect(sock, (host, int(port)))
+        await loop.sock_connect(sock, (host, port))
         await loop.sock_sendall(sock, connection.request("/module/windowed/read/Port"))
         assert (await loop.sock_recv(sock, 1024)).startswith(b"HTTP/1.1 200 OK")
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))  # a reset, not a close

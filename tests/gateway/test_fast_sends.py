@@ -13,42 +13,18 @@ requests.  Raw sockets, on kept-alive connections as clients use them.
 from __future__ import annotations
 
 import json
-from collections.abc import AsyncIterator
 
 import pytest
 
-from aiogenomix.components.core import ComponentHost, ScaledClock
-from aiogenomix.gateway import GatewayConfig, serve
 from aiogenomix.gateway._fast_sends import FastSends
 from aiogenomix.gateway._replies import JSON_HEADERS
-from tests.gateway.test_fast_reads import Connection
+from tests.gateway._raw_http import Connection, answered_ahead
 
 
 @pytest.fixture
 def fast_answers(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
     """Whether each request looked at was taken as a plain send (True) or left to the routes."""
-    answered: list[bool] = []
-    original = FastSends.plain
-
-    def plain(self: FastSends, request: object) -> object:
-        result = original(self, request)  # type: ignore[arg-type]
-        answered.append(result is not None)
-        return result
-
-    monkeypatch.setattr(FastSends, "plain", plain)
-    return answered
-
-
-@pytest.fixture
-async def connection() -> AsyncIterator[Connection]:
-    async with ComponentHost(clock=ScaledClock(1)) as host:
-        await host.load("demo")
-        async with serve(GatewayConfig.of(port=0), host=host) as url:
-            opened = await Connection.open(url)
-            try:
-                yield opened
-            finally:
-                await opened.close()
+    return answered_ahead(monkeypatch, FastSends, "plain")
 
 
 def numberless(body: bytes) -> dict[str, object]:

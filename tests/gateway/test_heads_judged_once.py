@@ -8,7 +8,6 @@ gateway's, though HTTP/1.1 makes that authority the request's host.  Raw sockets
 
 from __future__ import annotations
 
-import asyncio
 import json
 from collections.abc import AsyncIterator
 
@@ -16,6 +15,7 @@ import pytest
 
 from aiogenomix.gateway import GatewayConfig, serve
 from tests.conftest import TEST_TIME_SCALE
+from tests.gateway._raw_http import exchange_once
 
 READ = "/module/demo/read/Mobile"
 SEND = "/module/demo/send/GetSpeed"
@@ -30,16 +30,9 @@ async def gateway() -> AsyncIterator[str]:
 
 async def _status(address: str, target: str, *fields: str, host: str | None = None) -> tuple[int, dict[str, str]]:
     """The status and JSON body of ``GET target`` with *fields* (``Host: address`` first unless *host*)."""
-    name, port = address.rsplit(":", 1)
-    reader, writer = await asyncio.open_connection(name, int(port))
-    try:
-        lines = [f"GET {target} HTTP/1.1", f"Host: {host or address}", *fields, "Connection: close", "", ""]
-        writer.write("\r\n".join(lines).encode())
-        reply = await asyncio.wait_for(reader.read(), 10)
-    finally:
-        writer.close()
-    head, _, body = reply.partition(b"\r\n\r\n")
-    return int(head.split(b" ", 2)[1]), json.loads(body)
+    lines = [f"GET {target} HTTP/1.1", f"Host: {host or address}", *fields, "Connection: close", "", ""]
+    status, _, body = await exchange_once(address, "\r\n".join(lines).encode())
+    return status, json.loads(body)
 
 
 @pytest.mark.parametrize("target", [READ, SEND])

@@ -16,6 +16,7 @@ import pytest
 from aiogenomix.gateway import GatewayConfig, serve
 from aiogenomix.gateway.__main__ import parse_args
 from tests.conftest import TEST_TIME_SCALE
+from tests.gateway._raw_http import exchange_once, open_raw
 
 
 @pytest.fixture
@@ -30,11 +31,6 @@ async def gateway(gateway_config: GatewayConfig) -> AsyncIterator[str]:
         yield url
 
 
-async def _open(url: str) -> tuple[asyncio.StreamReader, asyncio.StreamWriter]:
-    host, port = url.removeprefix("http://").rsplit(":", 1)
-    return await asyncio.open_connection(host, int(port))
-
-
 def _named(url: str, raw: bytes) -> bytes:
     """*raw* with its ``Host: x`` naming the gateway as a browser would."""
     return raw.replace(b"Host: x\r\n", f"Host: {url.removeprefix('http://')}\r\n".encode())
@@ -42,17 +38,10 @@ def _named(url: str, raw: bytes) -> bytes:
 
 async def _exchange(url: str, raw: bytes) -> tuple[int, dict[str, str], bytes]:
     """Send *raw* (``Host: x`` named properly), read the reply up to the connection's end."""
-    reader, writer = await _open(url)
-    try:
-        writer.write(_named(url, raw))
-        await writer.drain()
-        reply = await asyncio.wait_for(reader.read(), 10)
-    finally:
-        writer.close()
-    head, _, body = reply.partition(b"\r\n\r\n")
-    status_line, *lines = head.decode("latin-1").split("\r\n")
+    status, head, body = await exchange_once(url, _named(url, raw))
+    _, *lines = head.decode("latin-1").split("\r\n")
     headers = {name.lower(): value for name, _, value in (line.partition(": ") for line in lines)}
-    return int(status_line.split()[1]), headers, body
+    return status, headers, body
 
 
 def _assert_documented_error(status: int, headers: dict[str, str], body: bytes, expected: int) -> str:
@@ -95,7 +84,7 @@ async def test_a_20_mb_input_gets_414_rather_than_a_reset(gateway_config: Gatewa
 
 
 async def _send_20_mb(gateway: str) -> None:
-    reader, writer = await _open(gateway)
+    reader, writer = await open_raw(gateway)
     try:
         # Sent whole before reading, as most HTTP clients do: the gateway must let the client finish.
         writer.write(_named(gateway, b"GET /module/demo/send/GotoPosition?input=" + b"1" * 20_000_000
@@ -124,8 +113,8 @@ async def test_the_url_limit_is_a_flag_and_input_below_it_is_read(gateway_config
 
 
 async def test_a_head_sent_too_slowly_gets_408_and_the_connection_ends(gateway: str) -> None:
-    slow_reader, slow_writer = await _open(gateway)
-    silent_reader, silent_writer = await _open(gateway)
+    slow_reader, slow_writer = await open_raw(gateway)
+    silent_reader, silent_writer = await open_raw(gateway)
     try:
         slow_writer.write(_named(gateway, b"GET /version HTTP/1.1\r\nHost: x\r\n"))  # and never the blank line
         await slow_writer.drain()
@@ -143,7 +132,7 @@ async def test_a_head_sent_too_slowly_gets_408_and_the_connection_ends(gateway: 
 
 
 async def test_a_keep_alive_connection_serves_several_requests(gateway: str) -> None:
-    reader, writer = await _open(gateway)
+    reader, writer = await open_raw(gateway)
     try:
         for _ in range(3):
             writer.write(_named(gateway, b"GET /version HTTP/1.1\r\nHost: x\r\n\r\n"))
@@ -174,7 +163,7 @@ def test_the_limits_are_flags(capsys: pytest.CaptureFixture[str]) -> None:
 @pytest.mark.parametrize("expect", [True, False], ids=["Expect: 100-continue", "no Expect"])
 async def test_a_body_announced_too_large_gets_413_at_once(gateway: str, expect: bool) -> None:
     # 64 MiB announced, none of it sent: the client waits for an answer before sending (curl waits 1 s).
-    reader, writer = await _open(gateway)
+    reader, writer = await open_raw(gateway)
     try:
         writer.write(_named(gateway, b"POST /module/demo/send/GotoPosition HTTP/1.1\r\nHost: x\r\n"
                             b"Content-Type: application/json\r\nContent-Length: 67108864\r\n"

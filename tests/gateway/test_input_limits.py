@@ -6,7 +6,6 @@ Each row is a request a fuzzer turned into an HTTP 500 (``Exceeds the limit``,
 
 from __future__ import annotations
 
-import asyncio
 import logging
 import re
 
@@ -15,6 +14,7 @@ import pytest
 
 from aiogenomix.gateway import GatewayConfig, serve
 from tests.conftest import TEST_TIME_SCALE
+from tests.gateway._raw_http import exchange_once
 
 GOTO = "/module/demo/send/GotoPosition"
 COUNT = "/module/countserver/send/CountFrom"
@@ -84,15 +84,9 @@ async def test_a_non_utf8_authorization_header_is_refused_quietly(caplog: pytest
     caplog.set_level(logging.INFO)
     config = GatewayConfig.of(port=0, time_scale=TEST_TIME_SCALE, audio_socket_port=0, token="s3cret")
     async with serve(config) as url:
-        host, port = url.removeprefix("http://").rsplit(":", 1)
-        reader, writer = await asyncio.open_connection(host, int(port))
-        try:
-            writer.write(f"GET /version HTTP/1.1\r\nHost: {host}:{port}\r\n".encode()
-                         + b"Authorization: Bearer \xff\xfe\xc3\r\nConnection: close\r\n\r\n")
-            reply = await asyncio.wait_for(reader.read(), 10)
-        finally:
-            writer.close()
-    head, _, body = reply.partition(b"\r\n\r\n")
+        named = f"GET /version HTTP/1.1\r\nHost: {url.removeprefix('http://')}\r\n".encode()
+        token = b"Authorization: Bearer \xff\xfe\xc3\r\n"
+        _, head, body = await exchange_once(url, named + token + b"Connection: close\r\n\r\n")
     assert head.startswith(b"HTTP/1.1 401")
     assert b'"ex":"::genomix::unauthorized"' in body
     assert [r for r in caplog.records if r.levelno >= logging.WARNING] == []

@@ -9,6 +9,7 @@ import aiohttp
 import pytest
 
 from tests.conftest import RawEventStream
+from tests.gateway._raw_http import address, open_raw
 
 
 async def test_raw_socket_client_reads_event_blocks(gateway: str, http: aiohttp.ClientSession) -> None:
@@ -86,9 +87,8 @@ async def test_events_after_a_listener_vanished_wait_for_the_next_one(gateway: s
 
 async def _standard_stream(gateway: str, path: str, *headers: str) -> tuple[asyncio.StreamReader,
                                                                               asyncio.StreamWriter, bytes]:
-    host, port = gateway.removeprefix("http://").rsplit(":", 1)
-    reader, writer = await asyncio.open_connection(host, int(port))
-    lines = [f"GET {path} HTTP/1.1", f"Host: {host}", "Accept: text/event-stream", *headers]
+    reader, writer = await open_raw(gateway)
+    lines = [f"GET {path} HTTP/1.1", f"Host: {address(gateway)[0]}", "Accept: text/event-stream", *headers]
     writer.write(("\r\n".join(lines) + "\r\n\r\n").encode())
     return reader, writer, await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 10)
 

@@ -17,6 +17,7 @@ import aiohttp
 import pytest
 
 from aiogenomix.gateway._fast_reads import FastReads
+from tests.gateway._raw_http import Connection, answered_ahead
 
 #: What each kind of request asks, and how its reply is recognised (status, body check).
 KINDS: dict[str, tuple[str, int, Callable[[bytes], bool]]] = {
@@ -35,36 +36,22 @@ KINDS: dict[str, tuple[str, int, Callable[[bytes], bool]]] = {
 
 @pytest.fixture
 def fast_answers(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
-    answered: list[bool] = []
-    original = FastReads.reply
-
-    def reply(self: FastReads, head: object) -> object:
-        result = original(self, head)  # type: ignore[arg-type]
-        answered.append(result is not None)
-        return result
-
-    monkeypatch.setattr(FastReads, "reply", reply)
-    return answered
+    """Whether each request the connection looked at was answered there (True) or left to the routes."""
+    return answered_ahead(monkeypatch, FastReads, "reply")
 
 
 async def _pipeline(gateway: str, kinds: list[str]) -> list[tuple[int, bytes]]:
-    host, port = gateway.removeprefix("http://").rsplit(":", 1)
-    reader, writer = await asyncio.open_connection(host, int(port))
+    connection = await Connection.open(gateway)
 
     async def replies() -> list[tuple[int, bytes]]:
-        got = []
-        for _ in kinds:
-            head = await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 10)
-            length = int(head.lower().split(b"content-length: ")[1].split(b"\r\n")[0])
-            got.append((int(head.split()[1]), await reader.readexactly(length)))
-        return got
+        return [(status, body) for status, _, body in [await connection.reply() for _ in kinds]]
 
     try:
-        writer.write(b"".join(f"GET {KINDS[kind][0]} HTTP/1.1\r\nHost: {host}\r\n\r\n".encode() for kind in kinds))
-        _, got = await asyncio.gather(writer.drain(), replies())
+        connection.writer.write(b"".join(connection.request(KINDS[kind][0]) for kind in kinds))
+        _, got = await asyncio.gather(connection.writer.drain(), replies())
         return got
     finally:
-        writer.close()
+        await connection.close()
 
 
 def _check(kinds: list[str], got: list[tuple[int, bytes]]) -> None:

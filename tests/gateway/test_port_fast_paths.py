@@ -17,6 +17,7 @@ from aiogenomix.components.core import (
     Component, ComponentHost, Long, OutPort, ScaledClock, ULong, function, idl_struct, sequence,
 )
 from aiogenomix.gateway import GatewayConfig, serve
+from tests.gateway._raw_http import address
 
 WINDOW = 5
 
@@ -166,8 +167,8 @@ async def test_a_stalled_watcher_gets_an_explicit_loss_and_does_not_delay_others
         gateway: str, http: aiohttp.ClientSession) -> None:
     await http.get("/load/ticker")
     size = 120_000  # ~400 kB of JSON per item: a reader that stops reading soon fills the socket buffers
-    host, port = gateway.removeprefix("http://").rsplit(":", 1)
-    stalled = socket.create_connection((host, int(port)))
+    host, port = address(gateway)
+    stalled = socket.create_connection((host, port))
     stalled.sendall(f"GET /module/ticker/watch/Items?since=0 HTTP/1.1\r\nHost: {host}\r\n\r\n".encode())
     try:
         async with http.get("/module/ticker/watch/Items", params={"since": "0"}) as fast:

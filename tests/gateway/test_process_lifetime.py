@@ -20,6 +20,7 @@ import pytest
 from aiogenomix.components.core import ComponentHost, ScaledClock
 from aiogenomix.gateway import GatewayConfig, serve
 from tests.conftest import RawEventStream
+from tests.gateway._raw_http import address, open_raw
 
 #: How long the gateway may take from a stop signal to its exit, whatever is open (the README's promise) ...
 STOP_WITHIN = 2.0
@@ -95,9 +96,8 @@ async def gateway_process(*args: str) -> AsyncIterator[GatewayProcess]:
 
 async def open_watch(url: str, path: str) -> tuple[asyncio.StreamReader, asyncio.StreamWriter]:
     """A raw watch stream, returned once its first event (the current data) has arrived."""
-    host, port = url.removeprefix("http://").rsplit(":", 1)
-    reader, writer = await asyncio.open_connection(host, int(port))
-    writer.write(f"GET {path} HTTP/1.1\r\nHost: {host}\r\n\r\n".encode())
+    reader, writer = await open_raw(url)
+    writer.write(f"GET {path} HTTP/1.1\r\nHost: {address(url)[0]}\r\n\r\n".encode())
     await writer.drain()
     await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 10)
     assert (await asyncio.wait_for(reader.readuntil(b"\n\n"), 10)).startswith(b"event: port")

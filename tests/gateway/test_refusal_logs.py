@@ -9,7 +9,6 @@ client library sends these heads.
 
 from __future__ import annotations
 
-import asyncio
 import json
 import logging
 from collections.abc import AsyncIterator
@@ -19,6 +18,7 @@ from aiohttp import web
 
 from aiogenomix.gateway import GatewayConfig, create_app, serve
 from tests.conftest import TEST_TIME_SCALE
+from tests.gateway._raw_http import exchange_once
 
 
 @pytest.fixture
@@ -30,16 +30,8 @@ async def gateway() -> AsyncIterator[str]:
 
 async def _exchange(address: str, raw: bytes) -> tuple[int, bytes]:
     """Send *raw*, read the reply up to the connection's end (a refusal closes it)."""
-    host, port = address.rsplit(":", 1)
-    reader, writer = await asyncio.open_connection(host, int(port))
-    try:
-        writer.write(raw)
-        await writer.drain()
-        reply = await asyncio.wait_for(reader.read(), 10)
-    finally:
-        writer.close()
-    head, _, body = reply.partition(b"\r\n\r\n")
-    return int(head.split(b" ", 2)[1]), body
+    status, _, body = await exchange_once(address, raw)
+    return status, body
 
 
 def _head(target: str, address: str, *fields: str) -> bytes:

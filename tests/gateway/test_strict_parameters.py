@@ -7,7 +7,6 @@ a repeated input, and one unknown parameter on every endpoint.
 
 from __future__ import annotations
 
-import asyncio
 import json
 from typing import Any
 
@@ -15,6 +14,7 @@ import aiohttp
 import pytest
 
 from aiogenomix.gateway._parameters import ENDPOINT_PARAMETERS
+from tests.gateway._raw_http import Connection
 
 
 async def _refusal(http: aiohttp.ClientSession, url: str) -> dict[str, Any]:
@@ -137,18 +137,13 @@ async def test_repeatable_argv_and_a_valueless_oneway_still_work(http: aiohttp.C
 async def test_a_plain_read_with_an_unknown_parameter_is_refused_by_the_routes(gateway: str) -> None:
     # Raw bytes: the read the connection answers itself when plain; with an unknown parameter
     # the door refuses it, and the refusal is the routes'.
-    host, port = gateway.removeprefix("http://").rsplit(":", 1)
-    reader, writer = await asyncio.open_connection(host, int(port))
+    connection = await Connection.open(gateway)
     try:
         for path in ("/load/demo", "/module/demo/read/Mobile?since=0&bogus", "/module/demo/read/Mobile"):
-            writer.write(f"GET {path} HTTP/1.1\r\nHost: {host}\r\n\r\n".encode())
-        replies = []
-        for _ in range(3):
-            head = await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 10)
-            length = int(head.lower().split(b"content-length: ")[1].split(b"\r\n")[0])
-            replies.append((int(head.split()[1]), await reader.readexactly(length)))
+            connection.writer.write(connection.request(path))
+        replies = [(status, body) for status, _, body in [await connection.reply() for _ in range(3)]]
     finally:
-        writer.close()
+        await connection.close()
     assert replies[0] == (200, b"demo")
     assert replies[1][0] == 400 and json.loads(replies[1][1])["detail"]["unknown"] == ["bogus"]
     assert replies[2][0] == 200 and set(json.loads(replies[2][1])) == {"Mobile"}

@@ -13,6 +13,7 @@ import pytest
 
 from aiogenomix.components.core import ComponentHost, ScaledClock
 from aiogenomix.gateway import GatewayConfig, serve
+from tests.gateway._raw_http import address, open_raw
 from tests.gateway.test_port_fast_paths import Ticker
 
 PING_INTERVAL = 0.2
@@ -27,9 +28,8 @@ async def served() -> AsyncIterator[tuple[ComponentHost, str]]:
 
 
 async def watch(url: str, port: str) -> tuple[asyncio.StreamReader, asyncio.StreamWriter]:
-    host, number = url.removeprefix("http://").rsplit(":", 1)
-    reader, writer = await asyncio.open_connection(host, int(number))
-    writer.write(f"GET /module/ticker/watch/{port} HTTP/1.1\r\nHost: {host}\r\n\r\n".encode())
+    reader, writer = await open_raw(url)
+    writer.write(f"GET /module/ticker/watch/{port} HTTP/1.1\r\nHost: {address(url)[0]}\r\n\r\n".encode())
     assert (await reader.readuntil(b"\r\n\r\n")).startswith(b"HTTP/1.1 200")
     return reader, writer
 

@@ -12,15 +12,12 @@ on kept-alive connections as clients use them.
 
 from __future__ import annotations
 
-from collections.abc import AsyncIterator
-
 import pytest
 from aiohttp import web
 
-from aiogenomix.components.core import ComponentHost, ScaledClock
-from aiogenomix.gateway import GatewayConfig, serve
+from aiogenomix.gateway import GatewayConfig
 from aiogenomix.gateway._replies import Reply, json_reply
-from tests.gateway.test_fast_reads import Connection
+from tests.gateway._raw_http import Connection, answered_ahead
 
 PAGE = "https://notebooks.lab"
 
@@ -28,42 +25,13 @@ PAGE = "https://notebooks.lab"
 @pytest.fixture
 def whole(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
     """Whether each reply prepared was written whole (True) or by aiohttp."""
-    written: list[bool] = []
-    original = Reply._head
-
-    def head(self: Reply, request: web.BaseRequest, length: int) -> bytes | None:
-        result = original(self, request, length)
-        written.append(result is not None)
-        return result
-
-    monkeypatch.setattr(Reply, "_head", head)
-    return written
+    return answered_ahead(monkeypatch, Reply, "_head")
 
 
 @pytest.fixture
-async def connection() -> AsyncIterator[Connection]:
-    async with ComponentHost(clock=ScaledClock(1)) as host:
-        await host.load("demo")
-        async with serve(GatewayConfig.of(port=0, allowed_origins=[PAGE]), host=host) as url:
-            opened = await Connection.open(url)
-            try:
-                yield opened
-            finally:
-                await opened.close()
-
-
-def raw(head: bytes) -> tuple[list[str], bytes]:
-    """A reply's head lines but its ``Date``, in order."""
-    return [line for line in head.decode("latin-1").split("\r\n") if not line.startswith("Date: ")], head
-
-
-async def exchange(connection: Connection, request: bytes) -> tuple[list[str], bytes]:
-    """The head lines (no ``Date``) and the body of the reply to *request*."""
-    connection.writer.write(request)
-    head = await connection.reader.readuntil(b"\r\n\r\n")
-    lines, _ = raw(head)
-    length = next(int(line.split(": ")[1]) for line in lines if line.lower().startswith("content-length: "))
-    return lines, await connection.reader.readexactly(length)
+def gateway_config() -> GatewayConfig:
+    """The gateway of :func:`connection` (``tests/gateway/conftest.py``), with a page allowed to call it."""
+    return GatewayConfig.of(port=0, allowed_origins=[PAGE])
 
 
 @pytest.mark.parametrize(("path", "headers"), [
@@ -82,9 +50,9 @@ async def test_a_reply_written_whole_is_aiohttps_byte_for_byte(
         connection: Connection, whole: list[bool], monkeypatch: pytest.MonkeyPatch, path: str,
         headers: tuple[str, ...]) -> None:
     request = connection.request(path, *headers)
-    fast = await exchange(connection, request)
+    fast = await connection.exchange(request)
     monkeypatch.setattr(Reply, "_head", lambda self, request, length: None)  # aiohttp's way
-    slow = await exchange(connection, request)
+    slow = await connection.exchange(request)
     assert whole == [True]
     assert fast == slow
     assert fast[0][0].startswith("HTTP/1.1 ")
@@ -93,9 +61,9 @@ async def test_a_reply_written_whole_is_aiohttps_byte_for_byte(
 async def test_a_refused_method_written_whole_is_aiohttps_byte_for_byte(
         connection: Connection, whole: list[bool], monkeypatch: pytest.MonkeyPatch) -> None:
     request = f"DELETE /version HTTP/1.1\r\nHost: {connection.host}\r\n\r\n".encode()
-    fast = await exchange(connection, request)
+    fast = await connection.exchange(request)
     monkeypatch.setattr(Reply, "_head", lambda self, request, length: None)
-    slow = await exchange(connection, request)
+    slow = await connection.exchange(request)
     assert whole == [True]
     assert fast == slow
     assert fast[0][0] == "HTTP/1.1 405 Method Not Allowed" and "Allow: GET,HEAD" in fast[0]
