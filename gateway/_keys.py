@@ -29,8 +29,6 @@ UNLOADS = web.AppKey("unloads", Unloads)
 FOXGLOVE = web.AppKey("foxglove", FoxgloveView)
 #: Whether the gateway answers a request: the one decision of the guard and of the fast reads.
 DOOR = web.AppKey("door", Door)
-#: The guard middleware (the door, then errors as JSON), which the gateway's connections call in front
-#: of the routes instead.
 
 
 class Shutdown:
