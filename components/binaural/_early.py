@@ -30,6 +30,7 @@ import dataclasses
 
 import numpy as np
 import numpy.typing as npt
+from scipy import fft
 
 from ._convolution import FadingConvolver
 from ._directions import NearestDirections
@@ -85,7 +86,8 @@ class EarlyReflections:
         self._plan_keys: list[bytes] = []                                # per source: its position, the listener's
         self._plan_sources: list[_SourceImages] = []
         self._spectra: npt.NDArray[np.complex128] | None = None         # the responses' now
-        self._made_with: tuple[_ImagePlan, npt.NDArray[np.intp]] | None = None
+        # The plan, measurements and spectra of each response ``(components · sources, ears, bins)`` made last.
+        self._made_with: tuple[_ImagePlan, npt.NDArray[np.intp], npt.NDArray[np.complex128]] | None = None
         self._since_update = 0
 
     def render(self, signals: npt.NDArray[np.float64], positions: npt.NDArray[np.float64],
@@ -105,8 +107,10 @@ class EarlyReflections:
             # turning less than half a measurement's spacing (or still) costs the look-up alone.
             made = self._made_with
             if made is None or made[0] is not plan or not np.array_equal(made[1], nearest):
-                previous, self._spectra = self._spectra, self._made(plan, nearest)
-                self._made_with = (plan, nearest)
+                before = made[1:] if made is not None and made[0] is plan else None
+                previous = self._spectra
+                self._spectra, rows = self._made(plan, nearest, before)
+                self._made_with = (plan, nearest, rows)
                 if previous is not None:
                     return self.convolver.convolve(signals, previous, self._spectra)
         assert self._spectra is not None
@@ -116,7 +120,7 @@ class EarlyReflections:
                 head: float) -> npt.NDArray[np.complex128]:
         """The responses' spectra ``(sources, 2, bins)`` made afresh for these positions and head azimuth."""
         plan = self._image_plan(positions, listener)
-        return self._made(plan, self._nearest_now(plan, head))
+        return self._made(plan, self._nearest_now(plan, head))[0]
 
     def _image_plan(self, positions: npt.NDArray[np.float64], listener: npt.NDArray[np.float64]) -> _ImagePlan:
         """The reflected images of every source (kept while nothing moves; per source while one moves)."""
@@ -134,19 +138,33 @@ class EarlyReflections:
         """The measured direction nearest each image's, seen from the head at room azimuth *head*."""
         return self._nearest.indices(plan.azimuth - head, plan.elevation)
 
-    def _made(self, plan: _ImagePlan, nearest: npt.NDArray[np.intp]) -> npt.NDArray[np.complex128]:
-        """The responses' spectra ``(sources, 2, bins)``, each image heard through its *nearest* measurement."""
+    def _made(self, plan: _ImagePlan, nearest: npt.NDArray[np.intp],
+              before: tuple[npt.NDArray[np.intp], npt.NDArray[np.complex128]] | None = None
+              ) -> tuple[npt.NDArray[np.complex128], npt.NDArray[np.complex128]]:
+        """The responses' spectra ``(sources, 2, bins)``, each image heard through its *nearest* measurement.
+
+        Also each response's spectra ``(components · sources, 2, bins)``, before their weighting. *before*: the
+        measurements and those spectra last made with this plan, which are made again (in place) only for the
+        responses of an image heard through another measurement (a turning head leaves a quarter of them).
+        """
         components, n_fft = plan.components, self.convolver.n_fft
         weights = plan.weights[:, np.newaxis, np.newaxis] * self._taps[nearest[plan.images]]  # (entries, ears, taps)
         # Counted straight into rows of the FFT's length: an FFT told to pad copies (a third of its time).
         responses = np.bincount(plan.index, weights.ravel(), minlength=components * self.sources * 2 * n_fft)
-        spectra = np.fft.rfft(responses.reshape(components, self.sources, 2, n_fft), axis=-1)
+        responses = responses.reshape(components * self.sources, 2, n_fft)
+        if before is None:
+            rows = fft.rfft(responses, axis=-1)               # scipy's: numpy's makes its plan every call
+        else:
+            rows = before[1]
+            changed = np.unique(plan.rows[(nearest != before[0])[plan.images]])
+            rows[changed] = fft.rfft(responses[changed], axis=-1)
+        spectra = rows.reshape(components, self.sources, 2, -1)
         if plan.shapes is None:
-            return np.asarray(spectra[0] + self.tail_head)
+            return np.asarray(spectra[0] + self.tail_head), rows
         made = self.tail_head.copy()
         for component in range(components):                # a sum of products: a third faster than einsum's
             made += spectra[component] * plan.shapes[:, component, np.newaxis]
-        return made
+        return made, rows
 
 
 def _fade_out(delays: npt.NDArray[np.float64], mixing: float, fade: float) -> npt.NDArray[np.float64]:
@@ -216,6 +234,7 @@ class _ImagePlan:
         components: Responses a source and ear.
         shapes: ``(sources or 1, components, bins)`` each response's spectral weighting (None: one response,
             unweighted).
+        rows: ``(entries,)`` the response each entry is counted into (``component · sources + source``).
         index: ``(entries · ears · taps,)`` where each weighted tap goes in the responses
             ``(components, sources, ears, length)``.
     """
@@ -226,6 +245,7 @@ class _ImagePlan:
     weights: npt.NDArray[np.float64]
     components: int
     shapes: npt.NDArray[np.float64] | None
+    rows: npt.NDArray[np.intp]
     index: npt.NDArray[np.intp]
 
     @classmethod
@@ -250,12 +270,13 @@ class _ImagePlan:
             weighting = mix @ band_weights
         components = 1 if weighting is None else weighting.shape[1]
         starts = np.concatenate([s.starts for s in sources]) if sources else np.zeros(0, dtype=np.int64)
-        # Tap t of entry j's ear e: at ((component · sources + owner) · 2 + e) · length + start + t.
-        offset = ((component * count + owner[images]) * 2 * length + starts[images])[:, np.newaxis, np.newaxis]
+        # Tap t of entry j's ear e: at (row · 2 + e) · length + start + t.
+        rows = component * count + owner[images]
+        offset = (rows * 2 * length + starts[images])[:, np.newaxis, np.newaxis]
         index = offset + (np.arange(2) * length)[:, np.newaxis] + np.arange(taps)
         return cls(np.concatenate([s.azimuth for s in sources]) if sources else np.zeros(0),
                    np.concatenate([s.elevation for s in sources]) if sources else np.zeros(0),
-                   images, weights, components, weighting, index.ravel())
+                   images, weights, components, weighting, rows, index.ravel())
 
 
 def _shared_shapes(gains: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.float64],
