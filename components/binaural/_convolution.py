@@ -37,8 +37,8 @@ def through_filters(spectra: npt.NDArray[np.complex128],
         filters: ``(inputs, ..., ears, bins)`` their filters, broadcast against them.
 
     Returns:
-        ``(..., ears, bins)``: the same sum as ``einsum("ikf,iekf->kef")`` and its kin, in a product and a sum
-        an input (a fifth of a renderer's time went to einsum's complex loop, which has no vector instructions).
+        ``(..., ears, bins)``: the sum ``einsum("ikf,ikef->kef")`` and its kin make, as a product and a sum an
+        input (einsum's complex loop has no vector instructions: it was a fifth of a room renderer's instructions).
     """
     shape = np.broadcast_shapes(spectra.shape[1:-1] + (1, spectra.shape[-1]), filters.shape[1:])
     out = np.empty(shape, dtype=np.complex128)
@@ -93,7 +93,7 @@ class FadingConvolver:
         padded[:, :self._keep] = self._history
         padded[:, self._keep:self._keep + frames] = signals
         self._history = padded[:, frames:frames + self._keep].copy()
-        # Overlapping views, made by the array's constructor (as_strided costs ten times as much, a view's checks more).
+        # Overlapping views, made by the array's constructor (as_strided costs several times as much).
         step, sample = padded.strides
         segments = np.ndarray((self.inputs, count, self.n_fft), padded.dtype, padded, 0,
                               (step, self.block * sample, sample))

@@ -325,7 +325,7 @@ def _band_mixes(sources: list[_SourceImages]) -> tuple[npt.NDArray[np.intp], npt
     images = sum(sizes)
     weights = np.zeros((width, images))
     mixes = np.zeros((len(sources), width, bands))
-    for i, (at, (u, mix)) in enumerate(zip(np.cumsum([0, *sizes[:-1]]), factors, strict=True)):
+    for i, (at, (u, mix)) in enumerate(zip(np.cumsum([0, *sizes])[:-1], factors, strict=True)):
         weights[:u.shape[1], at:at + len(u)] = u.T
         mixes[i, :mix.shape[0]] = mix
     component = np.repeat(np.arange(width), images).astype(np.intp)

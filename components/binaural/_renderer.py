@@ -164,8 +164,9 @@ class BinauralRenderer:
             noise = self._rng.standard_normal((2, frames))
             diffuse = through_filters(self._segments(noise, count, self._diffuse_history), self._diffuse[:, np.newaxis])
             self._diffuse_history = self._advance(self._diffuse_history, noise)
-            start = start + diffuse
-            end = end + diffuse if moving else start
+            start += diffuse                                  # in place: both are new (or one, when still)
+            if moving:
+                end += diffuse
         out = self._inverse(start, count, frames)
         if moving:
             # Fade from the start filters to the end filters across each sub-block.
@@ -192,8 +193,8 @@ class BinauralRenderer:
         padded = np.zeros((inputs, self._keep + count * self.block + (self.n_fft - self.block - self._keep)))
         padded[:, :self._keep] = history
         padded[:, self._keep:self._keep + frames] = signals
-        # Overlapping views of the padded signals (made by the array's constructor: sliding_window_view's
-        # checks cost a third of the FFTs here, as_strided's a tenth).
+        # Overlapping views of the padded signals, made by the array's constructor (sliding_window_view's checks
+        # cost a third of the FFTs here, as_strided several times what the constructor costs).
         step, sample = padded.strides
         segments = np.ndarray((inputs, count, self.n_fft), padded.dtype, padded, 0, (step, self.block * sample, sample))
         return np.asarray(fft.rfft(segments, axis=-1))       # scipy's: numpy's makes its plan every call

@@ -172,7 +172,7 @@ class RoomRenderer:
             raise BinauralError("positions must be finite numbers of metres")
         if self.room is None:
             return
-        # Every point at once (room.contains point by point costs a tenth of a chunk's rendering); by name if not.
+        # Every point at once (room.contains point by point cost 2 % of a chunk's rendering); by name if not.
         low, high = self._room_bounds
         points = np.vstack([listener, positions])
         outside = np.flatnonzero(~np.all((points >= low) & (points <= high), axis=1))
