@@ -104,10 +104,12 @@ def render(result: Result) -> str:
              "of three speech-like talkers 1.5, 2 and 2.5 m away in a 6 × 4 × 3 m room of RT60 0.5 s (image sources "
              "to order 3 through the measured KEMAR, then the diffuse tail), a diffuse noise field and sensor noise, "
              "at 44,100 Hz in 50 ms chunks, the head sweeping ±40° at up to 50°/s (the early reflections looked up "
-             "every 50 ms, and made again, all talkers in one weighted count and one FFT, whenever an image is heard "
-             "through another measurement: at this speed, every time). The same room with its RT60 given per octave "
-             "band has reflections whose band gains take three shapes (one per order), so three responses a talker "
-             "instead of one; the talkers share one late tail (decision 44). The anechoic scene of four sources at "
+             "every 50 ms, and made again, all talkers in one weighted count, whenever an image is heard through "
+             "another measurement: at this speed, every time; only the responses holding such an image are "
+             "transformed again, about three quarters of them). The same room with its RT60 given per octave band "
+             "has reflections whose band gains take three shapes (one per order), so three responses a talker "
+             "instead of one, each image counted into its order's; the talkers share one late tail (decision 44). "
+             "The anechoic scene of four sources at "
              "azimuths (the localisation benchmark's) alternates with them, for scale. Median over the rounds of "
              "audio seconds per processor second; goal: 10× real time.", "",
              "| scene | rounds | real time factor | of the anechoic scene's | verdict |", "|---|---:|---:|---:|---|"]
@@ -120,7 +122,8 @@ def render(result: Result) -> str:
               "three talkers (image sources within 250 ms, each through its nearest measured HRIR), as a turning "
               "head pays it every 50 ms. Order 0 is the fixed part: the FFT of responses of 250 ms (the mixing time "
               "is held there for the comparison; by default it is the next order's first arrival, 26 ms here). The "
-              "images' taps are one weighted count (linear in the images), then one FFT a talker and ear (fixed).",
+              "images' taps are one weighted count (linear in the images), then one FFT a talker and ear (fixed): "
+              "made afresh here, every response transformed.",
               "",
               "| order | image sources | milliseconds |", "|---:|---:|---:|"]
     for row in result["early"]:

@@ -20,11 +20,37 @@ import math
 
 import numpy as np
 import numpy.typing as npt
+from scipy import fft
 
 from ._errors import BinauralError
 from ._filters import fft_size
 
-__all__ = ["FadingConvolver", "LateConvolver", "StagedLateConvolver"]
+__all__ = ["FadingConvolver", "LateConvolver", "StagedLateConvolver", "through_filters"]
+
+
+def through_filters(spectra: npt.NDArray[np.complex128],
+                    filters: npt.NDArray[np.complex128]) -> npt.NDArray[np.complex128]:
+    """The ears' spectra of inputs through their filters: ``Σᵢ spectra[i][..., newaxis, :] · filters[i]``.
+
+    Args:
+        spectra: ``(inputs, ..., bins)`` the inputs' spectra (blocks of them, say).
+        filters: ``(inputs, ..., ears, bins)`` their filters, broadcast against them.
+
+    Returns:
+        ``(..., ears, bins)``: the sum ``einsum("ikf,ikef->kef")`` and its kin make, as a product and a sum an
+        input (einsum's complex loop has no vector instructions: it was a fifth of a room renderer's instructions).
+    """
+    shape = np.broadcast_shapes(spectra.shape[1:-1] + (1, spectra.shape[-1]), filters.shape[1:])
+    out = np.empty(shape, dtype=np.complex128)
+    if len(spectra) == 0:
+        out[...] = 0.0
+        return out
+    np.multiply(spectra[0][..., np.newaxis, :], filters[0], out=out)
+    term = np.empty_like(out)
+    for signal, response in zip(spectra[1:], filters[1:], strict=True):
+        np.multiply(signal[..., np.newaxis, :], response, out=term)
+        out += term
+    return out
 
 
 class FadingConvolver:
@@ -42,12 +68,13 @@ class FadingConvolver:
         self._keep = taps - 1
         self.block = self.n_fft - self._keep
         self._history = np.zeros((inputs, self._keep))
+        self._fade: tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]] | None = None   # a call's ramp, 1 - ramp
 
     def spectra(self, responses: npt.NDArray[np.float64]) -> npt.NDArray[np.complex128]:
         """Filter spectra ``(inputs, 2, bins)`` of responses ``(inputs, taps, 2)``."""
         if responses.shape[1] > self.taps:
             raise BinauralError(f"responses of {responses.shape[1]} taps do not fit a convolver of {self.taps}")
-        return np.asarray(np.fft.rfft(responses, self.n_fft, axis=1).transpose(0, 2, 1))
+        return np.asarray(fft.rfft(responses, self.n_fft, axis=1).transpose(0, 2, 1))
 
     def convolve(self, signals: npt.NDArray[np.float64], start: npt.NDArray[np.complex128],
                  end: npt.NDArray[np.complex128] | None = None) -> npt.NDArray[np.float64]:
@@ -66,19 +93,24 @@ class FadingConvolver:
         padded[:, :self._keep] = self._history
         padded[:, self._keep:self._keep + frames] = signals
         self._history = padded[:, frames:frames + self._keep].copy()
-        step, sample = padded.strides          # overlapping views (as_strided costs less than sliding_window_view)
-        segments = np.lib.stride_tricks.as_strided(padded, (self.inputs, count, self.n_fft),
-                                                   (step, self.block * sample, sample), writeable=False)
-        spectra = np.fft.rfft(segments, axis=-1)                                                # (in, count, bins)
-        out = self._inverse(np.einsum("ikf,ief->kef", spectra, start), frames)
+        # Overlapping views, made by the array's constructor (as_strided costs several times as much).
+        step, sample = padded.strides
+        segments = np.ndarray((self.inputs, count, self.n_fft), padded.dtype, padded, 0,
+                              (step, self.block * sample, sample))
+        # scipy's FFT (numpy's, the same, makes its plan at every call: a tenth of its time here).
+        spectra = fft.rfft(segments, axis=-1)                                                   # (in, count, bins)
+        out = self._inverse(through_filters(spectra, start[:, np.newaxis]), frames)
         if end is None or end is start:
             return out
-        ramp = (np.arange(1, frames + 1) / frames)[:, np.newaxis]
-        return np.asarray(out * (1.0 - ramp) + self._inverse(np.einsum("ikf,ief->kef", spectra, end), frames) * ramp)
+        if self._fade is None or len(self._fade[0]) != frames:       # calls are mostly of one size: kept
+            ramp = (np.arange(1, frames + 1) / frames)[:, np.newaxis]
+            self._fade = (ramp, 1.0 - ramp)
+        ramp, rest = self._fade
+        return np.asarray(out * rest + self._inverse(through_filters(spectra, end[:, np.newaxis]), frames) * ramp)
 
     def _inverse(self, spectra: npt.NDArray[np.complex128], frames: int) -> npt.NDArray[np.float64]:
         count = spectra.shape[0]
-        valid = np.fft.irfft(spectra, self.n_fft, axis=-1)[..., self._keep:self._keep + self.block]
+        valid = fft.irfft(spectra, self.n_fft, axis=-1)[..., self._keep:self._keep + self.block]
         return np.ascontiguousarray(valid.transpose(0, 2, 1).reshape(count * self.block, 2)[:frames])
 
 
@@ -133,11 +165,12 @@ class LateConvolver:
         """The filling block is complete: the output of the next one."""
         block, partitions = self.block, self.partitions
         self._newest = (self._newest - 1) % partitions
-        spectrum = np.fft.rfft(self._frame, axis=1)
+        spectrum = fft.rfft(self._frame, axis=1)
         self._lines[self._newest] = spectrum
         self._lines[self._newest + partitions] = spectrum
         window = self._lines[self._newest:self._newest + partitions]
-        self._ready = np.fft.irfft(np.einsum("pif,pief->ef", window, self._filters), 2 * block, axis=-1)[:, block:]
+        mixed = through_filters(window.reshape(-1, block + 1), self._filters.reshape(-1, 2, block + 1))
+        self._ready = fft.irfft(mixed, 2 * block, axis=-1)[:, block:]
         self._frame[:, :block] = self._frame[:, block:]
         self._filled = 0
 

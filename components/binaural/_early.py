@@ -19,9 +19,9 @@ half the spacing of the measured directions; the responses are looked up at most
 once, then one FFT: a fraction of a millisecond for three talkers at order 3, less than
 changing only the images whose measurement changed, in the frequency domain (a head
 turning 2.5° changes half of them). A room whose absorption differs per band would
-need a response per band; the images' band gains of a source have few independent
-shapes (one per order when the walls absorb alike), so it needs as many responses as
-those, each heard through its mix of the band weights.
+need a response per band; the images' band gains have few shapes (one per order when
+the walls absorb alike), so it needs a response per shape, each heard through its mix
+of the band weights, and each image is counted into one of them (:class:`_ImagePlan`).
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ import dataclasses
 
 import numpy as np
 import numpy.typing as npt
+from scipy import fft
 
 from ._convolution import FadingConvolver
 from ._directions import NearestDirections
@@ -85,7 +86,8 @@ class EarlyReflections:
         self._plan_keys: list[bytes] = []                                # per source: its position, the listener's
         self._plan_sources: list[_SourceImages] = []
         self._spectra: npt.NDArray[np.complex128] | None = None         # the responses' now
-        self._made_with: tuple[_ImagePlan, npt.NDArray[np.intp]] | None = None
+        # The plan, measurements and spectra of each response ``(components · sources, ears, bins)`` made last.
+        self._made_with: tuple[_ImagePlan, npt.NDArray[np.intp], npt.NDArray[np.complex128]] | None = None
         self._since_update = 0
 
     def render(self, signals: npt.NDArray[np.float64], positions: npt.NDArray[np.float64],
@@ -105,8 +107,10 @@ class EarlyReflections:
             # turning less than half a measurement's spacing (or still) costs the look-up alone.
             made = self._made_with
             if made is None or made[0] is not plan or not np.array_equal(made[1], nearest):
-                previous, self._spectra = self._spectra, self._made(plan, nearest)
-                self._made_with = (plan, nearest)
+                before = made[1:] if made is not None and made[0] is plan else None
+                previous = self._spectra
+                self._spectra, rows = self._made(plan, nearest, before)
+                self._made_with = (plan, nearest, rows)
                 if previous is not None:
                     return self.convolver.convolve(signals, previous, self._spectra)
         assert self._spectra is not None
@@ -116,7 +120,7 @@ class EarlyReflections:
                 head: float) -> npt.NDArray[np.complex128]:
         """The responses' spectra ``(sources, 2, bins)`` made afresh for these positions and head azimuth."""
         plan = self._image_plan(positions, listener)
-        return self._made(plan, self._nearest_now(plan, head))
+        return self._made(plan, self._nearest_now(plan, head))[0]
 
     def _image_plan(self, positions: npt.NDArray[np.float64], listener: npt.NDArray[np.float64]) -> _ImagePlan:
         """The reflected images of every source (kept while nothing moves; per source while one moves)."""
@@ -134,19 +138,33 @@ class EarlyReflections:
         """The measured direction nearest each image's, seen from the head at room azimuth *head*."""
         return self._nearest.indices(plan.azimuth - head, plan.elevation)
 
-    def _made(self, plan: _ImagePlan, nearest: npt.NDArray[np.intp]) -> npt.NDArray[np.complex128]:
-        """The responses' spectra ``(sources, 2, bins)``, each image heard through its *nearest* measurement."""
-        components, n_fft = plan.components.shape[0], self.convolver.n_fft
-        weights = plan.components[:, :, np.newaxis, np.newaxis] * self._taps[nearest]     # (comp, images, ears, taps)
+    def _made(self, plan: _ImagePlan, nearest: npt.NDArray[np.intp],
+              before: tuple[npt.NDArray[np.intp], npt.NDArray[np.complex128]] | None = None
+              ) -> tuple[npt.NDArray[np.complex128], npt.NDArray[np.complex128]]:
+        """The responses' spectra ``(sources, 2, bins)``, each image heard through its *nearest* measurement.
+
+        Also each response's spectra ``(components · sources, 2, bins)``, before their weighting. *before*: the
+        measurements and those spectra last made with this plan, which are made again (in place) only for the
+        responses of an image heard through another measurement (a turning head leaves a quarter of them).
+        """
+        components, n_fft = plan.components, self.convolver.n_fft
+        weights = plan.weights[:, np.newaxis, np.newaxis] * self._taps[nearest[plan.images]]  # (entries, ears, taps)
         # Counted straight into rows of the FFT's length: an FFT told to pad copies (a third of its time).
         responses = np.bincount(plan.index, weights.ravel(), minlength=components * self.sources * 2 * n_fft)
-        spectra = np.fft.rfft(responses.reshape(components, self.sources, 2, n_fft), axis=-1)
+        responses = responses.reshape(components * self.sources, 2, n_fft)
+        if before is None:
+            rows = fft.rfft(responses, axis=-1)               # scipy's: numpy's makes its plan every call
+        else:
+            rows = before[1]
+            changed = np.unique(plan.rows[(nearest != before[0])[plan.images]])
+            rows[changed] = fft.rfft(responses[changed], axis=-1)
+        spectra = rows.reshape(components, self.sources, 2, -1)
         if plan.shapes is None:
-            return np.asarray(spectra[0] + self.tail_head)
+            return np.asarray(spectra[0] + self.tail_head), rows
         made = self.tail_head.copy()
         for component in range(components):                # a sum of products: a third faster than einsum's
             made += spectra[component] * plan.shapes[:, component, np.newaxis]
-        return made
+        return made, rows
 
 
 def _fade_out(delays: npt.NDArray[np.float64], mixing: float, fade: float) -> npt.NDArray[np.float64]:
@@ -184,28 +202,50 @@ class _SourceImages:
         return cls(azimuth, elevation, starts, gains)
 
 
+#: Two images' band gains have one shape when, each divided by its largest, they differ by at most this.
+_SAME_SHAPE = 1e-12
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class _ImagePlan:
-    """Every source's images, and how their responses are summed into one array of responses.
+    """Every source's images, and how their weighted taps are counted into a few responses a source and ear.
 
-    The bands' gains of a source's images form a matrix ``(images, 7)`` whose rank is usually small: in a
-    room whose walls absorb alike, an image's gains depend on its order only, so the rank is the number of
-    orders. Its singular value decomposition ``U·Σ·Vᵀ`` makes the seven band responses from ``rank``
-    responses (the columns of ``U·Σ``), each heard through the band mix ``Vᵀ`` of the band weights: the same
-    spectra from fewer responses and FFTs. In a room that absorbs alike at every frequency, one response.
+    An image's gains per band are its *shape* (how its walls absorb each band) times a number (its distance,
+    its walls' overall absorption). The responses are made as ``components`` responses a source and ear,
+    each heard through its spectral weighting (a mix of the band weights), and every image counted into
+    them as *entries*: an image's taps, weighted, in one response. Two plans, whichever counts less:
+
+    * **Shared shapes.** Images whose shapes are one (in a room whose walls absorb alike, the images of
+      one order) are counted into one response: one entry an image, one response per shape, the same
+      weighting for every source. A room that absorbs alike at every frequency has one shape and needs no
+      weighting at all.
+    * **Band mixes.** Otherwise the gains of a source's images, a matrix ``(images, 7)``, are factored
+      (singular value decomposition ``U·Σ·Vᵀ``): ``rank`` responses (the columns of ``U·Σ``), each heard
+      through its mix ``Vᵀ`` of the band weights; an image is an entry of each.
+
+    Shared shapes are taken when there are no more of them than the band mixes' rank: as many FFTs, and a
+    third of the entries for three orders (each image in one response instead of in every one).
 
     Attributes:
         azimuth: ``(images,)`` room azimuths, all sources' images one after the other.
         elevation: ``(images,)`` elevations.
-        components: ``(components, images)`` each image's weight in each response.
-        shapes: ``(sources, components, bins)`` each response's spectral weighting (None: one response, unweighted).
-        index: ``(components · images · ears · taps,)`` where each weighted tap goes in the responses.
+        images: ``(entries,)`` the image each entry counts.
+        weights: ``(entries,)`` its weight in its response.
+        components: Responses a source and ear.
+        shapes: ``(sources or 1, components, bins)`` each response's spectral weighting (None: one response,
+            unweighted).
+        rows: ``(entries,)`` the response each entry is counted into (``component · sources + source``).
+        index: ``(entries · ears · taps,)`` where each weighted tap goes in the responses
+            ``(components, sources, ears, length)``.
     """
 
     azimuth: npt.NDArray[np.float64]
     elevation: npt.NDArray[np.float64]
-    components: npt.NDArray[np.float64]
+    images: npt.NDArray[np.intp]
+    weights: npt.NDArray[np.float64]
+    components: int
     shapes: npt.NDArray[np.float64] | None
+    rows: npt.NDArray[np.intp]
     index: npt.NDArray[np.intp]
 
     @classmethod
@@ -213,32 +253,81 @@ class _ImagePlan:
            band_weights: npt.NDArray[np.float64]) -> _ImagePlan:
         """The plan of *sources*' images into rows of *length* samples, each image's response *taps* long."""
         count = len(sources)
-        flat = all(bool(np.all(s.gains == s.gains[:, :1])) for s in sources)
-        factors: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]] = []
-        for source in sources:
-            if flat or len(source.gains) == 0:
-                factors.append((source.gains[:, :1], np.ones((1, source.gains.shape[1]))))
-                continue
-            u, sigma, vt = np.linalg.svd(source.gains, full_matrices=False)
-            rank = max(1, int(np.sum(sigma > sigma[0] * 1e-12)))
-            factors.append((u[:, :rank] * sigma[:rank], vt[:rank]))
-        width = max((f[0].shape[1] for f in factors), default=1)
-        images = sum(len(s.starts) for s in sources)
-        components = np.zeros((width, images))
-        shapes = None if flat else np.zeros((count, width, band_weights.shape[1]))
-        owner = np.zeros(images, dtype=np.intp)
-        at = 0
-        for i, (source, (weights, mix)) in enumerate(zip(sources, factors, strict=True)):
-            components[:weights.shape[1], at:at + len(source.starts)] = weights.T
-            if shapes is not None:
-                shapes[i, :mix.shape[0]] = mix @ band_weights
-            owner[at:at + len(source.starts)] = i
-            at += len(source.starts)
+        gains = np.concatenate([s.gains for s in sources]) if sources else np.zeros((0, band_weights.shape[0]))
+        owner = np.repeat(np.arange(count), [len(s.starts) for s in sources]).astype(np.intp)
+        shared = _shared_shapes(gains)
+        mixes = _band_mixes(sources) if shared is not None and len(shared[2]) > 1 else None
+        if shared is not None and (mixes is None or len(shared[2]) <= mixes[3].shape[1]):
+            group, scale, shapes = shared
+            order = np.argsort(group, kind="stable")           # response by response: the counting runs in order
+            images, weights, component = order.astype(np.intp), scale[order], group[order]
+            flat = len(shapes) == 1 and bool(np.all(shapes[0] == shapes[0, 0]))
+            weighting = None if flat else (shapes @ band_weights)[np.newaxis]
+            if flat:
+                weights = weights * shapes[0, 0]
+        else:
+            images, weights, component, mix = mixes if mixes is not None else _band_mixes(sources)
+            weighting = mix @ band_weights
+        components = 1 if weighting is None else weighting.shape[1]
         starts = np.concatenate([s.starts for s in sources]) if sources else np.zeros(0, dtype=np.int64)
-        # Tap t of image i's ear e in response c: at ((c · sources + owner) · 2 + e) · length + start + t.
-        offset = (owner * 2 * length + starts)[:, np.newaxis, np.newaxis] + (np.arange(2) * length)[:, np.newaxis]
-        index = (np.arange(width) * count * 2 * length)[:, np.newaxis, np.newaxis, np.newaxis] + (
-            offset + np.arange(taps))[np.newaxis]
+        # Tap t of entry j's ear e: at (row · 2 + e) · length + start + t.
+        rows = component * count + owner[images]
+        offset = (rows * 2 * length + starts[images])[:, np.newaxis, np.newaxis]
+        index = offset + (np.arange(2) * length)[:, np.newaxis] + np.arange(taps)
         return cls(np.concatenate([s.azimuth for s in sources]) if sources else np.zeros(0),
                    np.concatenate([s.elevation for s in sources]) if sources else np.zeros(0),
-                   components, shapes, index.ravel())
+                   images, weights, components, weighting, rows, index.ravel())
+
+
+def _shared_shapes(gains: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.float64],
+                                                             npt.NDArray[np.float64]] | None:
+    """Each image's shape (an index), its scale and the shapes ``(shapes, bands)`` of *gains* ``(images, bands)``.
+
+    None when there are more shapes than bands (the band mixes need fewer responses then). A silent image
+    has scale 0 in the first shape.
+    """
+    peak = gains.max(axis=1, initial=0.0)
+    heard = peak > 0.0
+    normal = gains[heard] / peak[heard, np.newaxis]
+    group = np.zeros(len(gains), dtype=np.intp)
+    found = np.zeros(len(normal), dtype=np.intp)
+    shapes: list[npt.NDArray[np.float64]] = []
+    pending = np.arange(len(normal))
+    while len(pending):
+        if len(shapes) == gains.shape[1]:
+            return None
+        first = normal[pending[0]]
+        same = np.max(np.abs(normal[pending] - first), axis=1) <= _SAME_SHAPE
+        found[pending[same]] = len(shapes)
+        shapes.append(first)
+        pending = pending[~same]
+    group[heard] = found
+    return group, np.where(heard, peak, 0.0), np.array(shapes) if shapes else np.ones((1, gains.shape[1]))
+
+
+def _band_mixes(sources: list[_SourceImages]) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.float64],
+                                                       npt.NDArray[np.intp], npt.NDArray[np.float64]]:
+    """Entries (image, weight, component) and each source's band mixes ``(sources, rank, bands)``, by SVD.
+
+    The entries are in order of component, then image.
+    """
+    factors: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]] = []
+    bands = sources[0].gains.shape[1] if sources else 0
+    for source in sources:
+        if len(source.gains) == 0:
+            factors.append((np.zeros((0, 1)), np.ones((1, bands))))
+            continue
+        u, sigma, vt = np.linalg.svd(source.gains, full_matrices=False)
+        rank = max(1, int(np.sum(sigma > sigma[0] * 1e-12)))
+        factors.append((u[:, :rank] * sigma[:rank], vt[:rank]))
+    width = max((f[0].shape[1] for f in factors), default=1)
+    sizes = [len(s.starts) for s in sources]
+    images = sum(sizes)
+    weights = np.zeros((width, images))
+    mixes = np.zeros((len(sources), width, bands))
+    for i, (at, (u, mix)) in enumerate(zip(np.cumsum([0, *sizes])[:-1], factors, strict=True)):
+        weights[:u.shape[1], at:at + len(u)] = u.T
+        mixes[i, :mix.shape[0]] = mix
+    component = np.repeat(np.arange(width), images).astype(np.intp)
+    image = np.tile(np.arange(images), width).astype(np.intp)
+    return image, weights.ravel(), component, mixes

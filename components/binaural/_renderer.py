@@ -23,7 +23,9 @@ import math
 
 import numpy as np
 import numpy.typing as npt
+from scipy import fft
 
+from ._convolution import through_filters
 from ._directions import DirectionFilters, direction_filters
 from ._errors import HrirError
 from ._filters import azimuth_filters, diffuse_filters
@@ -81,6 +83,7 @@ class BinauralRenderer:
             self._diffuse = diffuse.spectra * 10.0 ** (diffuse_level / 20.0)          # (noise, ear, bins)
             self._diffuse_history = np.zeros((2, self._keep))
         self._sensor = 10.0 ** (sensor_noise / 20.0) if sensor_noise is not None else 0.0
+        self._fade: tuple[int, npt.NDArray[np.float64], npt.NDArray[np.float64]] | None = None  # frames, ramp, 1 - ramp
         self.frames_rendered = 0
 
     @property
@@ -143,7 +146,7 @@ class BinauralRenderer:
                     - (head_start + head_step * fraction))                                   # (sources, count + 1)
         moving = (head_step != 0.0 or bool(np.any(azimuth_step != 0.0))
                   or bool(np.any(elevation_end != elevation_start)))
-        elevated = bool(np.any(elevation_start != 0.0) or np.any(elevation_end != 0.0))
+        elevated = bool(elevation_start.any() or elevation_end.any())
         elevation = (elevation_start[:, np.newaxis] + (elevation_end - elevation_start)[:, np.newaxis] * fraction
                      if elevated else None)
 
@@ -151,23 +154,24 @@ class BinauralRenderer:
         self._history = self._advance(self._history, signals)
         if moving:
             filters = self._filters_at(relative, elevation)                                  # (src, count+1, 2, bins)
-            start = np.einsum("skf,skef->kef", spectra, filters[:, :-1])
-            end = np.einsum("skf,skef->kef", spectra, filters[:, 1:])
+            start = through_filters(spectra, filters[:, :-1])
+            end = through_filters(spectra, filters[:, 1:])
         else:
             filters = self._filters_at(relative[:, 0], None if elevation is None else elevation[:, 0])  # (src, 2, bins)
-            start = np.einsum("skf,sef->kef", spectra, filters)
+            start = through_filters(spectra, filters[:, np.newaxis])
             end = start
         if self._diffuse is not None:
             noise = self._rng.standard_normal((2, frames))
-            diffuse = np.einsum("nkf,nef->kef", self._segments(noise, count, self._diffuse_history), self._diffuse)
+            diffuse = through_filters(self._segments(noise, count, self._diffuse_history), self._diffuse[:, np.newaxis])
             self._diffuse_history = self._advance(self._diffuse_history, noise)
-            start = start + diffuse
-            end = end + diffuse if moving else start
+            start += diffuse                                  # in place: both are new (or one, when still)
+            if moving:
+                end += diffuse
         out = self._inverse(start, count, frames)
         if moving:
             # Fade from the start filters to the end filters across each sub-block.
-            ramp = self._ramps(ends)
-            out = out * (1.0 - ramp)[:, np.newaxis] + self._inverse(end, count, frames) * ramp[:, np.newaxis]
+            ramp, rest = self._fade_of(frames, ends)
+            out = out * rest + self._inverse(end, count, frames) * ramp
         if self._sensor:
             out += self._sensor * self._rng.standard_normal((frames, 2))
         self.frames_rendered += frames
@@ -189,11 +193,11 @@ class BinauralRenderer:
         padded = np.zeros((inputs, self._keep + count * self.block + (self.n_fft - self.block - self._keep)))
         padded[:, :self._keep] = history
         padded[:, self._keep:self._keep + frames] = signals
-        # Overlapping views of the padded signals (sliding_window_view's checks cost a third of the FFTs here).
+        # Overlapping views of the padded signals, made by the array's constructor (sliding_window_view's checks
+        # cost a third of the FFTs here, as_strided several times what the constructor costs).
         step, sample = padded.strides
-        segments = np.lib.stride_tricks.as_strided(padded, (inputs, count, self.n_fft),
-                                                   (step, self.block * sample, sample), writeable=False)
-        return np.fft.rfft(segments, axis=-1)
+        segments = np.ndarray((inputs, count, self.n_fft), padded.dtype, padded, 0, (step, self.block * sample, sample))
+        return np.asarray(fft.rfft(segments, axis=-1))       # scipy's: numpy's makes its plan every call
 
     def _advance(self, history: npt.NDArray[np.float64], signals: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """The last ``taps − 1`` input samples after *signals*."""
@@ -201,12 +205,20 @@ class BinauralRenderer:
 
     def _inverse(self, spectra: npt.NDArray[np.complex128], count: int, frames: int) -> npt.NDArray[np.float64]:
         """``(frames, 2)`` output samples from the ``(count, ears, bins)`` output spectra of the sub-blocks."""
-        valid = np.fft.irfft(spectra, self.n_fft, axis=-1)[..., self._keep:self._keep + self.block]
+        valid = fft.irfft(spectra, self.n_fft, axis=-1)[..., self._keep:self._keep + self.block]
         return np.ascontiguousarray(valid.transpose(0, 2, 1).reshape(count * self.block, 2)[:frames])
 
-    def _ramps(self, ends: npt.NDArray[np.intp]) -> npt.NDArray[np.float64]:
-        """For each frame, how far its sub-block's fade has gone: (j + 1) / length, reaching 1 at its end."""
-        starts = np.concatenate([[0], ends[:-1]])
-        lengths = ends - starts
-        within = np.arange(int(ends[-1])) - np.repeat(starts, lengths)
-        return np.asarray((within + 1) / np.repeat(lengths, lengths))
+    def _fade_of(self, frames: int, ends: npt.NDArray[np.intp]) -> tuple[npt.NDArray[np.float64],
+                                                                         npt.NDArray[np.float64]]:
+        """The sub-blocks' fades in a block of *frames* whose sub-blocks end at *ends*: ``(frames, 1)``, and 1 minus it.
+
+        Frame j of a sub-block has faded by (j + 1) / its length, reaching 1 at its end. Kept for the next block
+        of as many frames (a stream's blocks are mostly of one size).
+        """
+        if self._fade is None or self._fade[0] != frames:
+            starts = np.concatenate([[0], ends[:-1]])
+            lengths = ends - starts
+            within = np.arange(int(ends[-1])) - np.repeat(starts, lengths)
+            ramp = ((within + 1) / np.repeat(lengths, lengths))[:, np.newaxis]
+            self._fade = (frames, ramp, 1.0 - ramp)
+        return self._fade[1], self._fade[2]

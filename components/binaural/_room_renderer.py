@@ -100,6 +100,8 @@ class RoomRenderer:
                                        sensor_noise=sensor_noise, seed=seed)
         self._seed = seed
         self._update_frames = max(1, round(update * self.rate))
+        self._room_bounds = ((np.asarray(room.origin), np.asarray(room.origin) + np.asarray(room.dimensions))
+                             if room is not None else (np.zeros(3), np.zeros(3)))
         self._max_distance = (MAX_DISTANCE if room is None
                               else math.dist((0.0, 0.0, 0.0), room.dimensions) + MIN_DISTANCE)
         self._line_length = int(math.ceil(self._max_distance / self.speed_of_sound * self.rate)) + 4
@@ -153,7 +155,7 @@ class RoomRenderer:
         # Long blocks (a bass chunk of 170 ms) are rendered in pieces, each ending where the head and the
         # sources are by then, so that the reflections follow within a couple of update intervals.
         pieces = max(1, math.ceil(frames / (2 * self._update_frames)))
-        edges = np.linspace(0, frames, pieces + 1).round().astype(int)
+        edges = [0, frames] if pieces == 1 else np.linspace(0, frames, pieces + 1).round().astype(int).tolist()
         for first, last in zip(edges[:-1], edges[1:], strict=True):
             share = last / frames if frames else 1.0
             self._positions = start_positions + (end_positions - start_positions) * share
@@ -170,10 +172,14 @@ class RoomRenderer:
             raise BinauralError("positions must be finite numbers of metres")
         if self.room is None:
             return
-        for name, point in [("listener", listener)] + [(f"source {i}", p) for i, p in enumerate(positions)]:
-            if not self.room.contains(point):
-                raise BinauralError(f"the {name} at {tuple(np.round(point, 3))} m is outside the room "
-                                    f"(from {self.room.origin} over {self.room.dimensions} m)")
+        # Every point at once (room.contains point by point cost 2 % of a chunk's rendering); by name if not.
+        low, high = self._room_bounds
+        points = np.vstack([listener, positions])
+        outside = np.flatnonzero(~np.all((points >= low) & (points <= high), axis=1))
+        if len(outside):
+            name = "listener" if outside[0] == 0 else f"source {outside[0] - 1}"
+            raise BinauralError(f"the {name} at {tuple(np.round(points[outside[0]], 3))} m is outside the room "
+                                f"(from {self.room.origin} over {self.room.dimensions} m)")
 
     def _piece(self, signals: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Render frames ending at the current positions and head azimuth."""

@@ -1,5 +1,6 @@
 """The room renderer's shortcuts give what they stand for: the late convolver a plain convolution, the early
-reflections of a room absorbing per band the responses of its seven bands, summed.
+reflections of a room absorbing per band the responses of its seven bands, summed, and responses made again in
+part as a head turns the responses made afresh.
 """
 
 from __future__ import annotations
@@ -54,3 +55,24 @@ def test_a_room_absorbing_per_band_has_the_early_responses_of_its_seven_bands(ke
             expected[s] += weights[band] * np.fft.rfft(response, early.convolver.n_fft, axis=-1)
     assert np.max(np.abs(made - expected)) < 1e-10 * np.max(np.abs(expected))
     assert len(images.starts) > 50                      # orders 1 to 3 within 60 ms: the bands have their images
+
+
+@pytest.mark.parametrize("rt60", [0.5, [0.7, 0.6, 0.55, 0.5, 0.45, 0.4, 0.35]], ids=["one RT60", "per band"])
+def test_a_turning_head_remakes_only_changed_responses_and_they_are_those_made_afresh(kemar: HrirSet,
+                                                                                   rt60: object) -> None:
+    room = Shoebox.with_rt60((6.0, 4.0, 3.0), rt60)  # type: ignore[arg-type]
+    listener = np.array([3.0, 2.0, 1.5])
+    positions = np.array([[4.3, 2.75, 1.5], [2.65, 0.03, 1.5], [0.83, 3.25, 1.5]])
+    renderer = RoomRenderer(44_100, 3, hrirs=kemar, room=room)
+    partial = 0
+    for head in np.arange(0.0, 12.0, 0.75):          # a block an update; under a measurement's spacing a step
+        renderer.render(np.zeros((3, 2205)), float(head), positions, listener)
+        early = renderer.early
+        assert early is not None and early._made_with is not None
+        plan, nearest, rows = early._made_with
+        before = NearestDirections(renderer.hrirs).indices(plan.azimuth - (head - 0.75), plan.elevation)
+        changed = set(plan.rows[(nearest != before)[plan.images]].tolist())
+        partial += 0 < len(changed) < len(rows)
+        fresh = early.spectra(positions, listener, float(head))
+        assert np.max(np.abs(early._spectra - fresh)) < 1e-12 * np.max(np.abs(fresh))
+    assert partial >= 3                                 # responses were made again in part, not only afresh
