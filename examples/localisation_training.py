@@ -7,13 +7,14 @@ Run it with the project's virtualenv (one core; about 5 minutes)::
 
 Each training case is drawn as the experiment's are (``binaural.talkers_experiment``: one to three
 speech-like talkers on the 5° grid, 1.3 to 1.7 m away, a diffuse noise field) but in other rooms
-(``TRAINING_ROOMS``: 16 × 12 × 6 m of RT60 0.45 s and 20 × 14 × 7.5 m of 0.75 s), from other seeds,
-and heard by two training heads: the MIT KEMAR (the templates' own) and a **spherical head**
-(:func:`sphere_hrirs`: Brown & Duda's model, ears on the interaural axis, no torso, no pinnae,
-front and back alike), a head the templates never saw that is not the experiment's snowman (which
-nothing here uses). Each case is heard for 1 s from a still head and for 1 s with a turn of 30°
-after 0.5 s (either way, alternately), the turning head's units fed to a room filter that keeps
-``front_back_weight`` of the templates' front/back preference (:func:`~aiogenomix.components.binaural.tempered`).
+(``TRAINING_ROOMS``: 16 × 12 × 6 m of RT60 0.45 s and 20 × 14 × 7.5 m of 0.75 s), from other seeds, and
+heard by two training heads: the MIT KEMAR (the templates' own) and a **spherical head**
+(:func:`~aiogenomix.components.audio.sphere_hrirs`: Brown & Duda's model, ears on the interaural axis,
+no torso, no pinnae, front and back alike), a head the templates never saw that is not the experiment's
+snowman (which nothing here uses). Each case is heard for 1 s from a still head and for 1 s with a turn
+of 30° after 0.5 s (either way, alternately), the turning head's units fed to a room filter that keeps
+``front_back_weight`` of the templates' front/back preference
+(:func:`~aiogenomix.components.binaural.tempered`).
 
 For every candidate, the share of talkers found within 5° (their number given), of front/back
 confusions and of cases counted right is printed per head. The defaults of ``GlimpseParameters``
@@ -35,9 +36,9 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 import numpy.typing as npt  # noqa: E402
 
-from aiogenomix.components.audio._head_model import ear_delay, shadow_alpha  # noqa: E402
+from aiogenomix.components.audio import sphere_hrirs  # noqa: E402
 from aiogenomix.components.binaural import (  # noqa: E402
-    TURNING_FRONT_BACK_WEIGHT, GlimpseParameters, HrirSet, RoomAzimuthFilter, SourceCounting, SourceLocaliser,
+    TURNING_FRONT_BACK_WEIGHT, GlimpseParameters, RoomAzimuthFilter, SourceCounting, SourceLocaliser,
     load_kemar, wrap_degrees,
 )
 from aiogenomix.components.binaural.talkers_experiment import (  # noqa: E402
@@ -68,31 +69,6 @@ CANDIDATES: list[tuple[str, GlimpseParameters, SourceCounting, float]] = [
     ("count any gain", GlimpseParameters(), SourceCounting(min_gain=0.0), TURNING_FRONT_BACK_WEIGHT),
     ("count from a gain of 0.3", GlimpseParameters(), SourceCounting(min_gain=0.3), TURNING_FRONT_BACK_WEIGHT),
 ]
-
-
-def sphere_hrirs(radius: float = 0.0875, speed_of_sound: float = 343.0, rate: float = 44_100.0,
-                 taps: int = 512) -> HrirSet:
-    """A training head: Brown & Duda's sphere (the delays and head shadow of ``"head": "spherical"``) as HRIRs.
-
-    On the KEMAR grid's rings, ears at ±90°, 40 samples of bulk delay: a drop-in :class:`HrirSet`
-    for :func:`~aiogenomix.components.binaural.render_scene`.
-    """
-    rings = np.arange(-40.0, 91.0, 10.0)
-    azimuth = np.concatenate([np.arange(-180.0, 180.0, 5.0) if e < 90 else np.zeros(1) for e in rings])
-    elevation = np.concatenate([np.full(72 if e < 90 else 1, e) for e in rings])
-    a, e = np.radians(azimuth), np.radians(elevation)
-    lateral = np.cos(e) * np.sin(a)                         # towards the left ear
-    omega = 2.0 * np.pi * np.fft.rfftfreq(2 * taps, 1.0 / rate)
-    corner = 2.0 * speed_of_sound / radius
-    responses = np.zeros((len(azimuth), taps, 2))
-    for ear, side in enumerate((1.0, -1.0)):
-        angle = np.degrees(np.arccos(np.clip(side * lateral, -1.0, 1.0)))          # source to the ear's axis
-        shadow = (1.0 + 1j * shadow_alpha(angle)[:, np.newaxis] * omega / corner) / (1.0 + 1j * omega / corner)
-        delay = ear_delay(angle, radius, speed_of_sound)[:, np.newaxis] + 40.0 / rate
-        response = np.fft.irfft(shadow * np.exp(-1j * omega * delay), 2 * taps, axis=1)[:, :taps]
-        response[:, -64:] *= np.hanning(128)[64:]
-        responses[:, :, ear] = response
-    return HrirSet(rate, azimuth, elevation, responses, f"spherical head (a = {radius * 100:g} cm)")
 
 
 def training_cases(config: TalkersConfig, count: int) -> list[dict[str, object]]:
