@@ -358,6 +358,10 @@ class RoomAzimuthFilter:
         log of the ratio is divided by the peak's weight. A source whose units point at it alone gains
         the log of how much surer they are of it than of anything else; a spike made of evidence
         spread over a region gains little, its neighbours and the background explaining the same units.
+
+        Returns:
+            The gain; 0 for a peak that holds no weight, infinity when nothing could replace it (no other
+            direction holds any weight, or every unit has been folded): such a peak is not judged.
         """
         self.fit()
         pi, background = self._pi, self._background
@@ -365,13 +369,15 @@ class RoomAzimuthFilter:
         held, total = float(pi[window].sum()), float(pi.sum())
         if held <= 0.0 or held >= total or not self._posteriors:
             return math.inf if held > 0.0 else 0.0
-        rest = np.where(window, 0.0, pi) * (total / (total - held))
-        posterior, weight = np.concatenate(self._posteriors), np.concatenate(self._weights)
-        floor = np.float32(background / _GRID)
-        with_it = posterior @ pi.astype(np.float32) + floor
-        without = posterior @ rest.astype(np.float32) + floor
-        ratio = np.log(np.maximum(with_it, 1e-30)) - np.log(np.maximum(without, 1e-30))
-        return float(weight @ ratio.astype(np.float64)) / (float(weight.sum()) * held)
+        rest = (np.where(window, 0.0, pi) * (total / (total - held))).astype(np.float32)
+        mixture, floor = pi.astype(np.float32), np.float32(background / _GRID)
+        gained = weighed = 0.0
+        for posterior, weight in zip(self._posteriors, self._weights, strict=True):   # batch by batch: no copy
+            with_it = np.log(np.maximum(posterior @ mixture + floor, 1e-30))
+            without = np.log(np.maximum(posterior @ rest + floor, 1e-30))
+            gained += float(weight @ (with_it - without).astype(np.float64))
+            weighed += float(weight.sum())
+        return gained / (weighed * held) if weighed > 0 else 0.0
 
 
 def unit_posteriors(glimpses: Glimpses, front_back_weight: float = 1.0) -> npt.NDArray[np.float64]:
