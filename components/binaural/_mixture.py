@@ -24,6 +24,13 @@ a mirror image from its source but the templates' spectral detail, so
 :meth:`RoomAzimuthFilter.sources` leaves out a weaker peak at the mirror image
 of a stronger one.
 
+The mixture's maximum-likelihood weights are spiky (the nonparametric MLE of a
+mixing distribution is discrete: Lindsay, Ann. Statist. 11(1), 1983): evidence
+spread over a region, such as a room's reflections heard from several head
+azimuths, gathers into a spike as heavy as a quiet talker. Once the head has
+turned, a peak counts only if it explains its units, which its neighbours and
+the background would not (:meth:`RoomAzimuthFilter.gain`, decision 45).
+
 Memory is bounded: the units of the last ``capacity`` frames are kept (their
 room-frame posteriors, float32) and iterated over; older ones are folded into
 fixed sums of their responsibilities at the time (stochastic EM, Cappé &
