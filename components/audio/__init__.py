@@ -42,7 +42,7 @@ from ._socket_wire import RequestParser, encode_error, encode_reply, encode_requ
 from ._window import ChunkWindow, WindowRead, WindowState
 
 if TYPE_CHECKING:  # the renderers, imported when first named (see __getattr__)
-    from ._head_model import SphericalHeadRenderer, woodworth_itd
+    from ._head_model import SphericalHeadRenderer, sphere_hrirs, woodworth_itd
     from ._renderers import KemarSceneRenderer, SceneRenderer, prepare_kemar, scene_renderer
     from ._room_scene import MeasuredSceneRenderer, RoomSceneRenderer, listener_of, shoebox_of
 
@@ -50,7 +50,7 @@ if TYPE_CHECKING:  # the renderers, imported when first named (see __getattr__)
 #: named, so that a process that only names devices or reads audio ports (a gateway's start, its live
 #: view) does not map scipy (half a gateway's resident memory).
 _RENDERERS = {
-    "SphericalHeadRenderer": "_head_model", "woodworth_itd": "_head_model",
+    "SphericalHeadRenderer": "_head_model", "sphere_hrirs": "_head_model", "woodworth_itd": "_head_model",
     "KemarSceneRenderer": "_renderers", "SceneRenderer": "_renderers", "prepare_kemar": "_renderers",
     "scene_renderer": "_renderers",
     "MeasuredSceneRenderer": "_room_scene", "RoomSceneRenderer": "_room_scene", "listener_of": "_room_scene",
@@ -79,8 +79,8 @@ __all__ = [
     "RATE_RANGE", "MAX_FRAMES_PER_CHUNK",
     # Simulated scenes
     "Scene", "Source", "DEFAULT_SCENE", "load_scene", "SceneRenderer", "scene_renderer", "KemarSceneRenderer",
-    "prepare_kemar", "SphericalHeadRenderer", "woodworth_itd", "RoomSceneRenderer", "MeasuredSceneRenderer",
-    "shoebox_of", "listener_of",
+    "prepare_kemar", "SphericalHeadRenderer", "sphere_hrirs", "woodworth_itd", "RoomSceneRenderer",
+    "MeasuredSceneRenderer", "shoebox_of", "listener_of",
     # The chunk window, and the reader of any audio port
     "ChunkWindow", "WindowRead", "WindowState", "AudioReader", "NotAudio",
     # The dedicated sockets

@@ -35,9 +35,10 @@ import numpy as np
 import numpy.typing as npt
 from scipy import signal
 
+from ..binaural import HrirSet
 from ._scene import Scene, SourceSignal
 
-__all__ = ["SphericalHeadRenderer", "woodworth_itd", "ear_delay", "shadow_alpha", "to_int32"]
+__all__ = ["SphericalHeadRenderer", "sphere_hrirs", "woodworth_itd", "ear_delay", "shadow_alpha", "to_int32"]
 
 ALPHA_MIN = 0.1
 THETA_MIN = 150.0
@@ -84,6 +85,40 @@ def ear_delay(angle: npt.NDArray[np.float64], head_radius: float, speed_of_sound
 def shadow_alpha(angle: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """The high-frequency gain α of the head-shadow filter at an ear-to-source angle in degrees."""
     return (1.0 + ALPHA_MIN / 2.0) + (1.0 - ALPHA_MIN / 2.0) * np.cos(np.radians(angle) / np.radians(THETA_MIN) * np.pi)
+
+
+def sphere_hrirs(radius: float = 0.0875, speed_of_sound: float = 343.0, rate: float = 44_100.0,
+                 taps: int = 512) -> HrirSet:
+    """The same spherical head as head-related impulse responses: a head for any HRIR renderer or localiser.
+
+    Brown & Duda's sphere (the delays and head shadow :class:`SphericalHeadRenderer` applies),
+    ears on the interaural axis, no torso, no pinnae: front and back alike. Directions on the
+    rings of the MIT KEMAR grid (elevations -40° to 90° every 10°, azimuths every 5°), each
+    response delayed by 40 samples so that none starts before its first tap, and its last 64 taps
+    faded out. ``examples/localisation_training.py`` trains on it as a head the templates never saw.
+
+    Args:
+        radius: The head's radius, metres.
+        speed_of_sound: Metres per second.
+        rate: Sample rate of the taps, Hz.
+        taps: Samples per response.
+    """
+    rings = np.arange(-40.0, 91.0, 10.0)
+    azimuth = np.concatenate([np.arange(-180.0, 180.0, 5.0) if e < 90 else np.zeros(1) for e in rings])
+    elevation = np.concatenate([np.full(72 if e < 90 else 1, e) for e in rings])
+    a, e = np.radians(azimuth), np.radians(elevation)
+    lateral = np.cos(e) * np.sin(a)                          # towards the left ear
+    omega = 2.0 * np.pi * np.fft.rfftfreq(2 * taps, 1.0 / rate)
+    corner = 2.0 * speed_of_sound / radius
+    responses = np.zeros((len(azimuth), taps, 2))
+    for ear, side in enumerate((1.0, -1.0)):
+        angle = np.degrees(np.arccos(np.clip(side * lateral, -1.0, 1.0)))          # source to the ear's axis
+        shadow = (1.0 + 1j * shadow_alpha(angle)[:, np.newaxis] * omega / corner) / (1.0 + 1j * omega / corner)
+        delay = ear_delay(angle, radius, speed_of_sound)[:, np.newaxis] + 40.0 / rate
+        response = np.fft.irfft(shadow * np.exp(-1j * omega * delay), 2 * taps, axis=1)[:, :taps]
+        response[:, -64:] *= np.hanning(128)[64:]
+        responses[:, :, ear] = response
+    return HrirSet(rate, azimuth, elevation, responses, f"spherical head (a = {radius * 100:g} cm)")
 
 
 def _lagrange(position: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64], tuple[npt.NDArray[np.float64], ...]]:

@@ -13,8 +13,8 @@ import numpy as np
 
 from ..bass import AudioPortData
 from ..binaural import (
-    BinauralError, HeadTurnFailed, LocaliserSetup, NoiseLearner, RoomAzimuthFilter, SourceAzimuth, SourceLocaliser,
-    SourcesEstimate, TurnableHead, TurnPlanner, radians, wrap_degrees,
+    TURNING_FRONT_BACK_WEIGHT, BinauralError, HeadTurnFailed, LocaliserSetup, NoiseLearner, RoomAzimuthFilter,
+    SourceAzimuth, SourceLocaliser, SourcesEstimate, TurnableHead, TurnPlanner, radians, wrap_degrees,
 )
 from ..binaural import Window as WindowName
 from ..core import (
@@ -303,7 +303,7 @@ class Binauloc(Component, name="binauloc", version="1.0"):
         Each estimate is published on Azimuths and Estimates, the combination on Source.
         """
         head = self.host.require(TurnableHead)
-        room = RoomAzimuthFilter(capacity=4096)
+        room = RoomAzimuthFilter(capacity=4096, front_back_weight=TURNING_FRONT_BACK_WEIGHT)
         heard = _Heard()
         looks: list[float] = []
 

@@ -35,7 +35,7 @@ from ._active import FrontBackPolicy, HeadTurnFailed, TurnableHead
 from ._cues import band_ilds, gcc_phat_itd, third_octave_centres
 from ._errors import BinauralError, HrirError, HrirUnavailable, LocalisationError
 from ._filters import AzimuthFilters, DiffuseFilters, azimuth_filters, diffuse_filters
-from ._glimpses import GlimpseAnalyser, GlimpseParameters, Glimpses, erb_bands
+from ._glimpses import GlimpseAnalyser, GlimpseParameters, Glimpses, erb_bands, tempered
 from ._head_movement import MA_TURN, TurnPlanner, ma_combine, ma_turn, posterior_sum
 from ._hrir_set import HrirSet, wrap_degrees
 from ._geometry import Pose, Position, directions, position_at
@@ -47,7 +47,9 @@ from ._localiser import (
     NoiseLearner, Window,
 )
 from ._measured_room import MeasuredRoom, MeasuredRoomRenderer
-from ._mixture import RoomAzimuthFilter, SourceAzimuth, SourceCounting, mirror_image, pick_sources
+from ._mixture import (
+    TURNING_FRONT_BACK_WEIGHT, RoomAzimuthFilter, SourceAzimuth, SourceCounting, mirror_image, pick_sources,
+)
 from ._offline import Path, Talker, render_scene, room_response
 from ._renderer import BinauralRenderer
 from ._room import OCTAVE_BANDS, SPEED_OF_SOUND, WALLS, ImageSources, Shoebox, band_weights, image_sources
@@ -75,7 +77,8 @@ __all__ = [
     "NoiseLearner", "Window", "WINDOWS", "MOTION_TOLERANCE", "BATCH_SAMPLES", "radians", "FrameAnalysis",
     # Several sources
     "SourceLocaliser", "SourcesEstimate", "SourceAzimuth", "RoomAzimuthFilter", "SourceCounting", "pick_sources",
-    "mirror_image", "GlimpseAnalyser", "GlimpseParameters", "Glimpses", "erb_bands",
+    "mirror_image", "GlimpseAnalyser", "GlimpseParameters", "Glimpses", "erb_bands", "tempered",
+    "TURNING_FRONT_BACK_WEIGHT",
     # Head movements
     "TurnPlanner", "ma_turn", "ma_combine", "posterior_sum", "MA_TURN",
     # Active listening

@@ -21,13 +21,21 @@ direction explains it and how much it should count:
 3. **Likelihood.** The unit's log-likelihood of θ is its match less the best
    match, times a sharpness that grows with the square root of the bins in the
    band (a band of more bins is a surer witness), carried from the templates
-   to the 1° grid by a periodic cubic spline.
+   to the 1° grid by a periodic cubic spline. :func:`tempered` splits it into
+   a lateral part (θ and its front/back mirror image together) and the
+   templates' preference between them, and weighs the latter.
 4. **Weight** (how much the unit counts), the product of:
    - its level, compressed (power^0.3, as loudness grows), so that quiet units
      count less without loud ones taking all;
    - its signal-to-noise ratio ρ/(1 + ρ), when the noise was learnt (and the
      unit's evidence is shared in that proportion with the background: noise
-     alone looks like a source straight ahead or behind);
+     alone looks like a source straight ahead or behind). The noise's power in
+     a band of k bins fluctuates from frame to frame by about 1/√k of its mean
+     (two ears, Hann-windowed bins); ρ counts only the power above the mean plus
+     ``noise_margin`` such deviations, so that noise alone makes almost no unit
+     that counts. What the unit's noise share would weigh is kept too
+     (:attr:`Glimpses.noise_weight`): against the weights, it says how much of
+     what was heard rose above the noise at all;
    - its interaural coherence (Faller & Merimaa, JASA 116(5), 2004), raised to
      a power: |⟨X_L X_R*⟩| / √(⟨|X_L|²⟩⟨|X_R|²⟩) averaged over a few frames
      (recursively, causal) and over the band. One plane wave gives 1;
@@ -53,7 +61,10 @@ from ._errors import LocalisationError
 from ._hrir_set import HrirSet
 from ._likelihood import GRID_DEGREES
 
-__all__ = ["GlimpseParameters", "GlimpseAnalyser", "Glimpses", "erb_bands"]
+__all__ = ["GlimpseParameters", "GlimpseAnalyser", "Glimpses", "erb_bands", "tempered"]
+
+#: Each azimuth of the 1° grid's front/back mirror image across the interaural axis (180° − θ), as an index.
+_MIRROR = np.mod(180 - np.arange(len(GRID_DEGREES)), len(GRID_DEGREES))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,6 +78,8 @@ class GlimpseParameters:
         coherence_memory: Weight of the past in the recursive average of the cross-spectra (0: none).
         onset_gain: Weight of the rise of a band's power since the previous frame (natural log of the ratio).
         bands_per_erb: Bands per ERB (1: bands one ERB wide).
+        noise_margin: Deviations of the noise's band power above its mean that a unit's power must pass
+            before any of it counts as signal (0: its mean).
     """
 
     sharpness: float = 8.0
@@ -75,6 +88,7 @@ class GlimpseParameters:
     coherence_memory: float = 0.5
     onset_gain: float = 1.0
     bands_per_erb: float = 1.0
+    noise_margin: float = 3.0
 
 
 def _erb_number(frequency: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
@@ -106,12 +120,16 @@ class Glimpses:
         reliability: ``(frames, bands)`` the share of each unit that is not noise, ρ/(1 + ρ) for its
             signal-to-noise ratio ρ (1 when no noise was learnt): the rest of its evidence is the
             background's (a unit of diffuse noise alone looks like a source straight ahead or behind).
+        noise_weight: ``(frames, bands)`` what each unit's noise share weighs (its level, coherence and
+            onset factors times 1/(1 + ρ)); None when no noise was learnt. Against :attr:`weight`, it says
+            how much of what was heard rose above the noise at all.
     """
 
     log_likelihood: npt.NDArray[np.float32]
     weight: npt.NDArray[np.float64]
     power: npt.NDArray[np.float64]
     reliability: npt.NDArray[np.float64] | None = None
+    noise_weight: npt.NDArray[np.float64] | None = None
 
     @property
     def frames(self) -> int:
@@ -149,6 +167,8 @@ class GlimpseAnalyser:
             self.membership[members, index] = 1.0
         counts = self.membership.sum(axis=0)
         self._scale = parameters.sharpness * np.sqrt(counts)
+        #: ``(bands,)`` the least ratio of a unit's power to the noise's mean that holds any signal.
+        self._noise_threshold = 1.0 + parameters.noise_margin / np.sqrt(counts)
         steering = np.fft.rfft(interpolator.at(self.template_azimuths), frame, axis=1)[:, bins]   # (T, bins, 2)
         steering /= np.maximum(np.linalg.norm(steering, axis=-1, keepdims=True), 1e-300)
         # (bins, 2, templates): one product per bin gives every template's projection of a frame.
@@ -196,18 +216,18 @@ class GlimpseAnalyser:
         reliability = None
         if noise is not None:
             noise_band = np.maximum(noise @ self.membership, 1e-300)
-            ratio = np.maximum(band_power - noise_band, 0.0) / noise_band
+            ratio = np.maximum(band_power - self._noise_threshold * noise_band, 0.0) / noise_band
             reliability = ratio / (1.0 + ratio)
-        weight = self._weights(left * np.conj(right), auto, power, band_power, reliability)
-        return Glimpses(on_grid, weight, band_power, reliability)
+        weight = self._weights(left * np.conj(right), auto, power, band_power)
+        if reliability is None:
+            return Glimpses(on_grid, weight, band_power)
+        return Glimpses(on_grid, weight * reliability, band_power, reliability, weight * (1.0 - reliability))
 
     def _weights(self, cross: npt.NDArray[np.complex128], auto: npt.NDArray[np.float64],
-                 power: npt.NDArray[np.float64], band_power: npt.NDArray[np.float64],
-                 reliability: npt.NDArray[np.float64] | None) -> npt.NDArray[np.float64]:
+                 power: npt.NDArray[np.float64], band_power: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """Each unit's weight but for its noise: level, coherence and onset."""
         parameters = self.parameters
         weight = np.maximum(band_power, 1e-300) ** parameters.level_power
-        if reliability is not None:
-            weight = weight * reliability
         if parameters.coherence_power:
             coherence = self._coherence(cross, auto)
             weight = weight * ((coherence * power) @ self.membership / np.maximum(band_power, 1e-300)) \
@@ -235,6 +255,26 @@ class GlimpseAnalyser:
             smoothed_cross[index], smoothed_auto[index] = previous_cross, previous_auto
         self._cross, self._auto = previous_cross, previous_auto
         return np.asarray(np.abs(smoothed_cross) / np.sqrt(np.maximum(smoothed_auto.prod(axis=-1), 1e-300)))
+
+
+def tempered(log_likelihood: npt.NDArray[np.float32], front_back_weight: float) -> npt.NDArray[np.float32]:
+    """Head-frame log-likelihoods on the 1° grid with the templates' front/back preference weighed.
+
+    The lateral evidence, θ and its mirror image 180° − θ together (their likelihoods' mean),
+    counts whole; the preference between them counts *front_back_weight* of its log (1: all,
+    0: none, the evidence is then the lateral angle's alone, the same for θ and its mirror image).
+
+    The lateral angle rests on the interaural time and level differences, which heads have much
+    alike; the front/back preference rests on the pinnae's and torso's spectral detail, which is the
+    templates' head's own and misleads on another head. A head that turns tells front from back by
+    geometry alone (a mirror image moves in the room, a source does not), on any head: a filter fed
+    by a turning head needs little of the templates' preference.
+    """
+    if front_back_weight == 1.0:
+        return log_likelihood
+    lateral = np.logaddexp(log_likelihood, log_likelihood[..., _MIRROR]) - np.float32(np.log(2.0))
+    weighed = lateral + np.float32(front_back_weight) * (log_likelihood - lateral)
+    return np.asarray(weighed - weighed.max(axis=-1, keepdims=True), dtype=np.float32)
 
 
 def _spline_matrix(azimuths: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:

@@ -24,6 +24,13 @@ a mirror image from its source but the templates' spectral detail, so
 :meth:`RoomAzimuthFilter.sources` leaves out a weaker peak at the mirror image
 of a stronger one.
 
+The mixture's maximum-likelihood weights are spiky (the nonparametric MLE of a
+mixing distribution is discrete: Lindsay, Ann. Statist. 11(1), 1983): evidence
+spread over a region, such as a room's reflections heard from several head
+azimuths, gathers into a spike as heavy as a quiet talker. Once the head has
+turned, a peak counts only if it explains its units, which its neighbours and
+the background would not (:meth:`RoomAzimuthFilter.gain`, decision 45).
+
 Memory is bounded: the units of the last ``capacity`` frames are kept (their
 room-frame posteriors, float32) and iterated over; older ones are folded into
 fixed sums of their responsibilities at the time (stochastic EM, Cappé &
@@ -33,18 +40,24 @@ Moulines, JRSS B 71(3), 2009).
 from __future__ import annotations
 
 import dataclasses
+import math
+from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
 
 from ._errors import LocalisationError
-from ._glimpses import Glimpses
+from ._glimpses import Glimpses, tempered
 from ._hrir_set import wrap_degrees
 from ._likelihood import GRID_DEGREES
 
-__all__ = ["SourceAzimuth", "RoomAzimuthFilter", "SourceCounting", "pick_sources", "mirror_image", "unit_posteriors"]
+__all__ = ["SourceAzimuth", "RoomAzimuthFilter", "SourceCounting", "pick_sources", "mirror_image", "unit_posteriors",
+           "TURNING_FRONT_BACK_WEIGHT"]
 
 _GRID = len(GRID_DEGREES)
+#: The share of the templates' front/back preference a filter keeps when the head is to turn (set on training
+#: rooms and heads, ``examples/localisation_training.py``: the KEMAR and a spherical head, never the experiment's).
+TURNING_FRONT_BACK_WEIGHT = 0.15
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,6 +91,15 @@ class SourceCounting:
         separation: Degrees between two sources at least.
         mirror_ratio: A peak at the front/back mirror image of a stronger source (seen from a head that
             did not turn) is left out unless its weight is at least this share of the stronger one's.
+        min_evidence: The least share of what was heard (the units' weights, noise included) that rose
+            above the learnt noise for anything to be detected: below it, counting finds no source, and
+            sources asked for have their confidences scaled by the share over this (noise alone heard).
+        min_gain: The least log-likelihood gain of a peak that counts as a source once the head has
+            turned, nats per unit of its weight: how much likelier the units heard are with it than with
+            the rest of the mixture alone (:meth:`RoomAzimuthFilter.gain`). A talker's units point at it
+            and nowhere else (a gain of 0.2 to 1.5); a spike the mixture made of evidence spread over a
+            region, such as a room's reflections heard from several head azimuths, explains them hardly
+            better than its neighbours and the background do (under 0.1).
     """
 
     min_weight: float = 0.05
@@ -85,6 +107,8 @@ class SourceCounting:
     most: int = 6
     separation: float = 10.0
     mirror_ratio: float = 0.5
+    min_evidence: float = 0.05
+    min_gain: float = 0.15
 
 
 def mirror_image(azimuth: npt.ArrayLike, head: float) -> npt.NDArray[np.float64]:
@@ -98,7 +122,8 @@ def _window_mass(values: npt.NDArray[np.float64], centre: float, width: float = 
 
 def pick_sources(weights: npt.NDArray[np.float64], count: int | None, counting: SourceCounting = SourceCounting(),
                  still_head: float | None = None, power: npt.NDArray[np.float64] | None = None,
-                 background: float = 0.0) -> list[SourceAzimuth]:
+                 background: float = 0.0, evidence: float = 1.0,
+                 gain: Callable[[int], float] | None = None) -> list[SourceAzimuth]:
     """The sources among the peaks of a distribution over the 1° grid, strongest first.
 
     Args:
@@ -110,6 +135,10 @@ def pick_sources(weights: npt.NDArray[np.float64], count: int | None, counting: 
             mirror images are suspect; None when it turned.
         power: ``(360,)`` the glimpses' power each direction explains (for :attr:`SourceAzimuth.power`).
         background: The background's weight (spread evenly round the circle, it lowers the confidences).
+        evidence: The share of what was heard that rose above the noise (1: all, or no noise learnt):
+            below ``counting.min_evidence``, nothing is counted and the confidences are scaled down.
+        gain: The log-likelihood gain of the peak at a grid index (:meth:`RoomAzimuthFilter.gain`):
+            when counting, a peak below ``counting.min_gain`` is no source. None: not judged.
     """
     values = np.asarray(weights, dtype=np.float64)
     local = np.flatnonzero((values >= np.roll(values, 1)) & (values > np.roll(values, -1)))
@@ -118,6 +147,8 @@ def pick_sources(weights: npt.NDArray[np.float64], count: int | None, counting: 
     masses = {int(i): _window_mass(values, float(i), counting.peak_width) for i in local}
     order = sorted(masses, key=lambda i: -masses[i])
     most = counting.most if count is None else count
+    if count is None and evidence < counting.min_evidence:
+        return []                        # noise alone: nothing detected
     chosen: list[int] = []
     deferred: list[int] = []
     for index in order:
@@ -130,6 +161,8 @@ def pick_sources(weights: npt.NDArray[np.float64], count: int | None, counting: 
                 and masses[index] < counting.mirror_ratio * masses[c] for c in chosen):
             deferred.append(index)       # probably the mirror image of a source already found
             continue
+        if count is None and gain is not None and gain(index) < counting.min_gain:
+            continue                     # spread evidence the mixture gathered into a spike
         chosen.append(index)
     if count is not None:
         # Asked for more than the clear peaks: the suspected mirror images come last.
@@ -138,11 +171,12 @@ def pick_sources(weights: npt.NDArray[np.float64], count: int | None, counting: 
                 break
             if all(abs(float(wrap_degrees(index - c))) >= counting.separation for c in chosen):
                 chosen.append(index)
-    return _described(values, chosen, power, background)
+    detected = min(1.0, evidence / counting.min_evidence) if counting.min_evidence > 0 else 1.0
+    return _described(values, chosen, power, background, detected)
 
 
 def _described(values: npt.NDArray[np.float64], chosen: list[int], power: npt.NDArray[np.float64] | None,
-               background: float) -> list[SourceAzimuth]:
+               background: float, detected: float = 1.0) -> list[SourceAzimuth]:
     if not chosen:
         return []
     peaks = np.array([float(GRID_DEGREES[c]) for c in chosen])
@@ -155,7 +189,8 @@ def _described(values: npt.NDArray[np.float64], chosen: list[int], power: npt.ND
         # Its ±10° that are its own (another source may be nearer than 20°).
         near = float(values[inside & (np.abs(wrap_degrees(GRID_DEGREES - index)) <= 10.0)].sum())
         share = _window_mass(power, float(index)) / total_power if power is not None and total_power > 0 else 0.0
-        sources.append(SourceAzimuth(_refined(values, index), near / region if region > 0 else 0.0, near, share))
+        confidence = detected * near / region if region > 0 else 0.0
+        sources.append(SourceAzimuth(_refined(values, index), confidence, near, share))
     return sources
 
 
@@ -176,14 +211,21 @@ class RoomAzimuthFilter:
         counting: How sources are counted and told apart (:meth:`sources`).
         sparsity: Weight each degree loses to the background at each iteration (a sparse prior, MAP-EM):
             the scattered units of reverberation go to the background instead of making peaks of their own.
+        front_back_weight: How much of the templates' front/back preference each unit keeps
+            (:func:`~._glimpses.tempered`): 1 for a head that stays still (it is all there is to tell
+            front from back), less for one that turns (:data:`TURNING_FRONT_BACK_WEIGHT`), which tells
+            them apart on any head, whatever its pinnae.
     """
 
     def __init__(self, capacity: int = 256, iterations: int = 40,
-                 counting: SourceCounting = SourceCounting(), sparsity: float = 0.0) -> None:
-        if capacity < 1 or iterations < 1 or not 0.0 <= sparsity < 1.0 / _GRID:
-            raise LocalisationError("a filter keeps at least one frame, iterates at least once, and its sparsity "
-                                    f"is in [0, 1/{_GRID})")
+                 counting: SourceCounting = SourceCounting(), sparsity: float = 0.0,
+                 front_back_weight: float = 1.0) -> None:
+        if capacity < 1 or iterations < 1 or not 0.0 <= sparsity < 1.0 / _GRID \
+                or not 0.0 <= front_back_weight <= 1.0:
+            raise LocalisationError("a filter keeps at least one frame, iterates at least once, its sparsity "
+                                    f"is in [0, 1/{_GRID}) and its front/back weight in [0, 1]")
         self.capacity, self.iterations, self.counting, self.sparsity = capacity, iterations, counting, sparsity
+        self.front_back_weight = front_back_weight
         self.clear()
 
     def clear(self) -> None:
@@ -199,6 +241,8 @@ class RoomAzimuthFilter:
         self._pi = np.full(_GRID, 0.8 / _GRID)
         self._background = 0.2
         self._heads: list[float] = []
+        self._heard = 0.0                                         # the units' weights, noise included
+        self._above_noise = 0.0                                   # their weights above the noise
         self._fitted = True
         #: Frames fed since the last :meth:`clear`.
         self.frames = 0
@@ -208,9 +252,12 @@ class RoomAzimuthFilter:
         head = np.broadcast_to(np.asarray(heads, dtype=np.float64), (glimpses.frames,))
         if glimpses.frames == 0:
             return
-        posterior = unit_posteriors(glimpses)
+        posterior = unit_posteriors(glimpses, self.front_back_weight)
         room = _to_room(posterior, head).reshape(-1, _GRID)
         weight = glimpses.weight.reshape(-1)
+        noise = 0.0 if glimpses.noise_weight is None else float(glimpses.noise_weight.sum())
+        self._above_noise += float(weight.sum())
+        self._heard += float(weight.sum()) + noise
         keep = weight > 0
         self._posteriors.append(room[keep].astype(np.float32))
         self._weights.append(weight[keep])
@@ -278,6 +325,14 @@ class RoomAzimuthFilter:
         return power
 
     @property
+    def evidence(self) -> float:
+        """The share of the units' weight heard (noise included) that rose above the learnt noise.
+
+        1 when no noise was learnt (nothing then tells a source from the noise), 0 before anything was heard.
+        """
+        return self._above_noise / self._heard if self._heard > 0 else 0.0
+
+    @property
     def still_head(self) -> float | None:
         """The head's azimuth when it stayed within a few degrees through every frame fed, else None."""
         if not self._heads:
@@ -295,12 +350,51 @@ class RoomAzimuthFilter:
         if self.frames == 0:
             return []
         weights, background = self.distribution()
-        return pick_sources(weights, count, self.counting, self.still_head, self.explained_power(), background)
+        # A still head's peak and its mirror image explain the same units (only the templates' spectral detail
+        # tells them apart): the gain judges the peaks of a head that turned, the mirror rule a still head's.
+        still = self.still_head
+        return pick_sources(weights, count, self.counting, still, self.explained_power(), background,
+                            self.evidence, self.gain if count is None and still is None else None)
+
+    def gain(self, index: int) -> float:
+        """How much the peak at grid *index* (its ±10°) explains: nats per unit of its weight.
+
+        The units kept (the last ``capacity`` frames') are weighed by their likelihood under the
+        mixture and under the rest of it alone (the peak's weight shared among the other directions
+        in proportion, no refit: an upper bound of what losing it costs), and the weighted mean of the
+        log of the ratio is divided by the peak's weight. A source whose units point at it alone gains
+        the log of how much surer they are of it than of anything else; a spike made of evidence
+        spread over a region gains little, its neighbours and the background explaining the same units.
+
+        Returns:
+            The gain; 0 for a peak that holds no weight, infinity when nothing could replace it (no other
+            direction holds any weight, or every unit has been folded): such a peak is not judged.
+        """
+        self.fit()
+        pi, background = self._pi, self._background
+        window = np.abs(wrap_degrees(GRID_DEGREES - GRID_DEGREES[index % _GRID])) <= 10.0
+        held, total = float(pi[window].sum()), float(pi.sum())
+        if held <= 0.0 or held >= total or not self._posteriors:
+            return math.inf if held > 0.0 else 0.0
+        rest = (np.where(window, 0.0, pi) * (total / (total - held))).astype(np.float32)
+        mixture, floor = pi.astype(np.float32), np.float32(background / _GRID)
+        gained = weighed = 0.0
+        for posterior, weight in zip(self._posteriors, self._weights, strict=True):   # batch by batch: no copy
+            with_it = np.log(np.maximum(posterior @ mixture + floor, 1e-30))
+            without = np.log(np.maximum(posterior @ rest + floor, 1e-30))
+            gained += float(weight @ (with_it - without).astype(np.float64))
+            weighed += float(weight.sum())
+        return gained / (weighed * held) if weighed > 0 else 0.0
 
 
-def unit_posteriors(glimpses: Glimpses) -> npt.NDArray[np.float64]:
-    """``(frames, bands, 360)`` each unit's head-frame posterior, its unreliable share spread evenly."""
-    log_likelihood = glimpses.log_likelihood
+def unit_posteriors(glimpses: Glimpses, front_back_weight: float = 1.0) -> npt.NDArray[np.float64]:
+    """``(frames, bands, 360)`` each unit's head-frame posterior, its unreliable share spread evenly.
+
+    Args:
+        glimpses: The units.
+        front_back_weight: How much of the templates' front/back preference counts (:func:`~._glimpses.tempered`).
+    """
+    log_likelihood = tempered(glimpses.log_likelihood, front_back_weight)
     posterior = np.exp(log_likelihood - log_likelihood.max(axis=-1, keepdims=True))
     posterior /= posterior.sum(axis=-1, keepdims=True)
     if glimpses.reliability is not None:

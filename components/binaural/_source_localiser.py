@@ -42,6 +42,8 @@ class SourcesEstimate:
         end: Sample index (since the stream started) just after its last frame.
         head_azimuth: The head's room azimuth at the last frame, degrees (None when the audio carried none).
         requested: The number of sources asked for (None: counted).
+        evidence: The share of what was heard that rose above the learnt noise (1 when none was learnt):
+            under ``SourceCounting.min_evidence``, noise alone was heard and nothing is detected.
     """
 
     sources: tuple[SourceAzimuth, ...]
@@ -51,6 +53,7 @@ class SourcesEstimate:
     end: int
     head_azimuth: float | None = None
     requested: int | None = None
+    evidence: float = 1.0
 
     @property
     def azimuth(self) -> float:
@@ -127,9 +130,11 @@ class SourceLocaliser(FrameAnalysis):
                   for start in range(0, count, self.batch) for take in [min(self.batch, count - start)]]
         self.analyser.reset()
         reliable = [p.reliability for p in pieces if p.reliability is not None]
+        noise = [p.noise_weight for p in pieces if p.noise_weight is not None]
         glimpses = Glimpses(np.concatenate([p.log_likelihood for p in pieces]),
                             np.concatenate([p.weight for p in pieces]), np.concatenate([p.power for p in pieces]),
-                            np.concatenate(reliable) if len(reliable) == len(pieces) else None)
+                            np.concatenate(reliable) if len(reliable) == len(pieces) else None,
+                            np.concatenate(noise) if len(noise) == len(pieces) else None)
         return glimpses, np.arange(count) * hop + frame // 2
 
     def localise(self, audio: npt.ArrayLike, heads: npt.ArrayLike | None = None,
@@ -198,4 +203,4 @@ class SourceLocaliser(FrameAnalysis):
         seen_from = 0.0 if head is None else head
         in_head = tuple(dataclasses.replace(s, azimuth=float(wrap_degrees(s.azimuth - seen_from))) for s in sources)
         distribution = _periodic_at(weights, GRID_DEGREES + seen_from) if seen_from else weights
-        return SourcesEstimate(in_head, distribution, background, room.frames, end, head, count)
+        return SourcesEstimate(in_head, distribution, background, room.frames, end, head, count, room.evidence)

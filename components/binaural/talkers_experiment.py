@@ -56,7 +56,7 @@ from ._head_movement import TurnPlanner, ma_combine, ma_turn, posterior_sum
 from ._hrir_set import HrirSet, wrap_degrees
 from ._kemar import load_kemar
 from ._localiser import BinauralLocaliser, LocaliserSetup
-from ._mixture import RoomAzimuthFilter, SourceCounting
+from ._mixture import TURNING_FRONT_BACK_WEIGHT, RoomAzimuthFilter, SourceCounting
 from ._offline import Talker, render_scene
 from ._room import Shoebox
 from ._signals import speech_like
@@ -132,6 +132,8 @@ class TalkersConfig:
         setup: The localisers' analysis (its rate is replaced by *rate*).
         parameters: How the glimpses are weighed.
         counting: How talkers are counted.
+        front_back_weight: The share of the templates' front/back preference the room filter of a head that
+            turns keeps (``filter``, ``filter, 2 s``; :func:`~._glimpses.tempered`).
         strategies: Which strategies to run.
     """
 
@@ -146,6 +148,7 @@ class TalkersConfig:
     setup: LocaliserSetup = LocaliserSetup()
     parameters: GlimpseParameters = GlimpseParameters()
     counting: SourceCounting = SourceCounting()
+    front_back_weight: float = TURNING_FRONT_BACK_WEIGHT
     strategies: tuple[str, ...] = STRATEGIES
 
 
@@ -346,7 +349,7 @@ class _Strategies:
                 seconds: float) -> tuple[tuple[float, ...], RoomAzimuthFilter]:
         """Layers (B) + (C): a look, a planned turn, and so on every 0.5 s until *seconds* of audio in all."""
         config, rate = self.config, self.config.rate
-        room = RoomAzimuthFilter(capacity=1000, counting=config.counting)
+        room = RoomAzimuthFilter(capacity=1000, counting=config.counting, front_back_weight=config.front_back_weight)
         room.add(first, first_heads)
         looks, planned = [0.0], []
         heard = 0.5

@@ -75,13 +75,16 @@ async def test_binauloc_on_bass_over_http_reports_62_5_degrees(gateway: tuple[ai
     assert [e["estimate"] for e in estimates] == list(range(1, 21))
     ended = await get(http, f"/module/binauloc/wait/{localizing['id']}")
     assert ended["status"] == "done" and ended["output"] == {"nEstimates": 20}
-    laterals = [lateral(e["azimuth"]) for e in estimates]
+    # The estimates resting on the learnt noise alone (the analysis starts where LearnNoise ended, at 2 s; the
+    # talker at 2.5 s) detect nothing: no source, confidence 0 (they once named one ahead, up to 0.999 sure).
+    alone = [e for e in estimates if e["frameIndex"] < 2.5 * 24414]
+    assert alone and all(e["nSources"] == 0 and e["azimuth"] is None and e["confidence"] == 0 for e in alone)
+    talking = [e for e in estimates if e["frameIndex"] > 2.5 * 24414 + 1024]
+    assert len(talking) >= 17 and all(e["nSources"] >= 1 for e in talking)
+    laterals = [lateral(e["azimuth"]) for e in talking]
     assert abs(statistics.median(laterals) - 62.5) <= 5.0, laterals
-    # The sure estimates of the talker's audio say where it is (those resting on the noise alone, before its
-    # onset, say nothing of it: the analysis starts where LearnNoise ended, at 2 s).
-    talking = [(value, e) for value, e in zip(laterals, estimates, strict=True) if e["frameIndex"] > 2.5 * 24414]
-    assert len(talking) >= 18
-    sure = [value for value, e in talking if e["confidence"] >= 0.9]
+    # The sure estimates of the talker's audio say where it is.
+    sure = [value for value, e in zip(laterals, talking, strict=True) if e["confidence"] >= 0.9]
     assert sure and all(abs(value - 62.5) <= 5.0 for value in sure), laterals
     assert all(e["headAzimuth"] is None for e in estimates)          # no head: NaN travels as null
     assert len(estimates[-1]["logLikelihood"]) == 360

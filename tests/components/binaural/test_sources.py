@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from aiogenomix.components.binaural import (
-    GRID_DEGREES, BinauralRenderer, HrirSet, LocalisationError, LocaliserSetup, RoomAzimuthFilter, SourceCounting,
-    SourceLocaliser, erb_bands, mirror_image, pick_sources, speech_like, wrap_degrees,
+    GRID_DEGREES, BinauralRenderer, Glimpses, HrirSet, LocalisationError, LocaliserSetup, RoomAzimuthFilter,
+    SourceCounting, SourceLocaliser, erb_bands, mirror_image, pick_sources, speech_like, tempered, wrap_degrees,
 )
 
 RATE = 24_414.0
@@ -129,3 +131,67 @@ def test_mirror_images_of_a_still_head_are_suspect() -> None:
 def test_a_block_without_a_full_frame_is_refused(localiser) -> None:
     with pytest.raises(LocalisationError, match="frame"):
         localiser.localise(np.zeros((100, 2)))
+
+
+def test_noise_alone_is_no_source(kemar, localiser) -> None:
+    """Diffuse noise looks like a source straight ahead or behind: once it is learnt, it detects nothing."""
+    field = BinauralRenderer(RATE, 1, hrirs=kemar, diffuse_level=-40.0, seed=9)
+    noise = field.render(np.zeros((1, round(3 * RATE))), 0.0, [0.0])
+    learning = SourceLocaliser(LocaliserSetup(rate=RATE), hrirs=kemar)
+    learning.learn_noise(noise[:round(RATE)])
+    counted = learning.localise(noise[round(RATE):round(2 * RATE)])
+    assert counted.sources == () and counted.evidence < SourceCounting().min_evidence
+    asked = learning.localise(noise[round(2 * RATE):], count=1)
+    assert len(asked.sources) == 1 and asked.confidence < 0.2
+    # A talker 20 dB above the same field is detected, with the confidence of before.
+    speech = talkers(kemar, [40.0], 0.0, 1.0, seed=2)
+    found = learning.localise(speech + noise[round(2 * RATE):round(3 * RATE)])
+    assert found.evidence > 0.5 and near([s.azimuth for s in found.sources[:1]], [40.0])
+    assert found.confidence > 0.9
+
+
+def test_tempered_evidence_keeps_the_lateral_angle_and_weighs_front_and_back() -> None:
+    log_likelihood = np.float32(-0.02) * np.minimum(np.abs(wrap_degrees(GRID_DEGREES - 30.0)), 60.0) ** 2
+    log_likelihood = np.maximum(log_likelihood, np.float32(-8.0))
+    log_likelihood[150] = np.float32(-4.0)                   # the mirror image of 30° for a head at 0°
+    mirror = np.mod(180 - np.arange(360), 360)
+    assert np.array_equal(tempered(log_likelihood, 1.0), log_likelihood)
+    lateral = tempered(log_likelihood, 0.0)
+    assert np.allclose(lateral, lateral[mirror]) and lateral.max() == 0.0
+    half = tempered(log_likelihood, 0.5)
+    # Half the log-preference for 30° over 150° remains, and 30° is still the best.
+    assert int(np.argmax(half)) == 30 and half[30] - half[150] == pytest.approx(2.0, abs=1e-4)
+
+
+def _units(centres: np.ndarray, heads: np.ndarray, width: float) -> np.ndarray:
+    """``(frames, 1, 360)`` head-frame log-likelihoods, a unit a frame, each sure of its room centre within *width*."""
+    distance = np.abs(wrap_degrees(GRID_DEGREES[np.newaxis, :] - (centres - heads)[:, np.newaxis]))
+    return np.maximum(-0.5 * (distance / width) ** 2, -12.0).astype(np.float32)[:, np.newaxis, :]
+
+
+def test_a_spike_made_of_spread_evidence_is_no_source() -> None:
+    """A room's reflections heard from several head azimuths: evidence spread over a region, no talker.
+
+    The mixture gathers it into a spike as heavy as a quiet talker; the spike explains its units hardly
+    better than its neighbours would, while a talker's units point at it alone (RoomAzimuthFilter.gain).
+    These units are sharper than a room's (their gains larger): the count here asks for a gain of 4 nats.
+    """
+    rng = np.random.default_rng(4)
+    centres = np.concatenate([np.full(300, 40.0), np.full(40, 120.0), rng.uniform(-110.0, -70.0, 60)])
+    rng.shuffle(centres)
+    heads = np.repeat([0.0, 30.0], len(centres) // 2)          # a look, a turn of 30 degrees, a look
+    weight = np.ones((len(centres), 1))
+    counting = SourceCounting(min_gain=4.0)
+    room = RoomAzimuthFilter(capacity=1000, iterations=400, counting=counting)
+    room.add(Glimpses(_units(centres, heads, 4.0), weight, weight.copy()), heads)
+    weights, background = room.distribution()
+    ungated = pick_sources(weights, None, dataclasses.replace(counting, min_gain=0.0), background=background)
+    assert near([s.azimuth for s in ungated], [40.0, 120.0, -90.0], 2.0) and len(ungated) == 3, ungated
+    spike = ungated[2]
+    assert spike.weight > ungated[1].weight / 2 and spike.weight >= counting.min_weight
+    gains = [room.gain(round(s.azimuth) % 360) for s in ungated]
+    assert gains[0] > gains[1] > 3 * gains[2] and gains[1] > counting.min_gain > gains[2], gains
+    # Counted: the two talkers, the quiet one too, and not the spike.
+    assert [round(s.azimuth) for s in room.sources()] == [40, 120]
+    # Asked for three, the filter still names it (the gain judges a count, not a request).
+    assert near([s.azimuth for s in room.sources(3)][2:], [spike.azimuth], 1.0)

@@ -1,9 +1,10 @@
 """Issue 31's experiment, reduced: two talkers in the 0.6 s room on the KEMAR, one on the snowman head.
 
 The goals of the issue hold on the KEMAR (talkers within 5 degrees with a planned turn, no front/back
-confusion, the still head no worse than the localiser of before); on the snowman head the goals are not met
-(docs/localisation.md says by how much), and what is asserted is what the head's turn is for: it tells front
-from back where the still head cannot. Seeds of their own (the documented run uses 31). Seconds, not minutes.
+confusion, the still head no worse than the localiser of before); on the snowman head the front/back goal holds
+with the turn (the room filter of a head that turns weighs the templates' front/back preference little), the
+within-5-degrees goal does not (docs/localisation.md says by how much: the snowman's lateral angles are off by up
+to 8 degrees). Seeds of their own (the documented run uses 31). Seconds, not minutes.
 """
 
 from __future__ import annotations
@@ -39,6 +40,16 @@ def test_on_a_head_the_templates_never_saw_the_turn_tells_front_from_back() -> N
         errors, _ = match_talkers(result.azimuths, result.estimates["filter"])
         # Never its mirror image: within 10 degrees of the talker (the snowman's lateral angles are off by up to 7).
         assert errors[0] <= 10.0, result
+
+
+def test_on_a_head_the_templates_never_saw_two_talkers_in_a_room_are_told_from_their_mirror_images() -> None:
+    config = TalkersConfig(rooms=(TEST_ROOMS[2],), heads=("snowman",), talkers=(2,), cases=3, seed=3103,
+                           strategies=("still", "filter"))
+    results, _ = run_talkers(config)
+    summaries = {s.strategy: s for s in summarise_talkers(results)}
+    # The goal (front/back confusions at most 2 %) with the turn; the still head confuses them.
+    assert summaries["filter"].front_back <= 0.02 < summaries["still"].front_back, summaries
+    assert summaries["filter"].within_10 >= 0.8, summaries
 
 
 def test_a_configuration_names_heads_it_has() -> None:
