@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import concurrent.futures
+import contextlib
 import functools
 import inspect
 import keyword
@@ -396,8 +397,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"aiogenomix-shell: {exc}", file=sys.stderr)
         return 1
     from IPython.terminal.ipapp import TerminalIPythonApp
-    from prompt_toolkit.patch_stdout import patch_stdout
+    from prompt_toolkit.patch_stdout import StdoutProxy
     from traitlets.config import Config
+
+    from ._shell_output import CellOutput
 
     namespace: ShellNamespace | None = None
     try:
@@ -411,8 +414,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         app.initialize([])
         _install_enum_completion(app.shell, namespace)
         _install_one_line_errors(app.shell)
-        # Lines printed by other threads (the ends of ack=True requests) go above the prompt, not into it.
-        with patch_stdout(raw=True):
+        # Lines printed by other threads (the ends of ack=True requests) go above the prompt, not into it;
+        # the cell's own output before the next prompt (CellOutput).
+        with StdoutProxy(raw=True) as proxy, \
+                contextlib.redirect_stdout(CellOutput(sys.stdout, proxy)), \
+                contextlib.redirect_stderr(CellOutput(sys.stderr, proxy)):
             app.start()
     finally:
         client.close()
