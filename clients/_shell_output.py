@@ -34,12 +34,12 @@ class CellOutput:
         self.direct = direct
         self.proxy = proxy
 
-    def _cells(self) -> bool:
+    def _from_the_cell(self) -> bool:
         """Whether the caller is the running cell: the main thread, with no prompt up."""
         return threading.current_thread() is threading.main_thread() and get_app_or_none() is None
 
     def write(self, text: str) -> int:
-        if self._cells():
+        if self._from_the_cell():
             self.proxy.flush()  # a partial line another thread began goes first, as it was written first
             written = self.direct.write(text)
             self.direct.flush()
@@ -47,7 +47,7 @@ class CellOutput:
         return self.proxy.write(text)
 
     def flush(self) -> None:
-        if self._cells():
+        if self._from_the_cell():
             self.direct.flush()
         else:
             self.proxy.flush()
