@@ -14,6 +14,7 @@ import os
 import platform
 import sys
 import time
+from collections.abc import Awaitable, Callable
 from typing import Any
 
 from . import (
@@ -23,7 +24,8 @@ from . import (
 from ._common import ROOT
 from ._report import render
 
-BENCHMARKS = {
+#: Each benchmark: its runner, its keyword arguments for the record, and for a quick run (checks that it works).
+BENCHMARKS: dict[str, tuple[Callable[..., Awaitable[Any]], dict[str, Any], dict[str, Any]]] = {
     "port_read": (port_read.run, {"reads": 120, "block": 10}, {"reads": 9, "block": 3, "windows": (500, 4000)}),
     "service": (service.run, {"calls": 2000}, {"calls": 300}),
     "fanout": (fanout.run, {"seconds": 10.0}, {"seconds": 2.0}),
@@ -44,7 +46,7 @@ BENCHMARKS = {
                     {"clients": 10, "seconds": 4.0, "settle": 2.0}),
     "viewers": (viewers.run, {"seconds": 20.0, "crowd": 500}, {"seconds": 3.0, "crowd": 40}),
     "localisation": (localisation.run, {"seconds": 5.0, "rounds": 7}, {"seconds": 1.0, "rounds": 2}),
-    "rooms": (rooms.run, {"seconds": 4.0, "rounds": 5, "repeats": 9}, {"seconds": 1.0, "rounds": 1, "repeats": 3}),
+    "rooms": (rooms.run, {"seconds": 4.0, "rounds": 15, "repeats": 9}, {"seconds": 1.0, "rounds": 1, "repeats": 3}),
     "record": (record.run, {"seconds": 600.0, "block": 20.0, "blocks": 6, "http_seconds": 120.0},
                {"seconds": 20.0, "block": 4.0, "blocks": 2, "http_seconds": 8.0}),
     # Not in a quick run: starting a gateway under valgrind, uninstrumented, still takes half a minute.

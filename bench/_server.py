@@ -124,19 +124,21 @@ async def _zenoh_floor(args: argparse.Namespace) -> None:
 
     loop = asyncio.get_running_loop()
     listen = f"tcp/127.0.0.1:{free_port()}"
-    session, _ = open_session(ZenohSettings(listen=[listen]))
+    session, _ = open_session(ZenohSettings(listen=(listen,)))
 
     def answer(query: zenoh.Query) -> None:
         query.reply(query.key_expr, b'{"ok":{"id":"demo::0","status":"done","output":{}}}', express=True)
-        query.drop()  # type: ignore[no-untyped-call]
+        query.drop()
 
-    queryable = session.declare_queryable(
-        "bench/floor", on_zenoh_thread(lambda query: loop.call_soon_threadsafe(answer, query)))
+    def hand_over(query: zenoh.Query) -> None:
+        loop.call_soon_threadsafe(answer, query)
+
+    queryable = session.declare_queryable("bench/floor", on_zenoh_thread(hand_over))
     print("ready", listen, flush=True)
     try:
         await asyncio.Event().wait()
     finally:
-        queryable.undeclare()  # type: ignore[no-untyped-call]
+        queryable.undeclare()
         session.close()
 
 
@@ -152,7 +154,7 @@ async def _zenoh_relay(args: argparse.Namespace) -> None:
     from aiogenomix.remote._session import ZenohSettings, on_zenoh_thread, open_session
 
     loop = asyncio.get_running_loop()
-    session, _ = open_session(ZenohSettings(connect=[args.connect]))
+    session, _ = open_session(ZenohSettings(connect=(args.connect,)))
 
     def ask() -> asyncio.Future[bytes]:
         answer: asyncio.Future[bytes] = loop.create_future()

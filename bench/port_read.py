@@ -201,7 +201,7 @@ async def _capture_window(base: str, port: int, socket_port: int, floor_port: in
         samples = await _blocks(paths, reads, block)
     for reader in (*readers.values(), *floors.values(), raw_socket):
         reader.close()
-    results = _ratios(samples, {k: v for k, v in PAIRS.items() if k in samples})
+    results: dict[str, Any] = _ratios(samples, {k: v for k, v in PAIRS.items() if k in samples})
     results["strict"] = _strict_ratios(samples)
     results["client_incremental"] = summary(incremental)
     for name in ("floor", "binary", "floor_fresh", "binary_fresh", "binary_before"):
@@ -284,7 +284,7 @@ async def _bass(http: aiohttp.ClientSession, base: str, port: int, floor_port: i
     for reader in (*readers.values(), *floors.values(), raw_socket):
         reader.close()
     await _send(http, base, "bass", "Stop")
-    results = _ratios(samples, {k: v for k, v in PAIRS.items() if k in samples})
+    results: dict[str, Any] = _ratios(samples, {k: v for k, v in PAIRS.items() if k in samples})
     results["strict"] = _strict_ratios(samples)
     for name in ("floor", "binary", "socket", "floor_fresh", "binary_fresh", "binary_before"):
         if name in results:

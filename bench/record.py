@@ -52,7 +52,8 @@ async def _record(recorder: Any, path: str, seconds: float) -> dict[str, Any]:
 
 async def _cpu_blocks(recorder: Any, pid: int, block: float, blocks: int) -> dict[str, Any]:
     """The gateway's CPU (cores) in blocks without and with a recording, alternating."""
-    off, on = [], []
+    off: list[float] = []
+    on: list[float] = []
     for n in range(blocks):
         for case in (("off", "on") if n % 2 == 0 else ("on", "off")):
             before, started = cpu_seconds(pid), time.perf_counter()

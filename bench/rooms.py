@@ -86,7 +86,7 @@ def _early_cost(repeats: int) -> list[dict[str, Any]]:
     return rows
 
 
-async def run(seconds: float = 4.0, rounds: int = 5, repeats: int = 9) -> Result:
+async def run(seconds: float = 4.0, rounds: int = 15, repeats: int = 9) -> Result:
     """Real-time factors and the early part's cost per order (in a thread: the benchmark's loop stays free)."""
     factors = await asyncio.to_thread(_render, seconds, rounds)
     early = await asyncio.to_thread(_early_cost, repeats)

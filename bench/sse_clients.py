@@ -16,13 +16,14 @@ import asyncio
 import threading
 import time
 from collections.abc import Callable
+from typing import Any
 
 import aiohttp
 import httpx
 import orjson
 import requests
 import sseclient
-from aiohttp_sse_client import client as aiohttp_sse
+from aiohttp_sse_client import client as aiohttp_sse  # type: ignore[import-untyped]
 from httpx_sse import connect_sse
 
 from ._common import Result, server, summary, verdict
@@ -65,7 +66,7 @@ def _sseclient(base: str, headers: dict[str, str], record: Record, ready: thread
                stop: threading.Event) -> None:
     reply = requests.get(f"{base}/session/listen?s={SESSION}", stream=True, headers=headers, timeout=30)
     ready.set()
-    for event in sseclient.SSEClient(reply).events():
+    for event in sseclient.SSEClient(reply.iter_content(128)).events():
         if event.event == "request":
             record(event.data.encode())
         if stop.is_set():
@@ -105,9 +106,11 @@ async def run(events: int = 50) -> Result:
             transport.write(f"GET /session/listen?s={SESSION} HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n".encode())
             stop = threading.Event()
             threads, readies = [], []
-            for target, args in [(_sseclient, (base, STANDARD, _recorder(latencies[readers[1]]))),
-                                 (_httpx_sse, (base, _recorder(latencies[readers[2]]))),
-                                 (_sseclient, (base, {}, _recorder(latencies[readers[4]])))]:
+            blocking: list[tuple[Callable[..., None], tuple[Any, ...]]] = [
+                (_sseclient, (base, STANDARD, _recorder(latencies[readers[1]]))),
+                (_httpx_sse, (base, _recorder(latencies[readers[2]]))),
+                (_sseclient, (base, {}, _recorder(latencies[readers[4]])))]
+            for target, args in blocking:
                 ready = threading.Event()
                 threads.append(threading.Thread(target=target, args=(*args, ready, stop), daemon=True))
                 readies.append(ready)

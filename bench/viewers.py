@@ -19,19 +19,22 @@ import contextlib
 import json
 import socket
 from collections.abc import AsyncIterator
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import aiohttp
 
 from ._common import Result, free_port, rss_bytes, verdict
 from .budgets import _gateway, _Peak, _send
 
+if TYPE_CHECKING:
+    from websockets.typing import Subprotocol
+
 MIB = 2**20
 #: The gateway's default budget of one viewer (``--max-viewer-bytes``) and count (``--max-viewers``).
 VIEWER_BYTES = 32 * MIB
 MAX_VIEWERS = 8
 BEFORE = {1: 144, 4: 553}  # MiB, measured in issue 29 with the Foxglove SDK's server
-SUBPROTOCOL = ["foxglove.sdk.v1"]
+SUBPROTOCOL = cast("list[Subprotocol]", ["foxglove.sdk.v1"])
 
 
 @contextlib.asynccontextmanager
@@ -43,7 +46,7 @@ async def _never_reading(port: int, wanted: Any) -> AsyncIterator[Any]:
     raw.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
     raw.setblocking(False)
     await asyncio.get_running_loop().sock_connect(raw, ("127.0.0.1", port))
-    async with websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOL,  # type: ignore[list-item]
+    async with websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOL,
                                   sock=raw, max_queue=1, max_size=None, close_timeout=0.1) as viewer:
         channels = await _channels(viewer)
         await viewer.send(json.dumps({"op": "subscribe", "subscriptions": [
@@ -71,7 +74,7 @@ async def _reader(port: int, got: list[int]) -> None:
     """A viewer that reads the head and a camera, counting what it gets."""
     import websockets
 
-    async with websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOL,  # type: ignore[list-item]
+    async with websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOL,
                                   max_size=None) as viewer:
         channels = {c["topic"]: c for c in await _channels(viewer)}
         await viewer.send(json.dumps({"op": "subscribe", "subscriptions": [
@@ -108,7 +111,7 @@ async def _crowd(port: int, tries: int) -> Result:
 
     async def one() -> int:
         try:
-            viewer = await websockets.connect(f"ws://127.0.0.1:{port}",  # type: ignore[list-item]
+            viewer = await websockets.connect(f"ws://127.0.0.1:{port}",
                                               subprotocols=SUBPROTOCOL, open_timeout=60)
         except websockets.InvalidStatus as refused:
             return int(refused.response.status_code)

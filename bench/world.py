@@ -85,7 +85,7 @@ async def _lateness(seconds: float) -> tuple[list[float], list[float], float]:
     return late, accounted, running
 
 
-def _pooled(rounds: list[list[float]]) -> dict[str, float | list[float]]:
+def _pooled(rounds: list[list[float]]) -> dict[str, Any]:
     """Median and p99 of every sample of *rounds* (ms), the worst of all and of each round."""
     worsts = [max(samples) * 1e3 for samples in rounds]
     return summary([s for samples in rounds for s in samples]) | {"worst": max(worsts), "round_worsts": worsts}

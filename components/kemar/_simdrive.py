@@ -94,10 +94,12 @@ class SimulatedHarmonica:
     ) -> None:
         if not limits[0] < start_azimuth < limits[1]:
             raise ValueError(f"start azimuth {start_azimuth} must lie between the limits {limits}")
-        if channel is None and bus is None:
+        if bus is not None:
+            channel = str(bus.channel_info)
+        elif channel is None:
             channel = f"kemar-sim-{uuid.uuid4().hex[:12]}"
         self.interface = interface
-        self.channel = channel if bus is None else str(bus.channel_info)
+        self.channel: str = channel
         self.clock: Clock = clock or RealClock()
         self.counts_per_degree = counts_per_degree
         self._limits = limits
