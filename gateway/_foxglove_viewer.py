@@ -181,7 +181,8 @@ class Viewer:
         await asyncio.gather(self._writer, return_exceptions=True)
         if goodbye > 0 and not self.socket.closed:
             try:
-                await asyncio.wait_for(self.socket.close(code=1001, message=b"the gateway stops"), goodbye)
+                async with asyncio.timeout(goodbye):    # not wait_for: on 3.11 it can lose a cancellation
+                    await self.socket.close(code=1001, message=b"the gateway stops")
             except (TimeoutError, ConnectionError):
                 self._transport.abort()
 

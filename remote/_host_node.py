@@ -119,8 +119,11 @@ class HostNode:
                 self._beat.put(orjson.dumps(beat))
             self._hurry.clear()
             # A hearer that asks for more frequent beats gets the next one at once, not after the old period.
+            # asyncio.timeout, not wait_for: on Python 3.11 wait_for loses a cancellation that comes in
+            # the turn the hurry wakes it (a gateway going as the host closes), and close waited for ever.
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._hurry.wait(), self.beat_period())
+                async with asyncio.timeout(self.beat_period()):
+                    await self._hurry.wait()
 
     def _on_hearer(self, sample: zenoh.Sample) -> None:
         hearer = parse_hear(str(sample.key_expr))

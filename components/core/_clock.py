@@ -290,8 +290,10 @@ class VirtualClock(ManualClock):
                 ahead = self._real_origin + deadline / self.scale - time.monotonic()
                 if ahead > 0:
                     # Pacing for a person watching; a sleeper with an earlier deadline may arrive meanwhile.
+                    # (asyncio.timeout: wait_for on Python 3.11 loses a cancellation racing the change.)
                     with contextlib.suppress(TimeoutError):
-                        await asyncio.wait_for(asyncio.shield(self._change()), ahead)
+                        async with asyncio.timeout(ahead):
+                            await asyncio.shield(self._change())
                     continue
                 # Behind real time (a busy machine): the simulation goes on from here, slower, never
                 # rushing later to catch up.

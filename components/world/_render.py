@@ -122,7 +122,8 @@ class SensorRenderer:
                 self._on_spawn(self._process.pid)
             self._send(("open", self._xml, self.width, self.height, self._laser))
             try:
-                reply = await asyncio.wait_for(self._receive(), START_TIMEOUT)
+                async with asyncio.timeout(START_TIMEOUT):
+                    reply = await self._receive()
             except TimeoutError:
                 raise RenderError(f"the render process did not start within {START_TIMEOUT:g} s") from None
         except OSError as exc:
@@ -161,8 +162,10 @@ class SensorRenderer:
         self._pending[seq] = slots
         while True:
             try:
-                # Cancelled here: the slots stay pending until the reply.
-                reply = await asyncio.wait_for(self._receive(), FRAME_TIMEOUT)
+                # Cancelled here: the slots stay pending until the reply.  (asyncio.timeout: on
+                # Python 3.11 wait_for loses a cancellation that comes in the turn a reply arrives.)
+                async with asyncio.timeout(FRAME_TIMEOUT):
+                    reply = await self._receive()
             except TimeoutError:
                 raise RenderError(f"the render process drew no frame in {FRAME_TIMEOUT:g} s") from None
             if reply[1] == seq:
@@ -207,7 +210,8 @@ class SensorRenderer:
                     with contextlib.suppress(ConnectionError):
                         await process.stdin.wait_closed()
                 with contextlib.suppress(TimeoutError):
-                    await asyncio.wait_for(process.wait(), CLOSE_TIMEOUT)
+                    async with asyncio.timeout(CLOSE_TIMEOUT):
+                        await process.wait()
                 if process.returncode is None:
                     _kill(process)
                     await process.wait()
