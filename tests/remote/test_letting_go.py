@@ -276,7 +276,7 @@ async def test_a_host_closes_though_its_heartbeat_is_hurried_as_it_closes(endpoi
     # gateway that asks nothing gets the shortest period), often just as the host closes. A heartbeat
     # woken in the very loop turn that cancels it must still stop: with ``asyncio.wait_for`` on
     # Python 3.11 the cancellation was lost and the host's close waited for the heartbeat for ever
-    # (the flake hunt's quiet run 8 of 2573bcc, in the test above).
+    # (the flake hunt's quiet run 8 of 2573bcc, in test_withdrawn_data_reaches_every_gateway_and_comes_back).
     async with robot(endpoint) as (_, node):
         await asyncio.sleep(0)          # one turn: the heartbeat, made with the node, is in its wait
         node._hurry.set()               # what a hearer that goes does (HostNode._hearer_changed) ...
