@@ -15,7 +15,7 @@ import os
 import shutil
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import AsyncIterator, Iterator
 
 import pytest
 
@@ -91,6 +91,41 @@ async def run_in(prefix: list[str], *command: str, timeout: float = 60) -> str:
 async def python_in(prefix: list[str], script: str, timeout: float = 60) -> object:
     """Run a Python *script* under *prefix*; return the JSON it prints last."""
     return json.loads((await run_in(prefix, sys.executable, "-c", script, timeout=timeout)).splitlines()[-1])
+
+
+#: Waits for a packet received on interface argv[1] that holds the bytes argv[2]; says "ready", then "seen".
+_SNIFFER = """
+import socket, sys
+interface, wanted = sys.argv[1], sys.argv[2].encode()
+sniffer = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(0x0003))  # every protocol
+sniffer.bind((interface, 0))
+print("ready", flush=True)
+while wanted not in sniffer.recv(65536):
+    pass
+print("seen", flush=True)
+"""
+
+
+@contextlib.asynccontextmanager
+async def packet_seen(prefix: list[str], interface: str, wanted: bytes) -> AsyncIterator[asyncio.Future[bytes]]:
+    """A future of ``b"seen\\n"`` once a packet holding *wanted* arrives on *interface* under *prefix*.
+
+    Watching starts before the block runs. (Zenoh over TCP is clear text: a query's key and payload show.)
+    """
+    sniffer = await asyncio.create_subprocess_exec(*prefix, sys.executable, "-c", _SNIFFER, interface,
+                                                   wanted.decode(), stdout=asyncio.subprocess.PIPE)
+    assert sniffer.stdout is not None
+    seen: asyncio.Future[bytes] | None = None
+    try:
+        assert await asyncio.wait_for(sniffer.stdout.readline(), 30) == b"ready\n"
+        seen = asyncio.ensure_future(sniffer.stdout.readline())
+        yield seen
+    finally:
+        if seen is not None:
+            seen.cancel()
+        if sniffer.returncode is None:
+            sniffer.kill()
+        await sniffer.wait()
 
 
 async def curl(prefix: list[str], url: str) -> tuple[int, object]:

@@ -8,13 +8,11 @@ eight processes): run once, on the default Python (``AIOGENOMIX_HEAVY=0`` skips 
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import json
 import os
 import pathlib
 import shutil
 import signal
-import sys
 from collections.abc import AsyncIterator, Iterable
 
 import pytest
@@ -23,7 +21,7 @@ from aiogenomix.remote import RemoteTimeouts
 from aiogenomix.remote._wire import beat_period
 from bench._netns import INTERFACE, Star, star, unavailable
 
-from ._namespaces import curl, python_in
+from ._namespaces import curl, packet_seen, python_in
 from ._processes import Process, start_component_host, start_gateway, start_router
 
 pytestmark = pytest.mark.skipif(os.environ.get("AIOGENOMIX_HEAVY") == "0",
@@ -99,41 +97,6 @@ class Deployment:
         return min(counts)
 
 
-#: Waits on a machine's interface for a received packet holding the bytes of argv[1]; says "ready", then "seen".
-_SNIFFER = f"""
-import socket, sys
-wanted = sys.argv[1].encode()
-sniffer = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(0x0003))  # every protocol
-sniffer.bind(("{INTERFACE}", 0))
-print("ready", flush=True)
-while wanted not in sniffer.recv(65536):
-    pass
-print("seen", flush=True)
-"""
-
-
-@contextlib.asynccontextmanager
-async def query_seen(prefix: list[str], wanted: bytes) -> AsyncIterator[asyncio.Future[bytes]]:
-    """A future of ``b"seen\\n"`` once a packet holding *wanted* arrives on the machine of *prefix*.
-
-    (Zenoh over TCP is clear text.)
-    """
-    sniffer = await asyncio.create_subprocess_exec(*prefix, sys.executable, "-c", _SNIFFER, wanted.decode(),
-                                                   stdout=asyncio.subprocess.PIPE)
-    assert sniffer.stdout is not None
-    seen: asyncio.Future[bytes] | None = None
-    try:
-        assert await asyncio.wait_for(sniffer.stdout.readline(), 30) == b"ready\n"
-        seen = asyncio.ensure_future(sniffer.stdout.readline())
-        yield seen
-    finally:
-        if seen is not None:
-            seen.cancel()
-        if sniffer.returncode is None:
-            sniffer.kill()
-        await sniffer.wait()
-
-
 async def test_a_host_hears_no_more_when_five_more_hosts_come(lab: Star, started: list[Process],
                                                                tmp_path: pathlib.Path) -> None:
     rig = Deployment(lab, started, tmp_path)
@@ -159,7 +122,7 @@ async def test_a_request_in_flight_when_its_host_vanishes_and_its_instance_after
     # Frozen first: the send's query reaches the host's machine and waits there; then the process dies.
     # The query itself, seen on the wire: a packet count also grows with the router's other traffic, and
     # a kill before the query left made the gateway refuse a send to a host it knew gone (another message).
-    async with query_seen(lab.on("h01"), b"GetSpeed") as seen:
+    async with packet_seen(lab.on("h01"), INTERFACE, b"GetSpeed") as seen:
         host.kill(signal.SIGSTOP)
         sending = asyncio.ensure_future(rig.get("/module/h01d/send/GetSpeed"))
         assert await asyncio.wait_for(seen, 30) == b"seen\n"
