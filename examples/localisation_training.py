@@ -4,6 +4,7 @@ Run it with the project's virtualenv (one core; about 5 minutes)::
 
     .venv/bin/python examples/localisation_training.py
     .venv/bin/python examples/localisation_training.py --cases 3      # a quick look
+    .venv/bin/python examples/localisation_training.py --turns --jobs 2   # the planner's largest turn (15 min)
 
 Each training case is drawn as the experiment's are (``binaural.talkers_experiment``: one to three
 speech-like talkers on the 5° grid, 1.3 to 1.7 m away, a diffuse noise field) but in other rooms
@@ -21,11 +22,17 @@ confusions and of cases counted right is printed per head. The defaults of ``Gli
 and ``SourceCounting`` are the candidate with the most talkers within 5° on the KEMAR (still and
 turning); ``TURNING_FRONT_BACK_WEIGHT`` is the front/back weight with the most talkers within 5°
 on the spherical head with a turn that keeps the KEMAR's within 3 points of its best.
+
+``--turns`` runs the experiment's own ``filter`` strategy (a planned turn after 0.5 s, 1 s of audio in all)
+in the training rooms on both training heads, for each largest turn the planner may take
+(:data:`LARGEST_TURNS`); the experiment's ``TalkersConfig.max_turn`` is the one with the most talkers
+within 5° over both heads.
 """
 
 from __future__ import annotations
 
 import argparse
+import concurrent.futures
 import dataclasses
 import os
 import sys
@@ -42,13 +49,17 @@ from aiogenomix.components.binaural import (  # noqa: E402
     load_kemar, wrap_degrees,
 )
 from aiogenomix.components.binaural.talkers_experiment import (  # noqa: E402
-    TRAINING_ROOMS, TalkerCase, TalkersConfig, match_talkers, turning_head,
+    TRAINING_ROOMS, Summary, TalkerCase, TalkersConfig, head_set, match_talkers, run_talkers, summarise_talkers,
+    turning_head,
 )
 
 #: The seed of the training cases (the experiment's is 31).
 SEED = 777
 #: The training turn, degrees (either way, alternately).
 TURN = 30.0
+
+#: The largest turns the experiment's planner (``filter``) may be allowed, degrees.
+LARGEST_TURNS = (30.0, 45.0, 60.0, 90.0)
 
 #: The candidates: (name, glimpse parameters, counting rules, front/back weight of a turning head's filter).
 CANDIDATES: list[tuple[str, GlimpseParameters, SourceCounting, float]] = [
@@ -117,13 +128,55 @@ def score(config: TalkersConfig, cases: list[dict[str, object]], parameters: Gli
             for key, t in tallies.items()}
 
 
+def _turn_summaries(turn: float, head: str, cases: int) -> list[Summary]:
+    """The ``filter`` strategy's measures on one training head with the planner's largest turn *turn*."""
+    config = TalkersConfig(rooms=TRAINING_ROOMS, heads=(head,), cases=cases, seed=SEED, max_turn=turn,
+                           strategies=("filter",))
+    results, _ = run_talkers(config, heads=lambda name: sphere_hrirs() if name == "sphere" else head_set(name))
+    return summarise_talkers(results)
+
+
+def largest_turns(cases: int, jobs: int) -> None:
+    """The experiment's ``filter`` strategy in the training rooms, per head and largest turn the planner may take.
+
+    Each head runs alone (its cases drawn as the experiment draws the first head's, from :data:`SEED`), so
+    a head's figures do not depend on the other's; *jobs* processes share the runs.
+    """
+    heads = ("kemar", "sphere")
+    with concurrent.futures.ProcessPoolExecutor(jobs) as pool:
+        runs = {(turn, head): pool.submit(_turn_summaries, turn, head, cases) for turn in LARGEST_TURNS
+                for head in heads}
+        print("The planned turn's largest angle: talkers within 5° / front-back confusions / counted right, %, "
+              "both training rooms\n")
+        print("| largest turn | " + " | ".join(f"{head}, {n} talker{'s' * (n > 1)}" for head in heads
+                                             for n in (1, 2, 3)) + " | kemar, all | sphere, all |")
+        print("|---|" + "---:|" * 8)
+        for turn in LARGEST_TURNS:
+            cells, overall = [], []
+            for head in heads:
+                summaries = runs[turn, head].result()
+                for n in (1, 2, 3):
+                    chosen = [s for s in summaries if s.talkers == n]
+                    cells.append(" / ".join(f"{100 * np.mean([getattr(s, field) for s in chosen]):.0f}"
+                                            for field in ("within_5", "front_back", "count_right")))
+                within = np.average([s.within_5 for s in summaries], weights=[s.talkers for s in summaries])
+                overall.append(f"{100 * within:.0f}")
+            print(f"| {turn:.0f}° | " + " | ".join(cells + overall) + " |", flush=True)
+
+
 def main() -> None:
     """Score every candidate on the training scenes; print a table."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--cases", type=int, default=6, help="cases per head, room and number of talkers")
+    parser.add_argument("--cases", type=int, help="cases per head, room and number of talkers (6; --turns: 16)")
+    parser.add_argument("--turns", action="store_true",
+                        help="score the largest turn of the experiment's planner (its `filter` strategy) instead")
+    parser.add_argument("--jobs", type=int, default=1, help="with --turns: processes running the heads and turns")
     args = parser.parse_args()
+    if args.turns:
+        largest_turns(args.cases or 16, args.jobs)
+        return
     config = TalkersConfig()
-    cases = training_cases(config, args.cases)
+    cases = training_cases(config, args.cases or 6)
     columns = [(head, which) for head in ("kemar", "sphere") for which in ("still", "turning")]
     print("Within 5° / front-back confusions / counted right, %\n")
     print("| candidate | " + " | ".join(f"{head}, {which}" for head, which in columns) + " |")

@@ -5,6 +5,9 @@ Run it with the project's virtualenv (one core; about an hour for the full run o
     .venv/bin/python examples/talkers_experiment.py                 # print the tables
     .venv/bin/python examples/talkers_experiment.py --write         # and update the docs and the plot
     .venv/bin/python examples/talkers_experiment.py --cases 4 --rooms 2 --heads snowman   # a quick look
+    .venv/bin/python examples/talkers_experiment.py --heads kemar --save k.json    # one head per process,
+    .venv/bin/python examples/talkers_experiment.py --heads snowman --save s.json  # side by side,
+    .venv/bin/python examples/talkers_experiment.py --load k.json s.json --header "..." --write   # then together
 
 ``--write`` replaces the results part of the experiment's section of ``docs/localisation.md`` and
 draws ``docs/images/talkers.png``. The protocol is the docstring of
@@ -30,7 +33,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 from aiogenomix.components.binaural.talkers_experiment import (  # noqa: E402
-    STRATEGIES, TEST_ROOMS, Summary, TalkersConfig, run_talkers, summarise_talkers,
+    STRATEGIES, TEST_ROOMS, CaseResult, Summary, TalkersConfig, run_talkers, summarise_talkers,
 )
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -86,8 +89,10 @@ def plot(summaries: list[Summary], path: pathlib.Path) -> None:
         ax.set_ylim(0, 100)
         if column == 0:
             ax.set_ylabel("talkers within 5° (%)")
-    axes[0, -1].legend(fontsize=7, loc="lower left")
-    figure.tight_layout()
+    # Below the panels: inside, it hides bars.
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    figure.legend(handles, labels, fontsize=8, loc="lower center", ncol=len(strategies), frameon=False)
+    figure.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))
     path.parent.mkdir(parents=True, exist_ok=True)
     figure.savefig(path, dpi=90)
 
@@ -101,7 +106,19 @@ def main() -> None:
     parser.add_argument("--talkers", type=int, nargs="*", default=list(TalkersConfig().talkers))
     parser.add_argument("--write", action="store_true", help="update docs/localisation.md and the plot")
     parser.add_argument("--save", type=pathlib.Path, help="also keep every case's results in this JSON file")
+    parser.add_argument("--load", type=pathlib.Path, nargs="+",
+                        help="run nothing: the tables of results kept by --save (several runs, e.g. one per head)")
+    parser.add_argument("--header", help="with --load: the line that says how the loaded runs were made")
     args = parser.parse_args()
+    if args.load:
+        loaded = [CaseResult(**{**r, "azimuths": tuple(r["azimuths"]),
+                                "estimates": {k: tuple(v) for k, v in r["estimates"].items()},
+                                "turns": {k: tuple(v) for k, v in r["turns"].items()}})
+                  for path in args.load for r in json.loads(path.read_text())]
+        summaries = summarise_talkers(loaded)
+        header = args.header or "Results loaded from " + ", ".join(map(str, args.load))
+        write(header + "\n\n" + tables(summaries), summaries, args.write)
+        return
     rooms = TEST_ROOMS if not args.rooms else tuple(TEST_ROOMS[i] for i in args.rooms)
     config = dataclasses.replace(TalkersConfig(), cases=args.cases, rooms=rooms, heads=tuple(args.heads),
                                  talkers=tuple(args.talkers))
@@ -113,11 +130,16 @@ def main() -> None:
         args.save.write_text(json.dumps([dataclasses.asdict(r) for r in results]))
     header = (f"Measured {time.strftime('%Y-%m-%d')} on {platform.machine()}, Python {platform.python_version()}, "
               f"one core; {config.cases} cases per room, head and number of talkers, seed {config.seed}, "
-              f"{config.rate:g} Hz, head turning at {config.turn_speed:g}°/s; the run took {took / 60:.0f} min "
+              f"{config.rate:g} Hz, head turning at {config.turn_speed:g}°/s (at most {config.max_turn:g}° a turn); "
+              f"the run took {took / 60:.0f} min "
               f"(the new localiser at {timing.audio / max(timing.localise, 1e-9):.0f}× real time, processor time).")
-    text = header + "\n\n" + tables(summaries)
+    write(header + "\n\n" + tables(summaries), summaries, args.write)
+
+
+def write(text: str, summaries: list[Summary], to_docs: bool) -> None:
+    """Print the results' text; with *to_docs*, put it in the docs' experiment section and draw the plot."""
     print(text)
-    if args.write:
+    if to_docs:
         doc = DOC.read_text()
         block = f"{BEGIN}\n{text}{END}"
         if BEGIN in doc:

@@ -24,8 +24,9 @@ which the templates never saw. Then the **strategies**, each with the same amoun
   unused), 0.5 s; the two looks' posteriors added in the room, mirror images dropped
   (:func:`~._head_movement.ma_combine`);
 * ``filter``: the seed's layers (B) + (C): 0.5 s, then a turn where :class:`~._head_movement.TurnPlanner`
-  expects to tell most (at most 30°), every frame fed to the room filter with the head's azimuth
-  of its time, the frames heard while the head turns included, until 1 s of audio in all;
+  expects to tell most (at most 60°, chosen on the training rooms and heads), every frame fed to the
+  room filter with the head's azimuth of its time, the frames heard while the head turns included,
+  until 1 s of audio in all;
 * ``still, 2 s`` and ``filter, 2 s``: the same with twice the audio (the filter turning after
   each 0.5 s, up to three times).
 
@@ -143,7 +144,7 @@ class TalkersConfig:
     cases: int = 40
     rate: float = 24_414.0
     turn_speed: float = 90.0
-    max_turn: float = 30.0
+    max_turn: float = 60.0
     seed: int = 31
     setup: LocaliserSetup = LocaliserSetup()
     parameters: GlimpseParameters = GlimpseParameters()
@@ -255,20 +256,23 @@ def turning_head(start: float, target: float, at: float, speed: float) -> Callab
 
 
 def _path(turns: Sequence[tuple[float, float]], start: float, speed: float) -> Callable[[float], float]:
-    """The head's azimuth over time through turns ``(at seconds, target azimuth)``, one after the other."""
-    pieces = []
-    head = start
-    for at, target in turns:
-        pieces.append((at, turning_head(head, target, at, speed)))
-        head = target
+    """The head's azimuth over time through turns ``(at seconds, target azimuth)``, one after the other.
+
+    Each turn starts where the head is at its time: a turn not finished when the next begins is cut short
+    there (the head does not jump).
+    """
+    pieces: list[tuple[float, Callable[[float], float]]] = []
 
     def azimuth(seconds: float) -> float:
         current = start
         for at, piece in pieces:
-            if seconds >= at:
-                current = piece(seconds)
+            if seconds < at:
+                break
+            current = piece(seconds)
         return current
 
+    for at, target in turns:      # in time order: each starts where the ones before left the head
+        pieces.append((at, turning_head(azimuth(at), target, at, speed)))
     return azimuth
 
 
@@ -351,11 +355,14 @@ class _Strategies:
         config, rate = self.config, self.config.rate
         room = RoomAzimuthFilter(capacity=1000, counting=config.counting, front_back_weight=config.front_back_weight)
         room.add(first, first_heads)
-        looks, planned = [0.0], []
+        looks: list[float] = [0.0]
+        planned: list[tuple[float, float]] = []
         heard = 0.5
         while heard < seconds - 1e-9:
             weights, _ = room.distribution()
-            target = self.planner.next_head(weights, looks, looks[-1], (-90.0, 90.0))
+            # From where the head is: a turn of more than half a second's travel is not over yet.
+            now = _path(planned, 0.0, config.turn_speed)(heard)
+            target = self.planner.next_head(weights, looks, now, (-90.0, 90.0))
             planned.append((heard, target))
             path = _path(planned, 0.0, config.turn_speed)
             ears = self._render(case, min(seconds, heard + 0.5), path)
@@ -368,13 +375,19 @@ class _Strategies:
         return tuple(t for _, t in planned), room
 
 
-def run_talkers(config: TalkersConfig = TalkersConfig(), *,
-                progress: Callable[[str], None] | None = None) -> tuple[list[CaseResult], Timing]:
-    """Run every case of *config*; return the results and the new localiser's timing."""
+def run_talkers(config: TalkersConfig = TalkersConfig(), *, progress: Callable[[str], None] | None = None,
+                heads: Callable[[str], HrirSet] = head_set) -> tuple[list[CaseResult], Timing]:
+    """Run every case of *config*; return the results and the new localiser's timing.
+
+    Args:
+        config: What to run.
+        progress: Told a line after each room, head and number of talkers.
+        heads: The HRIRs of a head named in ``config.heads`` (the training script's knows a training head).
+    """
     strategies = _Strategies(config)
     results = []
     for h_index, head in enumerate(config.heads):
-        hrirs = head_set(head)
+        hrirs = heads(head)
         for r_index, room in enumerate(config.rooms):
             for count in config.talkers:
                 for index in range(config.cases):

@@ -55,3 +55,13 @@ def test_on_a_head_the_templates_never_saw_two_talkers_in_a_room_are_told_from_t
 def test_a_configuration_names_heads_it_has() -> None:
     with pytest.raises(ValueError, match="kemar or snowman"):
         run_talkers(TalkersConfig(heads=("dummy",), cases=1))
+
+
+def test_a_turn_not_over_when_the_next_begins_leaves_the_head_where_it_was() -> None:
+    from aiogenomix.components.binaural.talkers_experiment import _path
+
+    # 60 degrees at 90 degrees/s takes 0.67 s; the next turn comes after 0.5 s, from 45 degrees.
+    path = _path([(0.5, 60.0), (1.0, 20.0)], 0.0, 90.0)
+    azimuths = [path(t / 100) for t in range(0, 201)]
+    assert max(abs(b - a) for a, b in zip(azimuths, azimuths[1:], strict=False)) <= 0.9 + 1e-9
+    assert path(1.0) == pytest.approx(45.0) and path(2.0) == pytest.approx(20.0)
