@@ -4,7 +4,7 @@ Run it with the project's virtualenv (one core; about 5 minutes)::
 
     .venv/bin/python examples/localisation_training.py
     .venv/bin/python examples/localisation_training.py --cases 3      # a quick look
-    .venv/bin/python examples/localisation_training.py --turns --jobs 2   # the planner's largest turn (15 min)
+    .venv/bin/python examples/localisation_training.py --turns --jobs 2   # the planner's largest turn (5 min)
 
 Each training case is drawn as the experiment's are (``binaural.talkers_experiment``: one to three
 speech-like talkers on the 5° grid, 1.3 to 1.7 m away, a diffuse noise field) but in other rooms

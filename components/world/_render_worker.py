@@ -32,11 +32,12 @@ __all__ = ["read_message", "write_message", "pack_message", "unpack_message", "H
 
 #: The frame of a message: its length in octets.
 HEADER = struct.Struct(">I")
-#: How much lower than the gateway the render process runs (``nice``) once it is ready: frames are best
-#: effort (as MORSE's), the gateway's requests come first when the CPUs are busy. Its start (MuJoCo, the
-#: OpenGL context, the model) runs at the gateway's priority: it is done once, the cameras are down until it
-#: ends, and at nice 10 beside busy cores it was starved (the recovery test's 15 starts beside three CPU
-#: hogs: 75 s at nice 10 throughout, 26 s with the start at the gateway's priority, 13 s at nice 0).
+#: How much lower than the gateway the render process runs (``nice``), from its start: frames are best
+#: effort (as MORSE's), the gateway's requests and audio capture come first when the CPUs are busy. Its
+#: start (MuJoCo, the OpenGL context, the model) too, though the cameras are down until it ends: beside
+#: three CPU hogs, 15 starts took 75 s at nice 10 and 26 s with the start at the gateway's priority, but
+#: the first suite run made so lost a chunk in the README's recording (which runs the rig ten times faster
+#: than real time: its 1 s window is 100 ms), the first such loss in some twenty runs.
 NICENESS = 10
 
 
@@ -152,7 +153,6 @@ def serve(fd: int, inbox: BinaryIO, outbox: BinaryIO) -> None:
                     write_message(outbox, ("error", _error(exc)))
                     return
                 write_message(outbox, ("ready",))
-                _lower_priority()
             elif kind == "render" and sensors is not None:
                 _, seq, qpos, cameras, with_laser = message
                 try:
@@ -165,14 +165,6 @@ def serve(fd: int, inbox: BinaryIO, outbox: BinaryIO) -> None:
     finally:
         if sensors is not None:
             sensors.close()
-
-
-def _lower_priority() -> None:
-    """Let the gateway come first from now on: the render process is ready (see :data:`NICENESS`)."""
-    try:
-        os.nice(NICENESS)
-    except OSError:
-        pass
 
 
 def _die_with_parent(parent: int) -> None:
@@ -202,6 +194,10 @@ def main(argv: list[str]) -> int:
     # Ctrl-C in a terminal reaches the whole process group: the gateway stops the world, which ends
     # this process (its input closes); dying first would only make the world report a lost renderer.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        os.nice(NICENESS)
+    except OSError:
+        pass
     try:
         serve(int(argv[1]), sys.stdin.buffer, outbox)
     except BrokenPipeError:
