@@ -46,7 +46,7 @@ import numpy.typing as npt  # noqa: E402
 from aiogenomix.components.audio import sphere_hrirs  # noqa: E402
 from aiogenomix.components.binaural import (  # noqa: E402
     TURNING_FRONT_BACK_WEIGHT, GlimpseParameters, RoomAzimuthFilter, SourceCounting, SourceLocaliser,
-    load_kemar, wrap_degrees,
+    HrirSet, wrap_degrees,
 )
 from aiogenomix.components.binaural.talkers_experiment import (  # noqa: E402
     TRAINING_ROOMS, Summary, TalkerCase, TalkersConfig, head_set, match_talkers, run_talkers, summarise_talkers,
@@ -55,6 +55,8 @@ from aiogenomix.components.binaural.talkers_experiment import (  # noqa: E402
 
 #: The seed of the training cases (the experiment's is 31).
 SEED = 777
+#: The heads the parameters are set on (never the experiment's snowman).
+TRAINING_HEADS = ("kemar", "sphere")
 #: The training turn, degrees (either way, alternately).
 TURN = 30.0
 
@@ -82,11 +84,17 @@ CANDIDATES: list[tuple[str, GlimpseParameters, SourceCounting, float]] = [
 ]
 
 
+def training_head(name: str) -> HrirSet:
+    """The training head *name*: ``kemar`` (the templates' own) or ``sphere``."""
+    return sphere_hrirs() if name == "sphere" else head_set(name)
+
+
 def training_cases(config: TalkersConfig, count: int) -> list[dict[str, object]]:
     """The training scenes, per head: still and turning, rendered once and shared by every candidate."""
     rate = config.rate
     cases = []
-    for head, hrirs in (("kemar", load_kemar()), ("sphere", sphere_hrirs())):
+    for head in TRAINING_HEADS:
+        hrirs = training_head(head)
         for r_index, room in enumerate(TRAINING_ROOMS):
             for talkers in config.talkers:
                 for index in range(count):
@@ -132,7 +140,7 @@ def _turn_summaries(turn: float, head: str, cases: int) -> list[Summary]:
     """The ``filter`` strategy's measures on one training head with the planner's largest turn *turn*."""
     config = TalkersConfig(rooms=TRAINING_ROOMS, heads=(head,), cases=cases, seed=SEED, max_turn=turn,
                            strategies=("filter",))
-    results, _ = run_talkers(config, heads=lambda name: sphere_hrirs() if name == "sphere" else head_set(name))
+    results, _ = run_talkers(config, heads=training_head)
     return summarise_talkers(results)
 
 
@@ -142,7 +150,7 @@ def largest_turns(cases: int, jobs: int) -> None:
     Each head runs alone (its cases drawn as the experiment draws the first head's, from :data:`SEED`), so
     a head's figures do not depend on the other's; *jobs* processes share the runs.
     """
-    heads = ("kemar", "sphere")
+    heads = TRAINING_HEADS
     with concurrent.futures.ProcessPoolExecutor(jobs) as pool:
         runs = {(turn, head): pool.submit(_turn_summaries, turn, head, cases) for turn in LARGEST_TURNS
                 for head in heads}

@@ -25,6 +25,7 @@ import platform
 import re
 import sys
 import time
+from typing import Any
 
 # One core, as the figures claim (numpy's FFT is single-threaded; its BLAS might not be).
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -111,11 +112,7 @@ def main() -> None:
     parser.add_argument("--header", help="with --load: the line that says how the loaded runs were made")
     args = parser.parse_args()
     if args.load:
-        loaded = [CaseResult(**{**r, "azimuths": tuple(r["azimuths"]),
-                                "estimates": {k: tuple(v) for k, v in r["estimates"].items()},
-                                "turns": {k: tuple(v) for k, v in r["turns"].items()}})
-                  for path in args.load for r in json.loads(path.read_text())]
-        summaries = summarise_talkers(loaded)
+        summaries = summarise_talkers(load(args.load))
         header = args.header or "Results loaded from " + ", ".join(map(str, args.load))
         write(header + "\n\n" + tables(summaries), summaries, args.write)
         return
@@ -134,6 +131,16 @@ def main() -> None:
               f"the run took {took / 60:.0f} min "
               f"(the new localiser at {timing.audio / max(timing.localise, 1e-9):.0f}× real time, processor time).")
     write(header + "\n\n" + tables(summaries), summaries, args.write)
+
+
+def load(paths: list[pathlib.Path]) -> list[CaseResult]:
+    """The cases' results kept by ``--save`` in *paths*, in order."""
+    def case(kept: dict[str, Any]) -> CaseResult:
+        return CaseResult(**{**kept, "azimuths": tuple(kept["azimuths"]),
+                             "estimates": {k: tuple(v) for k, v in kept["estimates"].items()},
+                             "turns": {k: tuple(v) for k, v in kept["turns"].items()}})
+
+    return [case(kept) for path in paths for kept in json.loads(path.read_text())]
 
 
 def write(text: str, summaries: list[Summary], to_docs: bool) -> None:

@@ -357,12 +357,12 @@ class _Strategies:
         room.add(first, first_heads)
         looks: list[float] = [0.0]
         planned: list[tuple[float, float]] = []
+        path = _path(planned, 0.0, config.turn_speed)
         heard = 0.5
         while heard < seconds - 1e-9:
             weights, _ = room.distribution()
             # From where the head is: a turn of more than half a second's travel is not over yet.
-            now = _path(planned, 0.0, config.turn_speed)(heard)
-            target = self.planner.next_head(weights, looks, now, (-90.0, 90.0))
+            target = self.planner.next_head(weights, looks, path(heard), (-90.0, 90.0))
             planned.append((heard, target))
             path = _path(planned, 0.0, config.turn_speed)
             ears = self._render(case, min(seconds, heard + 0.5), path)

@@ -33,11 +33,10 @@ __all__ = ["read_message", "write_message", "pack_message", "unpack_message", "H
 #: The frame of a message: its length in octets.
 HEADER = struct.Struct(">I")
 #: How much lower than the gateway the render process runs (``nice``), from its start: frames are best
-#: effort (as MORSE's), the gateway's requests and audio capture come first when the CPUs are busy. Its
-#: start (MuJoCo, the OpenGL context, the model) too, though the cameras are down until it ends: beside
-#: three CPU hogs, 15 starts took 75 s at nice 10 and 26 s with the start at the gateway's priority, but
-#: the first suite run made so lost a chunk in the README's recording (which runs the rig ten times faster
-#: than real time: its 1 s window is 100 ms), the first such loss in some twenty runs.
+#: effort (as MORSE's), the gateway's requests and audio capture come first when the CPUs are busy. The
+#: start (MuJoCo, the OpenGL context, the model) too, though the cameras are down until it ends and busy
+#: cores make it slow (beside three CPU hogs, the recovery test's 15 starts take 75 s, 26 s at the gateway's
+#: priority): a start competing at the gateway's priority is what can make a capture lose a chunk.
 NICENESS = 10
 
 

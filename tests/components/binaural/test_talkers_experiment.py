@@ -12,7 +12,7 @@ from __future__ import annotations
 import pytest
 
 from aiogenomix.components.binaural.talkers_experiment import (
-    TEST_ROOMS, TalkersConfig, match_talkers, run_talkers, summarise_talkers,
+    TEST_ROOMS, TalkersConfig, _path, match_talkers, run_talkers, summarise_talkers,
 )
 
 
@@ -58,8 +58,6 @@ def test_a_configuration_names_heads_it_has() -> None:
 
 
 def test_a_turn_not_over_when_the_next_begins_leaves_the_head_where_it_was() -> None:
-    from aiogenomix.components.binaural.talkers_experiment import _path
-
     # 60 degrees at 90 degrees/s takes 0.67 s; the next turn comes after 0.5 s, from 45 degrees.
     path = _path([(0.5, 60.0), (1.0, 20.0)], 0.0, 90.0)
     azimuths = [path(t / 100) for t in range(0, 201)]

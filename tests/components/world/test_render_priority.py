@@ -34,4 +34,3 @@ async def test_the_render_process_runs_below_the_gateway(host: ComponentHost) ->
     await world.kemar_camera_left.wait_published()
     assert world.renderer.pid is not None
     assert niceness(world.renderer.pid) == min(19, niceness(os.getpid()) + NICENESS)
-
