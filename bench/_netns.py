@@ -3,7 +3,9 @@
 Each machine is a namespace of its own with one interface, ``agx0``, whose veth peer is a port of
 the bridge ``agxbr`` in the hub; every address is link-local (169.254.78.0/24: never routed, and
 never one of the machine's own). Nothing exists outside the namespaces, and :meth:`Star.close`
-(or leaving :func:`star`) deletes them all, whatever happened. Creating them needs root and ``ip``.
+(or leaving :func:`star`) deletes them all, whatever happened but the process's death: a star
+left by a process that was killed is deleted by the next :func:`star` on the machine. Creating
+them needs root and ``ip``.
 
 Shared by the scale benchmark and the tests that check what each host hears.
 """
@@ -14,16 +16,19 @@ import contextlib
 import dataclasses
 import json
 import os
+import re
 import shutil
 import subprocess
 from collections.abc import Iterator
 
-__all__ = ["Star", "star", "unavailable"]
+__all__ = ["Star", "star", "sweep", "unavailable"]
 
 #: The hub's address; machine *n* (from 1) has ``169.254.78.(n + 1)``.
 _NET = "169.254.78"
 #: Each machine's interface.
 INTERFACE = "agx0"
+#: The name of a namespace of a star named by its process (:func:`star`'s default prefix).
+_OWNED = re.compile(r"agxs(\d+)-\S+")
 
 
 def unavailable() -> str | None:
@@ -109,9 +114,38 @@ class Star:
         self.machines.clear()
 
 
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        pass
+    return True
+
+
+def sweep() -> list[str]:
+    """Delete the namespaces of stars whose process is dead (killed before it could); return their names.
+
+    Only names of :func:`star`'s default form (``agxs<pid>-...``) are touched, and only when no
+    process has that id: a star in use, by this process or another, stays.
+    """
+    swept = []
+    for line in _ip("netns", "list").splitlines():
+        name = line.split(" ", 1)[0]
+        owner = _OWNED.fullmatch(name)
+        if owner is not None and not _alive(int(owner.group(1))):
+            with contextlib.suppress(subprocess.CalledProcessError, subprocess.TimeoutExpired):
+                _ip("netns", "del", name)
+                swept.append(name)
+    return swept
+
+
 @contextlib.contextmanager
 def star(prefix: str | None = None) -> Iterator[Star]:
     """A :class:`Star` with its hub made; every namespace is deleted on the way out.
+
+    The stars of processes that died before deleting theirs are deleted first (:func:`sweep`).
 
     Raises:
         RuntimeError: when namespaces cannot be made here (:func:`unavailable` says why).
@@ -119,6 +153,7 @@ def star(prefix: str | None = None) -> Iterator[Star]:
     why = unavailable()
     if why is not None:
         raise RuntimeError(why)
+    sweep()
     lab = Star(prefix or f"agxs{os.getpid()}")
     try:
         lab.open()
