@@ -4,7 +4,8 @@ Each machine is a namespace of its own with one interface, ``agx0``, whose veth 
 the bridge ``agxbr`` in the hub; every address is link-local (169.254.78.0/24: never routed, and
 never one of the machine's own). Nothing exists outside the namespaces, and :meth:`Star.close`
 (or leaving :func:`star`) deletes them all, whatever happened but the process's death: a star
-left by a process that was killed is deleted by the next :func:`star` on the machine. Creating
+left by a process that was killed is deleted by the next :func:`star` on the machine, with what
+still runs in it. Creating
 them needs root and ``ip``.
 
 Shared by the scale benchmark and the tests that check what each host hears.
@@ -17,7 +18,9 @@ import dataclasses
 import json
 import os
 import re
+import select
 import shutil
+import signal
 import subprocess
 from collections.abc import Iterator
 
@@ -124,11 +127,28 @@ def _alive(pid: int) -> bool:
     return True
 
 
+def _kill(pid: int, timeout: float = 10.0) -> None:
+    """Kill process *pid* and wait (at most *timeout* seconds) until it has ended."""
+    try:
+        handle = os.pidfd_open(pid)  # the process itself, whatever id the system gives out next
+    except ProcessLookupError:
+        return
+    try:
+        signal.pidfd_send_signal(handle, signal.SIGKILL)
+        select.select([handle], [], [], timeout)  # readable once it has ended
+    except ProcessLookupError:
+        pass
+    finally:
+        os.close(handle)
+
+
 def sweep() -> list[str]:
     """Delete the namespaces of stars whose process is dead (killed before it could); return their names.
 
     Only names of :func:`star`'s default form (``agxs<pid>-...``) are touched, and only when no
-    process has that id: a star in use, by this process or another, stays.
+    process has that id: a star in use, by this process or another, stays. What still runs in a
+    swept namespace (a dead run's router or hosts, which would go on taking the machine's time) is
+    killed with it.
     """
     swept = []
     for line in _ip("netns", "list").splitlines():
@@ -136,6 +156,8 @@ def sweep() -> list[str]:
         owner = _OWNED.fullmatch(name)
         if owner is not None and not _alive(int(owner.group(1))):
             with contextlib.suppress(subprocess.CalledProcessError, subprocess.TimeoutExpired):
+                for pid in _ip("netns", "pids", name).split():
+                    _kill(int(pid))
                 _ip("netns", "del", name)
                 swept.append(name)
     return swept
