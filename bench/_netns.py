@@ -5,8 +5,7 @@ the bridge ``agxbr`` in the hub; every address is link-local (169.254.78.0/24: n
 never one of the machine's own). Nothing exists outside the namespaces, and :meth:`Star.close`
 (or leaving :func:`star`) deletes them all, whatever happened but the process's death: a star
 left by a process that was killed is deleted by the next :func:`star` on the machine, with what
-still runs in it. Creating
-them needs root and ``ip``.
+still runs in it. Creating them needs root and ``ip``.
 
 Shared by the scale benchmark and the tests that check what each host hears.
 """
@@ -132,6 +131,10 @@ def _kill(pid: int, timeout: float = 10.0) -> None:
     try:
         handle = os.pidfd_open(pid)  # the process itself, whatever id the system gives out next
     except ProcessLookupError:
+        return
+    except OSError:  # a kernel before 5.3: no pidfd, a plain kill
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
         return
     try:
         signal.pidfd_send_signal(handle, signal.SIGKILL)
