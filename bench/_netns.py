@@ -23,7 +23,7 @@ import signal
 import subprocess
 from collections.abc import Iterator
 
-__all__ = ["Star", "star", "sweep", "unavailable"]
+__all__ = ["Star", "namespaces", "star", "sweep", "unavailable"]
 
 #: The hub's address; machine *n* (from 1) has ``169.254.78.(n + 1)``.
 _NET = "169.254.78"
@@ -116,6 +116,11 @@ class Star:
         self.machines.clear()
 
 
+def namespaces() -> list[str]:
+    """The names of the machine's network namespaces (``ip netns list``)."""
+    return [line.split(" ", 1)[0] for line in _ip("netns", "list").splitlines()]
+
+
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -154,8 +159,7 @@ def sweep() -> list[str]:
     killed with it.
     """
     swept = []
-    for line in _ip("netns", "list").splitlines():
-        name = line.split(" ", 1)[0]
+    for name in namespaces():
         owner = _OWNED.fullmatch(name)
         if owner is not None and not _alive(int(owner.group(1))):
             with contextlib.suppress(subprocess.CalledProcessError, subprocess.TimeoutExpired):

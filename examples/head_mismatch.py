@@ -31,24 +31,25 @@ import numpy.typing as npt
 
 from aiogenomix.components.audio import sphere_hrirs
 from aiogenomix.components.binaural import (
-    GRID_DEGREES, HrirSet, LocaliserSetup, Pose, SourceLocaliser, Talker, load_kemar, read_sofa,
-    render_scene, snowman_hrirs, speech_like,
+    GRID_DEGREES, HrirSet, LocaliserSetup, Pose, SourceLocaliser, Talker, load_kemar, read_sofa, render_scene,
+    speech_like,
 )
+from aiogenomix.components.binaural.talkers_experiment import head_set
 
 RATE = 24_414.0
 SECONDS = 1.0
 LISTENER = Pose(0.0, 0.0, 1.5)
 
 
+#: The heads named rather than read from a file.
+NAMED = ("kemar", "snowman", "sphere")
+
+
 def head(name: str) -> HrirSet:
-    """The head *name*: ``kemar``, ``snowman``, ``sphere`` or a SOFA file."""
-    if name == "kemar":
-        return load_kemar()
-    if name == "snowman":
-        return snowman_hrirs()
+    """The head *name*: one of :data:`NAMED` or a SOFA file."""
     if name == "sphere":
         return sphere_hrirs()
-    return read_sofa(name)
+    return head_set(name) if name in NAMED else read_sofa(name)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -110,7 +111,7 @@ def main() -> None:
                         help="the talkers' azimuths, degrees, positive to the left (30 60 90 120)")
     args = parser.parse_args()
     localiser = SourceLocaliser(LocaliserSetup(rate=RATE))
-    label = args.head if args.head in ("kemar", "snowman", "sphere") else pathlib.Path(args.head).stem
+    label = args.head if args.head in NAMED else pathlib.Path(args.head).stem
     heads = {"kemar": load_kemar(), label: head(args.head)}                       # the KEMAR alone if asked
     columns = {(name, azimuth): band_directions(localiser, hrirs, azimuth)
                for azimuth in args.azimuths for name, hrirs in heads.items()}

@@ -12,7 +12,7 @@ import sys
 
 import pytest
 
-from bench._netns import star, unavailable
+from bench._netns import namespaces as listed, star, unavailable
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -32,9 +32,8 @@ with star() as lab:
 
 
 def namespaces() -> set[str]:
-    """The names of the machine's network namespaces."""
-    listed = subprocess.run(["ip", "netns", "list"], check=True, capture_output=True, text=True).stdout
-    return {line.split(" ", 1)[0] for line in listed.splitlines()}
+    """The names of the machine's network namespaces, as a set."""
+    return set(listed())
 
 
 def start_owner() -> tuple[subprocess.Popen[str], str, int]:
