@@ -86,12 +86,11 @@ class FastReads:
             return None
         if body is None:
             return None
-        pieces = body.pieces if isinstance(body, PiecesPayload) else (body,)
-        http_head = self._heads[binary] + b"Content-Length: %d\r\nDate: %s\r\n\r\n" % (
-            sum(len(piece) for piece in pieces), http_date().encode())
+        length = len(body) if isinstance(body, bytes) else body.size
+        http_head = self._heads[binary] + b"Content-Length: %d\r\nDate: %s\r\n\r\n" % (length, http_date().encode())
         if isinstance(body, bytes):
             return Written([http_head + body])  # small: one buffer, one write
-        return Written([http_head, *pieces])
+        return Written([http_head, *body.pieces], size=len(http_head) + length)
 
     def _body(self, instance: str, name: str, since: int | None, binary: bool) -> bytes | PiecesPayload | None:
         """The body of the read of port *name* of *instance*, or None for a port the routes answer."""

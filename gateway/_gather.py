@@ -28,6 +28,8 @@ copy.
 from __future__ import annotations
 
 import asyncio
+import bisect
+import itertools
 import os
 from collections.abc import Awaitable, Callable, Sequence
 
@@ -85,18 +87,23 @@ def write_gathered(fd: int, buffers: Sequence[Buffer]) -> int:
 
 def unsent(buffers: Sequence[Buffer], written: int) -> list[Buffer]:
     """The part of *buffers* after their first *written* bytes (a cut piece as a view, not a copy)."""
-    for index, piece in enumerate(buffers):
-        if written < len(piece):
-            rest = list(buffers[index:])
-            if written:
-                rest[0] = memoryview(piece)[written:]
-            return rest
-        written -= len(piece)
-    return []
+    if not written:
+        return list(buffers)
+    # The pieces' ends found in C: a window's reply is a few hundred pieces, and a loop over
+    # them in Python cost a read of the 4000 ms window 25 µs on the benchmark's machine.
+    ends = list(itertools.accumulate(map(len, buffers)))
+    index = bisect.bisect_right(ends, written)
+    if index == len(buffers):
+        return []
+    rest = list(buffers[index:])
+    cut = written - (ends[index - 1] if index else 0)
+    if cut:
+        rest[0] = memoryview(rest[0])[cut:]
+    return rest
 
 
 async def write_draining(transport: asyncio.WriteTransport, pieces: Sequence[Buffer],
-                         drained: Callable[[], Awaitable[None]]) -> None:
+                         drained: Callable[[], Awaitable[None]], size: int | None = None) -> None:
     """Write *pieces* in order to *transport*'s connection as fast as its client takes them, never copying them all.
 
     While the transport holds nothing, the pieces go straight to the socket
@@ -109,6 +116,9 @@ async def write_draining(transport: asyncio.WriteTransport, pieces: Sequence[Buf
         pieces: The bytes to write, in order (immutable: they are written as the client reads).
         drained: Waits until the transport holds little again (the protocol's flow control:
             aiohttp's ``drain``); it may raise to give up (a client that takes nothing).
+        size: The pieces' total length when the caller knows it: a reply the socket takes
+            whole at once (the usual case on a fast link) is then done without looking at
+            its pieces again.
 
     Raises:
         ConnectionResetError: The connection closed before the last piece went out.
@@ -120,7 +130,11 @@ async def write_draining(transport: asyncio.WriteTransport, pieces: Sequence[Buf
             raise ConnectionResetError("the connection closed while the reply was written")
         fd = direct_socket(transport)
         if fd is not None:
-            rest = unsent(rest, write_gathered(fd, rest))
+            written = write_gathered(fd, rest)
+            if written == size:
+                return
+            rest = unsent(rest, written)
+        size = None  # the first write only: the rest is smaller
         given = 0
         # A write may find the connection reset (the transport closes then): the next ones would
         # each be dropped with a warning of asyncio's.

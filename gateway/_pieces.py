@@ -96,6 +96,11 @@ class PiecesPayload(payload.Payload):
         self._size = self._nbytes
 
     @property
+    def size(self) -> int:
+        """The body's length in bytes."""
+        return self._nbytes
+
+    @property
     def pieces(self) -> tuple[Buffer, ...]:
         """The body's pieces, in order (none of them empty)."""
         return self._pieces
@@ -119,8 +124,9 @@ class PiecesPayload(payload.Payload):
             return
         # The rest goes out as the client takes it (aiohttp waits for the last bytes at the
         # end of the reply, as for any body): the transport never holds a copy of it all.
-        await write_draining(transport, rest, drained_of(getattr(writer, "protocol", None)))
-        _account(writer, sum(len(piece) for piece in rest))
+        size = self._nbytes - len(pieces[0])
+        await write_draining(transport, rest, drained_of(getattr(writer, "protocol", None)), size)
+        _account(writer, size)
 
     def decode(self, encoding: str = "utf-8", errors: str = "strict") -> str:
         """The body as text (for logs and tests)."""
