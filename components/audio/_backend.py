@@ -217,10 +217,18 @@ class PacedBackend(CaptureBackend):
     def _produce(self, count: int) -> npt.NDArray[np.int32] | None:
         """Generate the next *count* frames (None at the end of the source)."""
 
+    async def _frames(self, count: int) -> npt.NDArray[np.int32] | None:
+        """The next *count* frames when their chunk is due: :meth:`_produce`'s, made on the event loop.
+
+        A source whose frames take long to make (a scene rendered in a room) makes them
+        elsewhere, as a sound card's driver fills its buffer in a thread of its own.
+        """
+        return self._produce(count)
+
     async def _read(self) -> Chunk | None:
         index = self._produced
         await self.clock.sleep_until(self._origin + (index + 1) * self.chunk_duration)
-        frames = self._produce(self.frames_per_chunk)
+        frames = await self._frames(self.frames_per_chunk)
         if frames is None:
             return None
         self._produced += 1

@@ -20,6 +20,12 @@ from ._scene import DEFAULT_SCENE, Scene, load_scene
 __all__ = ["SimulatedSceneBackend"]
 
 
+#: The sources' room azimuths now (degrees), or None where the scene's stay.
+SourceAzimuthsNow = Sequence[float] | None
+#: The listener's place now (metres), or None where the scene's stays.
+ListenerNow = Sequence[float] | None
+
+
 def _facing_front() -> float:
     return 0.0
 
@@ -97,7 +103,28 @@ class SimulatedSceneBackend(PacedBackend):
             raise BackendUnavailable(f"the simulated KEMAR cannot hear: {exc}") from exc
 
     def _produce(self, count: int) -> npt.NDArray[np.int32]:
-        assert self.renderer is not None, "read before open"
+        return self._render(count, *self._pose())
+
+    async def _frames(self, count: int) -> npt.NDArray[np.int32]:
+        """Render the next chunk in a thread, the head and the sources where they are now (read here, on the loop).
+
+        A chunk of a room with a few talkers takes 4-7 ms to render, the first one of a room
+        about 100 ms (its reflections and tail are made then, from where everybody is): on the
+        event loop, that held every request and every robot of the gateway 20 times a second.
+        The renderer is used by one chunk at a time: the capture waits for each.  Simulated
+        time stands still meanwhile, as it did while the loop rendered.
+        """
+        pose = self._pose()
+        with self.clock.holding():
+            return await asyncio.to_thread(self._render, count, *pose)
+
+    def _pose(self) -> tuple[float, SourceAzimuthsNow, ListenerNow]:
+        """The head's azimuth, the sources' azimuths and the listener's place now (None where the scene's stay)."""
         sources = self.source_azimuths() if self.source_azimuths is not None else None
         listener = self.listener() if self.listener is not None else None
-        return self.renderer.render(count, float(self.azimuth()), sources, listener)
+        return float(self.azimuth()), sources, listener
+
+    def _render(self, count: int, head: float, sources: SourceAzimuthsNow, listener: ListenerNow
+                ) -> npt.NDArray[np.int32]:
+        assert self.renderer is not None, "read before open"
+        return self.renderer.render(count, head, sources, listener)
