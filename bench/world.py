@@ -3,9 +3,9 @@
 Three figures of issue 10: frames per second of 256×256 cameras rendered together (1, 2, 4), the
 event loop's worst stall while the world renders at full rate (target < 10 ms; measured again with the
 world's ears capturing too), and the round trip of another component's service with the world running,
-against without (target: within 1.5×).  The
-machine may be shared: the cases with and without the world alternate, round after round, so that
-both see the same machine; each case pools its rounds, and the worst of each round is kept.
+against without (target: within 1.5×).  The machine may be shared: the cases with and without the
+world alternate, round after round, so that both see the same machine; each case pools its rounds, and
+the worst of each round is kept.
 """
 
 from __future__ import annotations
