@@ -77,6 +77,7 @@ class SimulatedSceneBackend(PacedBackend):
         self.source_azimuths = source_azimuths
         self._roots = roots
         self.renderer: SceneRenderer | None = None
+        self._rendered_first = False
 
     async def open(self) -> None:
         """Read the scene file (if any), build the renderer and start the clock.
@@ -106,17 +107,23 @@ class SimulatedSceneBackend(PacedBackend):
         return self._render(count, *self._pose())
 
     async def _frames(self, count: int) -> npt.NDArray[np.int32]:
-        """Render the next chunk in a thread, the head and the sources where they are now (read here, on the loop).
+        """The next chunk, the head and the sources where they are now (read here, on the event loop).
 
-        A chunk of a room with a few talkers takes 4-7 ms to render, the first one of a room
-        about 100 ms (its reflections and tail are made then, from where everybody is): on the
-        event loop, that held every request and every robot of the gateway 20 times a second.
-        The renderer is used by one chunk at a time: the capture waits for each.  Simulated
-        time stands still meanwhile, as it did while the loop rendered.
+        Rendered in a thread, with simulated time held still, so that the gateway's event loop
+        goes on meanwhile: the first chunk of a room makes its reflections and its tail from
+        where everybody is (about 100 ms), and each chunk after it takes 4-7 ms for a room with
+        a few talkers, which the loop spent 20 times a second.  Only on a rig that runs faster
+        than real time are the chunks after the first rendered on the loop: there the render
+        fills most of a chunk's real period, and a thread, sharing the interpreter's lock with
+        the loop at every step, fell behind the rig's clock (bass at 20 times real time).
         """
+        if self._rendered_first and self.clock.scale > 1.0:
+            return self._produce(count)
         pose = self._pose()
         with self.clock.holding():
-            return await asyncio.to_thread(self._render, count, *pose)
+            frames = await asyncio.to_thread(self._render, count, *pose)
+        self._rendered_first = True
+        return frames
 
     def _pose(self) -> tuple[float, SourceAzimuthsNow, ListenerNow]:
         """The head's azimuth, the sources' azimuths and the listener's place now (None where the scene's stay)."""
