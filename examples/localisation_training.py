@@ -5,6 +5,7 @@ Run it with the project's virtualenv (one core; about 5 minutes)::
     .venv/bin/python examples/localisation_training.py
     .venv/bin/python examples/localisation_training.py --cases 3      # a quick look
     .venv/bin/python examples/localisation_training.py --turns --jobs 2   # the planner's largest turn (5 min)
+    .venv/bin/python examples/localisation_training.py --looks --jobs 2   # how long each look lasts (4 min)
 
 Each training case is drawn as the experiment's are (``binaural.talkers_experiment``: one to three
 speech-like talkers on the 5° grid, 1.3 to 1.7 m away, a diffuse noise field) but in other rooms
@@ -23,10 +24,11 @@ and ``SourceCounting`` are the candidate with the most talkers within 5° on the
 turning); ``TURNING_FRONT_BACK_WEIGHT`` is the front/back weight with the most talkers within 5°
 on the spherical head with a turn that keeps the KEMAR's within 3 points of its best.
 
-``--turns`` runs the experiment's own ``filter`` strategy (a planned turn after 0.5 s, 1 s of audio in all)
-in the training rooms on both training heads, for each largest turn the planner may take
-(:data:`LARGEST_TURNS`); the experiment's ``TalkersConfig.max_turn`` is the one with the most talkers
-within 5° over both heads.
+``--turns`` runs the experiment's own ``filter`` strategy (looks of ``TalkersConfig.look``, a planned turn
+after each, 1 s of audio in all) in the training rooms on both training heads, for each largest turn the
+planner may take (:data:`LARGEST_TURNS`); the experiment's ``TalkersConfig.max_turn`` is the one with the
+most talkers within 5° over both heads. ``--looks`` does the same for how long each look lasts before the
+next turn is planned (:data:`LOOKS`; ``TalkersConfig.look``).
 """
 
 from __future__ import annotations
@@ -62,6 +64,8 @@ TURN = 30.0
 
 #: The largest turns the experiment's planner (``filter``) may be allowed, degrees.
 LARGEST_TURNS = (30.0, 45.0, 60.0, 90.0)
+#: How long the experiment's ``filter`` strategy may listen before each planned turn, seconds.
+LOOKS = (0.5, 0.25, 0.2, 0.125)
 
 #: The candidates: (name, glimpse parameters, counting rules, front/back weight of a turning head's filter).
 CANDIDATES: list[tuple[str, GlimpseParameters, SourceCounting, float]] = [
@@ -136,40 +140,47 @@ def score(config: TalkersConfig, cases: list[dict[str, object]], parameters: Gli
             for key, t in tallies.items()}
 
 
-def _turn_summaries(turn: float, head: str, cases: int) -> list[Summary]:
-    """The ``filter`` strategy's measures on one training head with the planner's largest turn *turn*."""
-    config = TalkersConfig(rooms=TRAINING_ROOMS, heads=(head,), cases=cases, seed=SEED, max_turn=turn,
-                           strategies=("filter",))
+def _filter_summaries(head: str, cases: int, **setting: float) -> list[Summary]:
+    """The ``filter`` strategy's measures on one training head with one of its settings changed."""
+    config = TalkersConfig(rooms=TRAINING_ROOMS, heads=(head,), cases=cases, seed=SEED, strategies=("filter",),
+                           **setting)  # type: ignore[arg-type]
     results, _ = run_talkers(config, heads=training_head)
     return summarise_talkers(results)
 
 
-def largest_turns(cases: int, jobs: int) -> None:
-    """The experiment's ``filter`` strategy in the training rooms, per head and largest turn the planner may take.
+def sweep(setting: str, values: tuple[float, ...], label: str, cases: int, jobs: int) -> None:
+    """The experiment's ``filter`` strategy in the training rooms, per head and value of one of its settings.
 
     Each head runs alone (its cases drawn as the experiment draws the first head's, from :data:`SEED`), so
     a head's figures do not depend on the other's; *jobs* processes share the runs.
+
+    Args:
+        setting: The :class:`TalkersConfig` field changed (``max_turn``, ``look``).
+        values: Its values.
+        label: How the table names it, with ``{}`` for a value.
+        cases: Cases per head, room and number of talkers.
+        jobs: Processes.
     """
     heads = TRAINING_HEADS
     with concurrent.futures.ProcessPoolExecutor(jobs) as pool:
-        runs = {(turn, head): pool.submit(_turn_summaries, turn, head, cases) for turn in LARGEST_TURNS
+        runs = {(value, head): pool.submit(_filter_summaries, head, cases, **{setting: value}) for value in values
                 for head in heads}
-        print("The planned turn's largest angle: talkers within 5° / front-back confusions / counted right, %, "
+        print(f"The planned turns, by {setting}: talkers within 5° / front-back confusions / counted right, %, "
               "both training rooms\n")
-        print("| largest turn | " + " | ".join(f"{head}, {n} talker{'s' * (n > 1)}" for head in heads
-                                             for n in (1, 2, 3)) + " | kemar, all | sphere, all |")
+        print(f"| {setting} | " + " | ".join(f"{head}, {n} talker{'s' * (n > 1)}" for head in heads
+                                            for n in (1, 2, 3)) + " | kemar, all | sphere, all |")
         print("|---|" + "---:|" * 8)
-        for turn in LARGEST_TURNS:
+        for value in values:
             cells, overall = [], []
             for head in heads:
-                summaries = runs[turn, head].result()
+                summaries = runs[value, head].result()
                 for n in (1, 2, 3):
                     chosen = [s for s in summaries if s.talkers == n]
                     cells.append(" / ".join(f"{100 * np.mean([getattr(s, field) for s in chosen]):.0f}"
                                             for field in ("within_5", "front_back", "count_right")))
                 within = np.average([s.within_5 for s in summaries], weights=[s.talkers for s in summaries])
                 overall.append(f"{100 * within:.0f}")
-            print(f"| {turn:.0f}° | " + " | ".join(cells + overall) + " |", flush=True)
+            print(f"| {label.format(value)} | " + " | ".join(cells + overall) + " |", flush=True)
 
 
 def main() -> None:
@@ -178,10 +189,15 @@ def main() -> None:
     parser.add_argument("--cases", type=int, help="cases per head, room and number of talkers (6; --turns: 16)")
     parser.add_argument("--turns", action="store_true",
                         help="score the largest turn of the experiment's planner (its `filter` strategy) instead")
-    parser.add_argument("--jobs", type=int, default=1, help="with --turns: processes running the heads and turns")
+    parser.add_argument("--looks", action="store_true",
+                        help="score how long each look of the experiment's planner (its `filter` strategy) lasts")
+    parser.add_argument("--jobs", type=int, default=1, help="with --turns or --looks: processes sharing the runs")
     args = parser.parse_args()
     if args.turns:
-        largest_turns(args.cases or 16, args.jobs)
+        sweep("max_turn", LARGEST_TURNS, "{:.0f}°", args.cases or 16, args.jobs)
+        return
+    if args.looks:
+        sweep("look", LOOKS, "{:g} s", args.cases or 16, args.jobs)
         return
     config = TalkersConfig()
     cases = training_cases(config, args.cases or 6)

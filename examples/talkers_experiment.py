@@ -127,7 +127,8 @@ def main() -> None:
         args.save.write_text(json.dumps([dataclasses.asdict(r) for r in results]))
     header = (f"Measured {time.strftime('%Y-%m-%d')} on {platform.machine()}, Python {platform.python_version()}, "
               f"one core; {config.cases} cases per room, head and number of talkers, seed {config.seed}, "
-              f"{config.rate:g} Hz, head turning at {config.turn_speed:g}°/s (at most {config.max_turn:g}° a turn); "
+              f"{config.rate:g} Hz, head turning at up to {config.turn_speed:g}°/s ({config.turn_acceleration:.0f}°/s² "
+              f"either way), at most {config.max_turn:g}° a turn, a turn planned after each {config.look:g} s; "
               f"the run took {took / 60:.0f} min "
               f"(the new localiser at {timing.audio / max(timing.localise, 1e-9):.0f}× real time, processor time).")
     write(header + "\n\n" + tables(summaries), summaries, args.write)

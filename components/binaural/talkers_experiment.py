@@ -23,14 +23,16 @@ which the templates never saw. Then the **strategies**, each with the same amoun
 * ``Ma et al.``: 0.5 s, a turn of 20° towards the most likely source (the audio during the turn
   unused), 0.5 s; the two looks' posteriors added in the room, mirror images dropped
   (:func:`~._head_movement.ma_combine`);
-* ``filter``: the seed's layers (B) + (C): 0.5 s, then a turn where :class:`~._head_movement.TurnPlanner`
-  expects to tell most (at most 60°, chosen on the training rooms and heads), every frame fed to the
-  room filter with the head's azimuth of its time, the frames heard while the head turns included,
-  until 1 s of audio in all;
-* ``still, 2 s`` and ``filter, 2 s``: the same with twice the audio (the filter turning after
-  each 0.5 s, up to three times).
+* ``filter``: the seed's layers (B) + (C): a look of 0.2 s, then a turn where
+  :class:`~._head_movement.TurnPlanner` expects to tell most (at most 60°), planned again from
+  where the head is after each 0.2 s (the look and the largest turn chosen on the training rooms
+  and heads), every frame fed to the room filter with the head's azimuth of its time, the frames
+  heard while the head turns included, until 1 s of audio in all;
+* ``still, 2 s`` and ``filter, 2 s``: the same with twice the audio.
 
-The head turns at :attr:`TalkersConfig.turn_speed`. The number of talkers is given to each
+The head turns as the KEMAR's drive turns it: up to :attr:`TalkersConfig.turn_speed`, speeding up
+and slowing down at the drive's acceleration (:data:`KEMAR_ACCELERATION`, about 1,465°/s²): a look
+of 0.2 s is shorter than most turns, which go on through the next look. The number of talkers is given to each
 strategy; ``still`` and ``filter`` also count them (``counted``). Measures, per room, head,
 number of talkers and strategy: the share of talkers found within 5° (estimates matched to
 talkers one to one, the nearest first) and within 10°, the front/back confusion rate (talkers matched to an
@@ -44,6 +46,7 @@ parameters (:data:`TRAINING_ROOMS`, ``examples/localisation_training.py``).
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable, Sequence
 
@@ -65,7 +68,8 @@ from ._snowman import snowman_hrirs
 from ._source_localiser import SourceLocaliser
 
 __all__ = ["RoomCondition", "TEST_ROOMS", "TRAINING_ROOMS", "TalkersConfig", "CaseResult", "Summary",
-           "STRATEGIES", "run_talkers", "summarise_talkers", "head_set", "TalkerCase", "match_talkers", "turning_head"]
+           "STRATEGIES", "run_talkers", "summarise_talkers", "head_set", "TalkerCase", "match_talkers", "turning_head",
+           "turn_time", "KEMAR_ACCELERATION"]
 
 #: The strategies, in the order of the tables.
 STRATEGIES = ("today", "still", "Ma et al.", "filter", "still, 2 s", "filter, 2 s")
@@ -99,6 +103,10 @@ class RoomCondition:
         return Shoebox.with_rt60(self.dimensions, self.rt60)
 
 
+#: The KEMAR drive's acceleration and deceleration, degrees per second squared (its ``AC`` and ``DC``,
+#: 300,000 counts/s² at 204.8 counts per degree of the head).
+KEMAR_ACCELERATION = 300_000 / 204.8
+
 #: The rooms of the experiment (test scenes only): halls whose direct-to-reverberant ratio 1.5 m from a talker,
 #: 5.5, 4.6 and 3.9 dB, is near Ma, May & Brown's rooms' (5.3-8.8 dB).
 TEST_ROOMS = (RoomCondition("anechoic"), RoomCondition("A (0.3 s)", (14.0, 11.0, 5.0), 0.3),
@@ -127,8 +135,10 @@ class TalkersConfig:
         talkers: The numbers of simultaneous talkers.
         cases: Cases per room, head and number of talkers.
         rate: Sample rate in Hz.
-        turn_speed: Degrees per second the head turns.
+        turn_speed: Degrees per second the head turns at most.
+        turn_acceleration: Degrees per second squared the head speeds up and slows down at.
         max_turn: The planner's largest turn, degrees.
+        look: Seconds the ``filter`` strategies listen before each planned turn (the first look included).
         seed: Base seed of the cases.
         setup: The localisers' analysis (its rate is replaced by *rate*).
         parameters: How the glimpses are weighed.
@@ -144,7 +154,9 @@ class TalkersConfig:
     cases: int = 40
     rate: float = 24_414.0
     turn_speed: float = 90.0
+    turn_acceleration: float = KEMAR_ACCELERATION
     max_turn: float = 60.0
+    look: float = 0.2
     seed: int = 31
     setup: LocaliserSetup = LocaliserSetup()
     parameters: GlimpseParameters = GlimpseParameters()
@@ -244,18 +256,52 @@ def _draw_azimuths(rng: np.random.Generator, count: int) -> npt.NDArray[np.float
             return np.sort(chosen)
 
 
-def turning_head(start: float, target: float, at: float, speed: float) -> Callable[[float], float]:
-    """The head's azimuth over time: still at *start* until *at* seconds, then turning to *target* at *speed*."""
+def _trapezoid(distance: float, speed: float, acceleration: float) -> tuple[float, float, float]:
+    """A turn of *distance* degrees: seconds speeding up (and as many slowing down), top speed, seconds at it."""
+    ramp = speed / acceleration
+    if distance < speed * ramp:               # a triangle: half the way speeding up, half slowing down
+        ramp = math.sqrt(distance / acceleration)
+        speed = acceleration * ramp
+    return ramp, speed, (distance / speed - ramp if speed > 0 else 0.0)
+
+
+def turn_time(distance: float, speed: float, acceleration: float = math.inf) -> float:
+    """Seconds a turn of *distance* degrees takes (see :func:`turning_head`)."""
+    ramp, _, cruise = _trapezoid(abs(distance), speed, acceleration)
+    return 2.0 * ramp + cruise
+
+
+def turning_head(start: float, target: float, at: float, speed: float,
+                 acceleration: float = math.inf) -> Callable[[float], float]:
+    """The head's azimuth over time: still at *start* until *at* seconds, then turning to *target*.
+
+    The turn is a trapezoid of speed, as the KEMAR's drive makes it: up to *speed* (degrees per second)
+    at *acceleration* (degrees per second squared; infinite: at *speed* at once), and down again to stop
+    at *target*; a short turn never reaches *speed*.
+    """
     step = float(wrap_degrees(target - start))
+    distance = abs(step)
+    ramp, speed, cruise = _trapezoid(distance, speed, acceleration)
+
+    def moved(elapsed: float) -> float:
+        if elapsed <= 0.0:
+            return 0.0
+        if elapsed >= 2.0 * ramp + cruise:
+            return distance
+        if elapsed < ramp:
+            return 0.5 * acceleration * elapsed**2
+        if elapsed < ramp + cruise:
+            return 0.5 * speed * ramp + speed * (elapsed - ramp)
+        return distance - 0.5 * acceleration * (2.0 * ramp + cruise - elapsed) ** 2
 
     def azimuth(seconds: float) -> float:
-        moved = min(abs(step), max(0.0, seconds - at) * speed)
-        return start + np.sign(step) * moved
+        return start + math.copysign(moved(seconds - at), step)
 
     return azimuth
 
 
-def _path(turns: Sequence[tuple[float, float]], start: float, speed: float) -> Callable[[float], float]:
+def _path(turns: Sequence[tuple[float, float]], start: float, speed: float,
+          acceleration: float = math.inf) -> Callable[[float], float]:
     """The head's azimuth over time through turns ``(at seconds, target azimuth)``, one after the other.
 
     Each turn starts where the head is at its time: a turn not finished when the next begins is cut short
@@ -272,7 +318,7 @@ def _path(turns: Sequence[tuple[float, float]], start: float, speed: float) -> C
         return current
 
     for at, target in turns:      # in time order: each starts where the ones before left the head
-        pieces.append((at, turning_head(azimuth(at), target, at, speed)))
+        pieces.append((at, turning_head(azimuth(at), target, at, speed, acceleration)))
     return azimuth
 
 
@@ -327,14 +373,16 @@ class _Strategies:
             look = RoomAzimuthFilter(capacity=1000, counting=config.counting)
             look.add(first, first_heads)
             target = ma_turn(look.sources(1), 0.0)
-            moving = turning_head(0.0, target, 0.5, config.turn_speed)
-            arrived = 0.5 + abs(target) / config.turn_speed
+            moving = turning_head(0.0, target, 0.5, config.turn_speed, config.turn_acceleration)
+            arrived = 0.5 + turn_time(target, config.turn_speed, config.turn_acceleration)
             ears = self._render(case, arrived + 0.5, moving)
             after, after_heads = self.glimpses(ears[round(arrived * rate):round(arrived * rate) + half], moving,
                                                arrived)
             found = ma_combine(posterior_sum(first, first_heads), 0.0, posterior_sum(after, after_heads), target,
                                count, config.counting)
             estimates["Ma et al."], turns["Ma et al."] = tuple(s.azimuth for s in found), (target,)
+        if any(name in strategies for name in ("filter", "filter, 2 s")) and config.look != 0.5:
+            first, first_heads = self.glimpses(still[:round(config.look * rate)], lambda _t: 0.0)
         for name, seconds in (("filter", 1.0), ("filter, 2 s", 2.0)):
             if name in strategies:
                 found_turns, room = self._filter(case, first, first_heads, seconds)
@@ -351,27 +399,29 @@ class _Strategies:
 
     def _filter(self, case: TalkerCase, first: Glimpses, first_heads: npt.NDArray[np.float64],
                 seconds: float) -> tuple[tuple[float, ...], RoomAzimuthFilter]:
-        """Layers (B) + (C): a look, a planned turn, and so on every 0.5 s until *seconds* of audio in all."""
+        """Layers (B) + (C): a look, a planned turn, and so on every look until *seconds* of audio in all."""
         config, rate = self.config, self.config.rate
+        look = config.look
         room = RoomAzimuthFilter(capacity=1000, counting=config.counting, front_back_weight=config.front_back_weight)
         room.add(first, first_heads)
         looks: list[float] = [0.0]
         planned: list[tuple[float, float]] = []
-        path = _path(planned, 0.0, config.turn_speed)
-        heard = 0.5
+        path = _path(planned, 0.0, config.turn_speed, config.turn_acceleration)
+        heard = look
+        overlap = config.setup.frame - config.setup.hop
         while heard < seconds - 1e-9:
             weights, _ = room.distribution()
-            # From where the head is: a turn of more than half a second's travel is not over yet.
+            # From where the head is: a turn longer than a look's travel is not over when the next is planned.
             target = self.planner.next_head(weights, looks, path(heard), (-90.0, 90.0))
             planned.append((heard, target))
-            path = _path(planned, 0.0, config.turn_speed)
-            ears = self._render(case, min(seconds, heard + 0.5), path)
-            piece, heads = self.glimpses(ears[round(heard * rate) - (config.setup.frame - config.setup.hop):
-                                              round(min(seconds, heard + 0.5) * rate)], path,
-                                         heard - (config.setup.frame - config.setup.hop) / rate)
+            path = _path(planned, 0.0, config.turn_speed, config.turn_acceleration)
+            until = min(seconds, heard + look)
+            ears = self._render(case, until, path)
+            piece, heads = self.glimpses(ears[round(heard * rate) - overlap:round(until * rate)], path,
+                                         heard - overlap / rate)
             room.add(piece, heads)
-            looks.append(target)
-            heard += 0.5
+            looks.append(path(until))
+            heard = until
         return tuple(t for _, t in planned), room
 
 
