@@ -38,6 +38,7 @@ import concurrent.futures
 import dataclasses
 import os
 import sys
+from typing import Any
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
@@ -140,10 +141,10 @@ def score(config: TalkersConfig, cases: list[dict[str, object]], parameters: Gli
             for key, t in tallies.items()}
 
 
-def _filter_summaries(head: str, cases: int, **setting: float) -> list[Summary]:
+def _filter_summaries(head: str, cases: int, **setting: Any) -> list[Summary]:
     """The ``filter`` strategy's measures on one training head with one of its settings changed."""
-    config = TalkersConfig(rooms=TRAINING_ROOMS, heads=(head,), cases=cases, seed=SEED, strategies=("filter",),
-                           **setting)  # type: ignore[arg-type]
+    config = dataclasses.replace(TalkersConfig(rooms=TRAINING_ROOMS, heads=(head,), cases=cases, seed=SEED,
+                                               strategies=("filter",)), **setting)
     results, _ = run_talkers(config, heads=training_head)
     return summarise_talkers(results)
 
