@@ -187,7 +187,8 @@ def sweep(setting: str, values: tuple[float, ...], label: str, cases: int, jobs:
 def main() -> None:
     """Score every candidate on the training scenes; print a table."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--cases", type=int, help="cases per head, room and number of talkers (6; --turns: 16)")
+    parser.add_argument("--cases", type=int,
+                        help="cases per head, room and number of talkers (6; --turns, --looks: 16)")
     parser.add_argument("--turns", action="store_true",
                         help="score the largest turn of the experiment's planner (its `filter` strategy) instead")
     parser.add_argument("--looks", action="store_true",
