@@ -66,6 +66,10 @@ def tables(summaries: list[Summary]) -> str:
     return "\n".join(out)
 
 
+#: Issue 31's goals, talkers within 5° with head movement and the still head's audio, by number of talkers.
+WITHIN_5_GOALS = {1: 0.98, 2: 0.95, 3: 0.90}
+
+
 def plot(summaries: list[Summary], path: pathlib.Path) -> None:
     """Share within 5° per strategy, per head and number of talkers, averaged over the reverberant rooms."""
     import matplotlib
@@ -85,6 +89,10 @@ def plot(summaries: list[Summary], path: pathlib.Path) -> None:
                                and s.strategy == strategy and s.room != "anechoic"] or [np.nan]) for n in counts]
             ax.bar(np.arange(len(counts)) + (k - len(strategies) / 2 + 0.5) * width, 100 * np.asarray(values),
                    width, label=strategy)
+        for index, n in enumerate(counts):
+            if n in WITHIN_5_GOALS:   # the goal of a turning head with the still head's audio, over the bars
+                ax.hlines(100 * WITHIN_5_GOALS[n], index - 0.42, index + 0.42, colors="black", linestyles="dashed",
+                          linewidth=1.0, label="goal" if index == 0 else None)
         ax.set_xticks(range(len(counts)), [f"{n} talker{'s' if n > 1 else ''}" for n in counts])
         ax.set_title(f"{head}: reverberant rooms", fontsize=10)
         ax.set_ylim(0, 100)
@@ -92,7 +100,7 @@ def plot(summaries: list[Summary], path: pathlib.Path) -> None:
             ax.set_ylabel("talkers within 5° (%)")
     # Below the panels: inside, it hides bars.
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    figure.legend(handles, labels, fontsize=8, loc="lower center", ncol=len(strategies), frameon=False)
+    figure.legend(handles, labels, fontsize=8, loc="lower center", ncol=len(labels), frameon=False)
     figure.tight_layout(rect=(0.0, 0.07, 1.0, 1.0))
     path.parent.mkdir(parents=True, exist_ok=True)
     figure.savefig(path, dpi=90)
