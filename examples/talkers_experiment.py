@@ -8,6 +8,8 @@ Run it with the project's virtualenv (one core; about an hour for the full run o
     .venv/bin/python examples/talkers_experiment.py --heads kemar --save k.json    # one head per process,
     .venv/bin/python examples/talkers_experiment.py --heads snowman --save s.json  # side by side,
     .venv/bin/python examples/talkers_experiment.py --load k.json s.json --header "..." --write   # then together
+    .venv/bin/python examples/talkers_experiment.py --talkers 1 --cases 100 --seed 4242 \
+        --strategies today still --paired still today    # two strategies on the same cases, case by case
 
 ``--write`` replaces the results part of the experiment's section of ``docs/localisation.md`` and
 draws ``docs/images/talkers.png``. The protocol is the docstring of
@@ -34,7 +36,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 from aiogenomix.components.binaural.talkers_experiment import (  # noqa: E402
-    STRATEGIES, TEST_ROOMS, CaseResult, Summary, TalkersConfig, run_talkers, summarise_talkers,
+    STRATEGIES, TEST_ROOMS, CaseResult, Summary, TalkersConfig, match_talkers, run_talkers, summarise_talkers,
 )
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -64,6 +66,29 @@ def tables(summaries: list[Summary]) -> str:
             out.append("| " + " | ".join(line) + " |")
         out.append("")
     return "\n".join(out)
+
+
+def paired(results: list[CaseResult], first: str, second: str) -> str:
+    """Two strategies on the same cases: per room, head and number of talkers, in how many cases each found more.
+
+    A case counts for the strategy that found more of its talkers within 5°; the sign test's two-sided
+    p-value says how likely so lopsided a split is if neither strategy is better.
+    """
+    from scipy import stats
+
+    out = [f"Paired, case by case: cases where `{first}` found more talkers within 5° than `{second}`, and fewer\n",
+           "| head | room | talkers | cases | more | fewer | sign test p |", "|---|---|---:|---:|---:|---:|---:|"]
+    groups: dict[tuple[str, str, int], list[tuple[int, int]]] = {}
+    for result in results:
+        found = [int(np.sum(match_talkers(result.azimuths, result.estimates[name])[0] <= 5.0))
+                 for name in (first, second)]
+        groups.setdefault((result.head, result.room, len(result.azimuths)), []).append((found[0], found[1]))
+    for (head, room, talkers), pairs in groups.items():
+        more = sum(a > b for a, b in pairs)
+        fewer = sum(a < b for a, b in pairs)
+        p = stats.binomtest(more, more + fewer).pvalue if more + fewer else 1.0
+        out.append(f"| {head} | {room} | {talkers} | {len(pairs)} | {more} | {fewer} | {p:.2g} |")
+    return "\n".join(out) + "\n"
 
 
 #: Issue 31's goals, talkers within 5° with head movement and the still head's audio, by number of talkers.
@@ -113,20 +138,30 @@ def main() -> None:
     parser.add_argument("--rooms", type=int, nargs="*", help="rooms by number (0: anechoic, 1-3: A-C)")
     parser.add_argument("--heads", nargs="*", default=list(TalkersConfig().heads), help="kemar, snowman")
     parser.add_argument("--talkers", type=int, nargs="*", default=list(TalkersConfig().talkers))
+    parser.add_argument("--seed", type=int, default=TalkersConfig().seed, help="the cases' seed (31: the docs')")
+    parser.add_argument("--strategies", nargs="*", default=list(STRATEGIES), choices=STRATEGIES, metavar="NAME",
+                        help=f"which strategies to run ({', '.join(STRATEGIES)})")
+    parser.add_argument("--paired", nargs=2, metavar=("A", "B"),
+                        help="also compare two of the strategies case by case (a sign test)")
     parser.add_argument("--write", action="store_true", help="update docs/localisation.md and the plot")
     parser.add_argument("--save", type=pathlib.Path, help="also keep every case's results in this JSON file")
     parser.add_argument("--load", type=pathlib.Path, nargs="+",
                         help="run nothing: the tables of results kept by --save (several runs, e.g. one per head)")
     parser.add_argument("--header", help="with --load: the line that says how the loaded runs were made")
     args = parser.parse_args()
+    if args.paired and not set(args.paired) <= set(args.strategies):
+        parser.error("--paired compares two of the strategies run")
     if args.load:
-        summaries = summarise_talkers(load(args.load))
+        kept = load(args.load)
+        summaries = summarise_talkers(kept)
         header = args.header or "Results loaded from " + ", ".join(map(str, args.load))
         write(header + "\n\n" + tables(summaries), summaries, args.write)
+        if args.paired:
+            print(paired(kept, *args.paired))
         return
     rooms = TEST_ROOMS if not args.rooms else tuple(TEST_ROOMS[i] for i in args.rooms)
     config = dataclasses.replace(TalkersConfig(), cases=args.cases, rooms=rooms, heads=tuple(args.heads),
-                                 talkers=tuple(args.talkers))
+                                 talkers=tuple(args.talkers), seed=args.seed, strategies=tuple(args.strategies))
     started = time.monotonic()
     results, timing = run_talkers(config, progress=lambda line: print(line, file=sys.stderr, flush=True))
     summaries = summarise_talkers(results)
@@ -140,6 +175,8 @@ def main() -> None:
               f"the run took {took / 60:.0f} min "
               f"(the new localiser at {timing.audio / max(timing.localise, 1e-9):.0f}× real time, processor time).")
     write(header + "\n\n" + tables(summaries), summaries, args.write)
+    if args.paired:
+        print(paired(results, *args.paired))
 
 
 def load(paths: list[pathlib.Path]) -> list[CaseResult]:
