@@ -79,7 +79,10 @@ def paired(results: list[CaseResult], first: str, second: str) -> str:
     out = [f"Paired, case by case: cases where `{first}` found more talkers within 5° than `{second}`, and fewer\n",
            "| head | room | talkers | cases | more | fewer | sign test p |", "|---|---|---:|---:|---:|---:|---:|"]
     groups: dict[tuple[str, str, int], list[tuple[int, int]]] = {}
-    for result in results:
+    compared = [r for r in results if first in r.estimates and second in r.estimates]
+    if not compared:
+        raise SystemExit(f"no case has both {first!r} and {second!r}")
+    for result in compared:
         found = [int(np.sum(match_talkers(result.azimuths, result.estimates[name])[0] <= 5.0))
                  for name in (first, second)]
         groups.setdefault((result.head, result.room, len(result.azimuths)), []).append((found[0], found[1]))
