@@ -9,6 +9,7 @@ from collections.abc import AsyncIterator, Callable
 from aiohttp import web
 
 from ..components.core import ComponentHost, ComponentsOffered, ScaledClock
+from ..components.core.runtime import keep_heap_settled
 from . import _routes_admin, _routes_docs, _routes_modules, _routes_openapi, _routes_ports, _routes_sessions
 from ._access import AccessPolicy
 from ._auth import TokenCheck
@@ -96,6 +97,9 @@ def _host_lifetime(owns_host: bool) -> Callable[[web.Application], AsyncIterator
                 await host.load(name, args.split())
                 # A stop signal while starting is handled between loads, not after the last one.
                 await asyncio.sleep(0)
+            # What the gateway holds for good, out of the collector's full passes: they stopped the loop for
+            # tens of milliseconds.
+            keep_heap_settled(host)
         except BaseException:
             # aiohttp cleans up only the contexts that started: close what was loaded.
             if owns_host:

@@ -129,6 +129,7 @@ class ComponentHost:
         self._lock = asyncio.Lock()
         #: Where components of other processes are found (None: this process only).
         self.finder: RemoteFinder | None = None
+        self._closing = False
 
     @staticmethod
     def _entry_points() -> dict[str, Callable[..., Component]]:
@@ -315,6 +316,7 @@ class ComponentHost:
             del self._instances[instance]
         await component.stop()
         self.withdraw(instance)
+        del component     # held here no more: a listener that collects the garbage (the settled heap's) frees it
         for listener in list(self._unload_listeners):
             listener(instance)
         self.events.publish(InstanceUnloaded(instance, self.clock.wall()))
@@ -446,8 +448,14 @@ class ComponentHost:
             listener(request)
         self.events.request_changed(request)
 
+    @property
+    def closing(self) -> bool:
+        """Whether :meth:`close` has begun (its unloads are the last: the process is ending or the host going)."""
+        return self._closing
+
     async def close(self) -> None:
         """Unload every instance, then close the shared resources (idempotent)."""
+        self._closing = True
         for instance in list(self._instances):
             try:
                 await self.unload(instance)

@@ -13,6 +13,7 @@ from ._exceptions import (
     AmbiguousModule, ComponentError, InputError, NoSuchModule, NoSuchPort, NoSuchRequest, NoSuchService,
     PortUnavailable, RemoteHostGone, RemoteRefusal, RemoteUnreachable, RequestRunning, names_hint,
 )
+from ._heap import keep_heap_settled, settle_heap
 from ._host import NoCapability, RemoteFinder, TooManyInstances
 from ._instance import LoadedInstance, Placement
 from ._ports import ComputedOutPortRuntime, PortSpec
@@ -48,6 +49,8 @@ __all__ = [
     "installed_settings_groups", "SETTINGS_ENTRY_POINTS",
     # Amounts of bytes, as the budgets count and say them
     "MIB", "size_text",
+    # A long-lived process's heap kept out of the garbage collector's full passes (the event loop's longest stalls)
+    "keep_heap_settled", "settle_heap",
 ]
 
 _show_as_public(globals(), __all__, __name__, __name__.rsplit(".", 1)[0])
