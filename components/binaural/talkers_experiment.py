@@ -381,11 +381,14 @@ class _Strategies:
             found = ma_combine(posterior_sum(first, first_heads), 0.0, posterior_sum(after, after_heads), target,
                                count, config.counting)
             estimates["Ma et al."], turns["Ma et al."] = tuple(s.azimuth for s in found), (target,)
-        if any(name in strategies for name in ("filter", "filter, 2 s")) and config.look != 0.5:
-            first, first_heads = self.glimpses(still[:round(config.look * rate)], lambda _t: 0.0)
+        # The filter's first look: Ma et al.'s half second when it lasts as long, else heard anew.
+        looked = round(config.look * rate)
+        first_look = (first, first_heads) if looked == half else None
         for name, seconds in (("filter", 1.0), ("filter, 2 s", 2.0)):
             if name in strategies:
-                found_turns, room = self._filter(case, first, first_heads, seconds)
+                if first_look is None:
+                    first_look = self.glimpses(still[:looked], lambda _t: 0.0)
+                found_turns, room = self._filter(case, *first_look, seconds)
                 estimates[name], turns[name] = tuple(s.azimuth for s in room.sources(count)), found_turns
                 if name in COUNTING:
                     counted[name] = len(room.sources())
